@@ -1,0 +1,88 @@
+"""Wheel-rail contact and creep: Kalker's linear law on coned wheels.
+
+Pure numpy over arrays of wheelsets, apart from MuJoCo (the binding is
+`rail_mj.forces`): one call serves every wheelset of every vehicle in a model,
+it can be tested on its own, and it can later be compiled to native code.
+
+Frames and signs are those of the reference sheet, section 1: y to the left,
+psi positive nose-left, forces in the track frame.
+
+Example:
+
+    >>> import numpy as np
+    >>> from rail_mj.creep import ContactParameters, wheelset_forces
+    >>> p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, f11=10e6, f22=9e6)
+    >>> Fy, Mz = wheelset_forces(p, np.array([0.003]), np.zeros(1), np.zeros(1), np.zeros(1), 30.0)
+    >>> float(Mz[0])   # -2*f11*b*lam*y/r0: yaws the displaced wheelset back (nose-right)
+    -14673.913043478262
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class ContactParameters:
+    """Contact geometry and Kalker coefficients, one entry per wheelset (arrays of shape (n,))."""
+
+    r0: np.ndarray  # rolling radius, m
+    b: np.ndarray  # half the distance between the contact points, m
+    conicity: np.ndarray  # effective conicity lam
+    f11: np.ndarray  # N
+    f22: np.ndarray  # N
+    f23: np.ndarray  # N m
+    f33: np.ndarray  # N m^2
+
+    @classmethod
+    def broadcast(cls, n: int, *, r0, b, conicity, f11, f22, f23=0.0, f33=0.0):
+        full = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy()  # noqa: E731
+        return cls(full(r0), full(b), full(conicity), full(f11), full(f22), full(f23), full(f33))
+
+
+def creepages(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
+    """Creepages of the left wheel (reference sheet, section 2).
+
+    Returns (xi_x_left, xi_y, xi_sp_left). The right wheel has -xi_x_left, the same
+    xi_y, and a spin that differs only by the constant contact-angle term, which
+    cancels between the two wheels.
+    """
+    xi_x = -(p.b * psi_dot / speed) - p.conicity * y / p.r0
+    xi_y = y_dot / speed - psi
+    xi_sp = psi_dot / speed
+    return xi_x, xi_y, xi_sp
+
+
+def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
+    """Lateral force Fy (N) and yaw moment Mz (N m) of the rails on each wheelset.
+
+    Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
+    The longitudinal forces of the two wheels, +/-Fx at y = +/-b, make the yaw moment
+    -2*b*Fx_left. With f23 = f33 = 0 this is exactly
+
+        Fy = -2*f22*(y_dot/V - psi),   Mz = -2*f11*b*(b*psi_dot/V + lam*y/r0).
+    """
+    xi_x, xi_y, xi_sp = creepages(p, y, psi, y_dot, psi_dot, speed)
+    fx_left = -p.f11 * xi_x
+    fy = 2.0 * (-p.f22 * xi_y - p.f23 * xi_sp)
+    mz = -2.0 * p.b * fx_left + 2.0 * (p.f23 * xi_y - p.f33 * xi_sp)
+    return fy, mz
+
+
+def linear_coefficients(p: ContactParameters, speed: float):
+    """Stiffness K and damping C (n, 2, 2) with [Fy, Mz] = -K @ [y, psi] - C @ [y_dot, psi_dot].
+
+    Read off the force law itself by unit perturbations about the centred state, so
+    it holds for whatever law `wheelset_forces` implements (exact for a linear law).
+    """
+    n = p.r0.shape[0]
+    K = np.empty((n, 2, 2))
+    C = np.empty((n, 2, 2))
+    zero, one = np.zeros(n), np.ones(n)
+    for j in range(2):
+        unit = [one if j == 0 else zero, one if j == 1 else zero]
+        K[:, :, j] = -np.stack(wheelset_forces(p, unit[0], unit[1], zero, zero, speed), axis=1)
+        C[:, :, j] = -np.stack(wheelset_forces(p, zero, zero, unit[0], unit[1], speed), axis=1)
+    return K, C

@@ -1,0 +1,113 @@
+"""The MuJoCo binding of the creep law: wheel-rail forces through `mjcb_passive`.
+
+`CreepForces` reads each wheelset's lateral position, yaw and their rates from
+MuJoCo, asks `rail_mj.creep` for the forces of all wheelsets in one call, and adds
+them to `qfrc_passive` through the wheelset Jacobians. It reads the contact data
+from the compiled model by name (the `rail_mj/*` numerics written by
+`rail_mj.model`), so a generated MJCF alone is enough.
+
+MuJoCo's passive callback is process-global, cannot be installed while a model
+compiles, and its forces are integrated explicitly: see `installed` and the
+runner's timestep choice.
+
+Example:
+
+    >>> import mujoco
+    >>> from rail_mj.layout import load_layout
+    >>> from rail_mj.model import Vehicle
+    >>> vehicle = Vehicle(load_layout("models/wheelset/wheelset.toml"))
+    >>> data = mujoco.MjData(vehicle.model)
+    >>> data.qpos[0] = 0.003
+    >>> forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed=20.0)
+    >>> with installed(forces):
+    ...     mujoco.mj_step(vehicle.model, data)
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+import mujoco
+import numpy as np
+
+from rail_mj.creep import ContactParameters, linear_coefficients, wheelset_forces
+from rail_mj.model import NUMERIC_CREEP, NUMERIC_WHEEL
+
+
+def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParameters:
+    r0, b, conicity, _clearance = model.numeric(NUMERIC_WHEEL).data
+    f11, f22, f23, f33 = model.numeric(NUMERIC_CREEP).data
+    return ContactParameters.broadcast(
+        n_wheelsets, r0=r0, b=b, conicity=conicity, f11=f11, f22=f22, f23=f23, f33=f33
+    )
+
+
+class CreepForces:
+    """Creep forces on every wheelset of `model` at forward speed `speed` (m/s).
+
+    Call it as MuJoCo's passive callback (`installed(forces)`), or call
+    `wheelset_states` / `generalised_forces` yourself. The yaw angle is taken from
+    the body rotation (atan2), the rates from the body Jacobians at the wheelset
+    centre.
+    """
+
+    def __init__(self, model: mujoco.MjModel, wheelset_names, speed: float):
+        if not speed > 0:
+            raise ValueError(f"speed must be > 0 m/s, got {speed}")
+        self.speed = float(speed)
+        self.body_ids = np.array([model.body(n).id for n in wheelset_names], dtype=np.int64)
+        self.params = contact_parameters(model, len(self.body_ids))
+        n, nv = len(self.body_ids), model.nv
+        self._jacp = np.zeros((n, 3, nv))
+        self._jacr = np.zeros((n, 3, nv))
+
+    def _jacobians(self, model, data):
+        for i, body in enumerate(self.body_ids):
+            mujoco.mj_jacBody(model, data, self._jacp[i], self._jacr[i], body)
+        # Lateral translation and yaw rows: (n, nv) each.
+        return self._jacp[:, 1, :], self._jacr[:, 2, :]
+
+    def wheelset_states(self, model, data):
+        """(y, psi, y_dot, psi_dot), arrays over wheelsets, in the track frame."""
+        jy, jpsi = self._jacobians(model, data)
+        xmat = data.xmat[self.body_ids]
+        y = data.xpos[self.body_ids, 1]
+        psi = np.arctan2(xmat[:, 3], xmat[:, 0])
+        return y, psi, jy @ data.qvel, jpsi @ data.qvel
+
+    def __call__(self, model, data):
+        jy, jpsi = self._jacobians(model, data)
+        xmat = data.xmat[self.body_ids]
+        fy, mz = wheelset_forces(
+            self.params,
+            data.xpos[self.body_ids, 1],
+            np.arctan2(xmat[:, 3], xmat[:, 0]),
+            jy @ data.qvel,
+            jpsi @ data.qvel,
+            self.speed,
+        )
+        data.qfrc_passive += fy @ jy + mz @ jpsi
+
+    def linear_matrices(self, model, data):
+        """Creep stiffness and damping (nv, nv) in generalised coordinates, linearised
+        at the configuration in `data` (kinematics must be current)."""
+        jy, jpsi = self._jacobians(model, data)
+        K, C = linear_coefficients(self.params, self.speed)
+        J = np.stack([jy, jpsi], axis=1)  # (n, 2, nv)
+        return np.einsum("nki,nkl,nlj->ij", J, K, J), np.einsum("nki,nkl,nlj->ij", J, C, J)
+
+
+@contextlib.contextmanager
+def installed(callback):
+    """Install `callback` as MuJoCo's passive-force callback, and always remove it.
+
+    MuJoCo refuses to compile any model while a Python callback is installed, and
+    the callback is global to the process: compile first, step inside this block.
+    """
+    if mujoco.get_mjcb_passive() is not None:
+        raise RuntimeError("another MuJoCo passive callback is already installed")
+    mujoco.set_mjcb_passive(callback)
+    try:
+        yield callback
+    finally:
+        mujoco.set_mjcb_passive(None)

@@ -1,0 +1,306 @@
+"""Layout files: a vehicle described in TOML, read and checked into a `Layout`.
+
+The layout is the users' interface and the one source of truth for every
+physical number of a vehicle; the model, the creep forces and the recording all
+read it from here. Units are SI throughout (kg, m, N, s, rad).
+
+Example:
+
+    >>> from rail_mj.layout import load_layout
+    >>> layout = load_layout("models/manchester-coach/manchester-coach.toml")
+    >>> layout.n_wheelsets, layout.wheelset.rolling_radius
+    (4, 0.46)
+
+Every problem with a file raises `LayoutError`, whose message is one line naming
+the file, the key and what is wrong.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import tomllib
+from pathlib import Path
+from typing import Any
+
+NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+class LayoutError(ValueError):
+    """A layout file that cannot describe a vehicle; the message is one line."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Wheelset:
+    mass: float
+    inertia: tuple[float, float, float]  # about x (roll), y (axle), z (yaw)
+    rolling_radius: float  # r0
+    contact_half_spacing: float  # b
+    conicity: float  # lam, effective
+    flangeway_clearance: float = 0.008
+
+
+@dataclasses.dataclass(frozen=True)
+class Creep:
+    f11: float  # N, longitudinal
+    f22: float  # N, lateral
+    f23: float = 0.0  # N m, lateral/spin
+    f33: float = 0.0  # N m^2, spin
+
+
+@dataclasses.dataclass(frozen=True)
+class Suspension:
+    """A spring-damper acting on a whole body: lateral and yaw."""
+
+    lateral_stiffness: float
+    yaw_stiffness: float
+    lateral_damping: float = 0.0
+    yaw_damping: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Bogie:
+    mass: float
+    inertia: tuple[float, float, float]
+    wheelset_positions: tuple[float, ...]  # x from the bogie centre, leading first
+
+
+@dataclasses.dataclass(frozen=True)
+class CarBody:
+    fixed: bool
+    mass: float | None
+    inertia: tuple[float, float, float] | None
+    bogie_positions: tuple[float, ...] | None
+    wheelset_positions: tuple[float, ...] | None
+
+
+@dataclasses.dataclass(frozen=True)
+class Layout:
+    name: str
+    wheelset: Wheelset
+    creep: Creep
+    primary: Suspension
+    carbody: CarBody
+    bogie: Bogie | None = None
+    secondary: Suspension | None = None
+    source: str = "<layout>"
+
+    @property
+    def n_bogies(self) -> int:
+        return len(self.carbody.bogie_positions) if self.bogie else 0
+
+    @property
+    def wheelset_x(self) -> tuple[float, ...]:
+        """Each wheelset's x from the car-body centre, wheelset 1 (leading) first."""
+        if self.bogie is None:
+            return tuple(self.carbody.wheelset_positions)
+        return tuple(
+            xb + xw
+            for xb in self.carbody.bogie_positions
+            for xw in self.bogie.wheelset_positions
+        )
+
+    @property
+    def n_wheelsets(self) -> int:
+        return len(self.wheelset_x)
+
+
+# --- reading -----------------------------------------------------------------
+
+
+class _Table:
+    """One TOML table being read: tracks which keys were used, to reject typos."""
+
+    def __init__(self, source: str, section: str, data: Any):
+        self.source, self.section = source, section
+        if not isinstance(data, dict):
+            self.fail(None, f"must be a table, got {_kind(data)}")
+        self.data = data
+        self.used: set[str] = set()
+
+    def fail(self, key: str | None, what: str):
+        where = ".".join(k for k in (self.section, key) if k) or "(top level)"
+        raise LayoutError(f"{self.source}: {where}: {what}")
+
+    def get(self, key: str, default: Any = ..., *, required: bool = True) -> Any:
+        self.used.add(key)
+        if key in self.data:
+            return self.data[key]
+        if default is ... and required:
+            self.fail(key, "missing (required)")
+        return None if default is ... else default
+
+    def number(self, key, default=..., *, low=None, low_open=False, high=None, required=True):
+        value = self.get(key, default, required=required)
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(key, f"must be a number, got {_kind(value)}")
+        value = float(value)
+        if not math.isfinite(value):
+            self.fail(key, f"must be finite, got {value}")
+        if low is not None and (value <= low if low_open else value < low):
+            self.fail(key, f"must be {'>' if low_open else '>='} {low:g}, got {value:g}")
+        if high is not None and value > high:
+            self.fail(key, f"must be <= {high:g}, got {value:g}")
+        return value
+
+    def positive(self, key, default=..., required=True):
+        return self.number(key, default, low=0.0, low_open=True, required=required)
+
+    def non_negative(self, key, default=...):
+        return self.number(key, default, low=0.0)
+
+    def vector3(self, key, *, required=True):
+        value = self.get(key, required=required)
+        if value is None:
+            return None
+        if not isinstance(value, list) or len(value) != 3:
+            self.fail(key, f"must be a list of 3 numbers [x, y, z], got {_kind(value)}")
+        out = []
+        for i, v in enumerate(value):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 or not math.isfinite(v):
+                self.fail(key, f"entry {i + 1} must be a positive number, got {v!r}")
+            out.append(float(v))
+        return tuple(out)
+
+    def positions(self, key, min_spacing: float, what: str, *, required=True):
+        """Positions along x, leading first, at least `min_spacing` apart."""
+        value = self.get(key, required=required)
+        if value is None:
+            return None
+        if not isinstance(value, list) or not value:
+            self.fail(key, f"must be a non-empty list of x positions in m, got {_kind(value)}")
+        for v in value:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                self.fail(key, f"must hold numbers only, got {v!r}")
+        xs = [float(v) for v in value]
+        for front, back in zip(xs, xs[1:]):
+            if back >= front:
+                self.fail(key, f"must list the leading {what} first (x decreasing), got {xs}")
+            if front - back < min_spacing:
+                self.fail(
+                    key,
+                    f"{what}s at x = {front:g} and {back:g} m overlap: they must be at least "
+                    f"{min_spacing:g} m apart",
+                )
+        return tuple(xs)
+
+    def done(self):
+        unknown = sorted(set(self.data) - self.used)
+        if unknown:
+            self.fail(unknown[0], "unknown key")
+
+
+def _kind(value: Any) -> str:
+    return {dict: "a table", list: "a list", str: "a string", bool: "a boolean"}.get(
+        type(value), repr(value)
+    )
+
+
+def _suspension(table: _Table) -> Suspension:
+    s = Suspension(
+        lateral_stiffness=table.non_negative("lateral_stiffness"),
+        yaw_stiffness=table.non_negative("yaw_stiffness"),
+        lateral_damping=table.non_negative("lateral_damping", 0.0),
+        yaw_damping=table.non_negative("yaw_damping", 0.0),
+    )
+    table.done()
+    return s
+
+
+def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
+    """Check a parsed layout (as from TOML) and build the `Layout`."""
+    top = _Table(source, "", data)
+
+    name = top.get("name")
+    if not isinstance(name, str) or not NAME_PATTERN.match(name):
+        top.fail("name", f"must be letters, digits, '-' or '_', got {name!r}")
+
+    t = _Table(source, "wheelset", top.get("wheelset"))
+    wheelset = Wheelset(
+        mass=t.positive("mass"),
+        inertia=t.vector3("inertia"),
+        rolling_radius=t.positive("rolling_radius"),
+        contact_half_spacing=t.positive("contact_half_spacing"),
+        # Treads steeper than 1:2 are not wheels; the linear contact model assumes small angles.
+        conicity=t.number("conicity", low=0.0, low_open=True, high=0.5),
+        flangeway_clearance=t.positive("flangeway_clearance", 0.008),
+    )
+    t.done()
+    if wheelset.rolling_radius >= wheelset.contact_half_spacing * 2:
+        t.fail("rolling_radius", "is not smaller than the track gauge: check the units (m)")
+
+    t = _Table(source, "creep", top.get("creep"))
+    creep = Creep(
+        f11=t.positive("f11"),
+        f22=t.positive("f22"),
+        f23=t.non_negative("f23", 0.0),
+        f33=t.non_negative("f33", 0.0),
+    )
+    t.done()
+
+    primary = _suspension(_Table(source, "primary", top.get("primary")))
+
+    # Two wheels cannot be closer than their diameter: that is the overlap check.
+    wheel_diameter = 2.0 * wheelset.rolling_radius
+    bogie = secondary = None
+    has_bogie = top.get("bogie", None, required=False) is not None
+    if has_bogie:
+        t = _Table(source, "bogie", top.get("bogie"))
+        bogie = Bogie(
+            mass=t.positive("mass"),
+            inertia=t.vector3("inertia"),
+            wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
+        )
+        t.done()
+        if top.get("secondary", None, required=False) is None:
+            top.fail("secondary", "missing: a layout with [bogie] needs [secondary]")
+        secondary = _suspension(_Table(source, "secondary", top.get("secondary")))
+    elif top.get("secondary", None, required=False) is not None:
+        top.fail("secondary", "given without [bogie]: secondary suspension joins bogies to the body")
+
+    t = _Table(source, "carbody", top.get("carbody"))
+    fixed = t.get("fixed", False)
+    if not isinstance(fixed, bool):
+        t.fail("fixed", f"must be true or false, got {_kind(fixed)}")
+    carbody_mass = t.positive("mass", required=not fixed)
+    carbody_inertia = t.vector3("inertia", required=not fixed)
+    if has_bogie:
+        if "wheelset_positions" in t.data:
+            t.fail("wheelset_positions", "not allowed with [bogie]: wheelsets hang from the bogies")
+        extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
+        carbody = CarBody(
+            fixed, carbody_mass, carbody_inertia,
+            bogie_positions=t.positions("bogie_positions", extent, "bogie"),
+            wheelset_positions=None,
+        )
+    else:
+        if "bogie_positions" in t.data:
+            t.fail("bogie_positions", "given without a [bogie] table")
+        carbody = CarBody(
+            fixed, carbody_mass, carbody_inertia,
+            bogie_positions=None,
+            wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
+        )
+    t.done()
+    top.done()
+    return Layout(
+        name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
+        bogie=bogie, secondary=secondary, source=source,
+    )
+
+
+def load_layout(path: str | Path) -> Layout:
+    """Read and check a layout file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise LayoutError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise LayoutError(f"{path}: not valid TOML: {e}") from None
+    return layout_from_dict(data, source=str(path))

@@ -1,0 +1,55 @@
+"""Wheel geometry: a coned tread with a flange, revolved into a mesh by trimesh.
+
+The mesh is for looking at. MuJoCo collides meshes through their convex hulls,
+which would fill the flange throat, so wheel-rail contact is computed in
+`rail_mj.creep` from the same numbers (r0, conicity), never from this mesh.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+# Profile dimensions in m, measured from the nominal contact point along the axle
+# (positive outward, away from the track centre). Round numbers of the size of a
+# standard-gauge wheel (tread width 135 mm, flange 28 mm high): visual only.
+FLANGE_HEIGHT = 0.028
+FLANGE_ROOT = -0.035  # where the cone meets the flange
+FLANGE_BACK = -0.060  # back face of the wheel (inside face, towards the track centre)
+TREAD_OUTER = 0.075  # outer face of the wheel
+HUB_RADIUS = 0.09
+SECTIONS = 48
+
+
+def wheel_profile(rolling_radius: float, conicity: float) -> np.ndarray:
+    """Closed (radius, axial) profile of one wheel, counter-clockwise for outward normals.
+
+    The tread is the cone r(u) = r0 - conicity * u, so a wheelset displaced by y rolls
+    on radii r0 +/- conicity * y: the geometry behind the linear creep law.
+    """
+    r0, lam = rolling_radius, conicity
+    root = r0 - lam * FLANGE_ROOT
+    points = [
+        (HUB_RADIUS, FLANGE_BACK),
+        (root + FLANGE_HEIGHT - 0.006, FLANGE_BACK),
+        (root + FLANGE_HEIGHT, FLANGE_BACK + 0.006),
+        (root + FLANGE_HEIGHT, FLANGE_ROOT - 0.012),
+        (root, FLANGE_ROOT),
+        (r0 - lam * TREAD_OUTER, TREAD_OUTER),
+        (HUB_RADIUS, TREAD_OUTER),
+    ]
+    points.append(points[0])
+    return np.asarray(points, dtype=float)
+
+
+def wheel_mesh(rolling_radius: float, conicity: float) -> trimesh.Trimesh:
+    """The wheel as a closed mesh, axle along +z (outward), contact point at z = 0."""
+    mesh = trimesh.creation.revolve(wheel_profile(rolling_radius, conicity), sections=SECTIONS)
+    if not mesh.is_watertight or mesh.volume <= 0:
+        raise RuntimeError("wheel profile did not revolve into a closed, outward-facing mesh")
+    return mesh
+
+
+def wheel_stl(rolling_radius: float, conicity: float) -> bytes:
+    """Binary STL of the wheel, byte-for-byte the same for the same inputs."""
+    return wheel_mesh(rolling_radius, conicity).export(file_type="stl")
