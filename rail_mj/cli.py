@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -85,6 +86,12 @@ def _check_output(path: str | None, option: str) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_json):
     """Run LAYOUT at constant speed on straight track and summarise each wheelset's motion."""
+    for option, value in (("--speed", speed), ("--distance", distance)):
+        if not (math.isfinite(value) and value > 0):
+            raise Failure(f"{option} must be a positive number, got {value}", EXIT_BAD_INPUT)
+    for option, value in (("--initial-lateral", initial_lateral), ("--initial-yaw", initial_yaw)):
+        if not math.isfinite(value):
+            raise Failure(f"{option} must be a finite number, got {value}", EXIT_BAD_INPUT)
     lay = _layout(layout)
     _check_output(rrd, "--rrd")
     _check_output(out, "--out")
@@ -92,6 +99,8 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_
         run = _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw)
     except SimulationError as e:
         raise Failure(str(e), EXIT_RUN_FAILED) from None
+    except ValueError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
     result = summary(run)
     try:
         if out:

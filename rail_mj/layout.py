@@ -137,7 +137,7 @@ class _Table:
             return None
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, f"must be a number, got {_kind(value)}")
-        value = float(value)
+        value = _float(value)
         if not math.isfinite(value):
             self.fail(key, f"must be finite, got {value}")
         if low is not None and (value <= low if low_open else value < low):
@@ -160,9 +160,9 @@ class _Table:
             self.fail(key, f"must be a list of 3 numbers [x, y, z], got {_kind(value)}")
         out = []
         for i, v in enumerate(value):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 or not math.isfinite(v):
-                self.fail(key, f"entry {i + 1} must be a positive number, got {v!r}")
-            out.append(float(v))
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < _float(v) < math.inf):
+                self.fail(key, f"entry {i + 1} must be a positive, finite number, got {v!r}")
+            out.append(_float(v))
         return tuple(out)
 
     def positions(self, key, min_spacing: float, what: str, *, required=True):
@@ -173,9 +173,9 @@ class _Table:
         if not isinstance(value, list) or not value:
             self.fail(key, f"must be a non-empty list of x positions in m, got {_kind(value)}")
         for v in value:
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                self.fail(key, f"must hold numbers only, got {v!r}")
-        xs = [float(v) for v in value]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(_float(v)):
+                self.fail(key, f"must hold finite numbers only, got {v!r}")
+        xs = [_float(v) for v in value]
         for front, back in zip(xs, xs[1:]):
             if back >= front:
                 self.fail(key, f"must list the leading {what} first (x decreasing), got {xs}")
@@ -191,6 +191,14 @@ class _Table:
         unknown = sorted(set(self.data) - self.used)
         if unknown:
             self.fail(unknown[0], "unknown key")
+
+
+def _float(value: int | float) -> float:
+    """float(), with TOML's unbounded integers beyond float range as +/-inf."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 def _kind(value: Any) -> str:
@@ -215,7 +223,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     top = _Table(source, "", data)
 
     name = top.get("name")
-    if not isinstance(name, str) or not NAME_PATTERN.match(name):
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
         top.fail("name", f"must be letters, digits, '-' or '_', got {name!r}")
 
     t = _Table(source, "wheelset", top.get("wheelset"))
@@ -301,6 +309,6 @@ def load_layout(path: str | Path) -> Layout:
         raise LayoutError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
+    except ValueError as e:  # TOMLDecodeError, and integers too long to convert
         raise LayoutError(f"{path}: not valid TOML: {e}") from None
     return layout_from_dict(data, source=str(path))

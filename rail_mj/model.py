@@ -57,6 +57,12 @@ NUMERIC_CREEP = "rail_mj/creep"  # f11, f22, f23, f33
 LATERAL, YAW = "lateral", "yaw"
 
 
+def _pos(x: float, z: float) -> list[float]:
+    """A body position; rounded to a nanometre so that the written MJCF (which prints
+    shortest round-trip decimals) compiles to exactly the in-memory model."""
+    return [round(x, 9), 0.0, round(z, 9)]
+
+
 def _quat_about_x(angle: float) -> list[float]:
     return [float(np.cos(angle / 2)), float(np.sin(angle / 2)), 0.0, 0.0]
 
@@ -84,10 +90,10 @@ def _set_inertia(body, mass: float, inertia) -> None:
     body.inertia = list(inertia)
 
 
-def add_wheelset(parent, name: str, pos, layout: Layout) -> None:
-    """A wheelset hanging from `parent` on the primary suspension."""
+def add_wheelset(parent, name: str, x: float, z: float, layout: Layout) -> None:
+    """A wheelset hanging from `parent` at (x, z) in its frame, on the primary suspension."""
     w = layout.wheelset
-    body = parent.add_body(name=name, pos=list(pos))
+    body = parent.add_body(name=name, pos=_pos(x, z))
     _set_inertia(body, w.mass, w.inertia)
     _add_planar_joints(body, layout.primary)
     b = w.contact_half_spacing
@@ -104,10 +110,10 @@ def add_wheelset(parent, name: str, pos, layout: Layout) -> None:
         )
 
 
-def add_bogie(parent, name: str, pos, layout: Layout, first_wheelset: int) -> None:
-    """A bogie frame on the secondary suspension, with its wheelsets."""
+def add_bogie(parent, name: str, x: float, z: float, layout: Layout, first_wheelset: int) -> None:
+    """A bogie frame at (x, z) in the car body, on the secondary suspension, with its wheelsets."""
     bogie = layout.bogie
-    body = parent.add_body(name=name, pos=list(pos))
+    body = parent.add_body(name=name, pos=_pos(x, z))
     _set_inertia(body, bogie.mass, bogie.inertia)
     _add_planar_joints(body, layout.secondary)
     xs = bogie.wheelset_positions
@@ -119,8 +125,8 @@ def add_bogie(parent, name: str, pos, layout: Layout, first_wheelset: int) -> No
     )
     for i, x in enumerate(xs):
         add_wheelset(
-            body, f"wheelset{first_wheelset + i}",
-            (x, 0, layout.wheelset.rolling_radius - BOGIE_HEIGHT), layout,
+            body, f"wheelset{first_wheelset + i}", x,
+            layout.wheelset.rolling_radius - BOGIE_HEIGHT, layout,
         )
 
 
@@ -141,12 +147,12 @@ def add_carbody(worldbody, layout: Layout) -> None:
     if layout.bogie:
         n = len(layout.bogie.wheelset_positions)
         for k, x in enumerate(c.bogie_positions):
-            add_bogie(body, f"bogie{k + 1}", (x, 0, BOGIE_HEIGHT - CARBODY_HEIGHT), layout, k * n + 1)
+            add_bogie(body, f"bogie{k + 1}", x, BOGIE_HEIGHT - CARBODY_HEIGHT, layout, k * n + 1)
     else:
         for i, x in enumerate(xs):
             add_wheelset(
-                body, f"wheelset{i + 1}",
-                (x, 0, layout.wheelset.rolling_radius - CARBODY_HEIGHT), layout,
+                body, f"wheelset{i + 1}", x,
+                layout.wheelset.rolling_radius - CARBODY_HEIGHT, layout,
             )
 
 
@@ -297,10 +303,17 @@ def generate(layout: Layout, out_dir: str | Path) -> list[Path]:
     return written
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def atomic_write(path: Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes owner-only files
         with os.fdopen(fd, "wb") as f:
             f.write(data)
         os.replace(tmp, path)

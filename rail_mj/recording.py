@@ -17,7 +17,8 @@ Example:
     >>> run = simulate(load_layout("models/wheelset/wheelset.toml"), speed=20.0, distance=10.0,
     ...                initial_lateral=0.002)
     >>> path = os.path.join(tempfile.mkdtemp(), "run.rrd")
-    >>> write_recording(run, path)
+    >>> write_recording(run, path).stat().st_size > 0
+    True
 """
 
 from __future__ import annotations
@@ -93,6 +94,7 @@ def write_recording(run: Run, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)
+    Path(tmp).unlink()  # Rerun creates the file itself, with the usual permissions
     try:
         rec = rr.RecordingStream(APP_ID, recording_id=f"{run.layout.name}-{run.speed:g}")
         rec.save(tmp, default_blueprint=blueprint())

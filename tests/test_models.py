@@ -1,0 +1,111 @@
+"""Generated models: every shipped and generated model loads and steps without a
+MuJoCo warning, generation is deterministic, and models/ is up to date."""
+
+from __future__ import annotations
+
+import sys
+
+import mujoco
+import numpy as np
+import pytest
+
+from conftest import MODELS, ROOT, SHIPPED, free_truck
+from rail_mj.forces import CreepForces, installed
+from rail_mj.layout import layout_from_dict, load_layout
+from rail_mj.model import Vehicle, generate, generated_files
+
+sys.path.insert(0, str(ROOT / "tools"))
+import regenerate_models  # noqa: E402
+
+
+def step_without_warnings(model: mujoco.MjModel, n_wheelsets: int, speed=30.0, steps=2000):
+    data = mujoco.MjData(model)
+    data.qpos[:] = 0.001  # every joint disturbed: all springs and creep forces act
+    forces = CreepForces(model, [f"wheelset{i + 1}" for i in range(n_wheelsets)], speed)
+    model.opt.timestep = 2e-4
+    with installed(forces):
+        mujoco.mj_step(model, data, nstep=steps)
+    assert [w.number for w in data.warning] == [0] * len(data.warning)
+    assert np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
+    assert np.max(np.abs(data.qpos)) < 0.05  # stable at 30 m/s: nothing ran away
+
+
+def test_the_four_shipped_layouts_are_there():
+    assert {p.stem for p in SHIPPED} == {"wheelset", "bogie", "wagon", "manchester-coach"}
+
+
+@pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
+def test_shipped_model_files_load_and_step(layout_path):
+    layout = load_layout(layout_path)
+    for xml in (layout_path.parent / f"{layout.name}.xml", layout_path.parent / "scene.xml"):
+        model = mujoco.MjModel.from_xml_path(str(xml))
+        step_without_warnings(model, layout.n_wheelsets)
+
+
+@pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
+def test_models_folder_is_up_to_date(layout_path):
+    # Regenerate with: python tools/regenerate_models.py
+    assert regenerate_models.stale_files(layout_path) == []
+
+
+@pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
+def test_generation_is_deterministic_and_matches_the_in_memory_model(layout_path, tmp_path):
+    layout = load_layout(layout_path)
+    generate(layout, tmp_path / "a")
+    generate(layout, tmp_path / "b")
+    files = sorted(p.relative_to(tmp_path / "a") for p in (tmp_path / "a").rglob("*") if p.is_file())
+    assert files and all((tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
+                         for f in files)
+    # The written MJCF is the same model the runner compiles in memory.
+    written = mujoco.MjModel.from_xml_path(str(tmp_path / "a" / f"{layout.name}.xml"))
+    memory = Vehicle(layout).model
+    for field in ("body_mass", "body_inertia", "body_pos", "body_ipos", "jnt_stiffness",
+                  "dof_damping", "jnt_type", "jnt_axis", "numeric_data"):
+        np.testing.assert_array_equal(getattr(written, field), getattr(memory, field), err_msg=field)
+
+
+def test_every_element_is_named():
+    model = Vehicle(load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")).model
+    for kind, count in ((mujoco.mjtObj.mjOBJ_BODY, model.nbody), (mujoco.mjtObj.mjOBJ_JOINT, model.njnt),
+                        (mujoco.mjtObj.mjOBJ_GEOM, model.ngeom), (mujoco.mjtObj.mjOBJ_MESH, model.nmesh)):
+        start = 1 if kind == mujoco.mjtObj.mjOBJ_BODY else 0  # the world body is unnamed
+        assert all(mujoco.mj_id2name(model, kind, i) for i in range(start, count)), kind
+
+
+def test_suspension_is_in_the_mjcf():
+    """Primary and secondary springs and dampers are joint stiffness and damping."""
+    layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
+    model = Vehicle(layout).model
+    j = model.joint("wheelset3_yaw")
+    assert j.stiffness[0] == layout.primary.yaw_stiffness
+    assert model.joint("bogie2_lateral").stiffness[0] == layout.secondary.lateral_stiffness
+    assert model.dof_damping[model.joint("bogie1_lateral").dofadr[0]] == layout.secondary.lateral_damping
+    assert model.dof_damping[model.joint("wheelset1_lateral").dofadr[0]] == layout.primary.lateral_damping
+
+
+def test_three_axle_bogie_generates_and_steps(tmp_path):
+    layout = free_truck([1.8, 0.0, -1.8], primary=5e6)
+    files = generated_files(layout)
+    assert set(files) >= {"free-truck.xml", "scene.xml"}
+    generate(layout, tmp_path)
+    model = mujoco.MjModel.from_xml_path(str(tmp_path / "scene.xml"))
+    assert model.nv == 2 + 3 * 2
+    step_without_warnings(model, 3)
+
+
+def test_wheelset_bodies_sit_where_the_layout_puts_them():
+    layout = layout_from_dict({
+        "name": "two-bogies",
+        "wheelset": {"mass": 1500.0, "inertia": [900.0, 100.0, 900.0], "rolling_radius": 0.45,
+                     "contact_half_spacing": 0.75, "conicity": 0.1},
+        "creep": {"f11": 8e6, "f22": 7e6},
+        "primary": {"lateral_stiffness": 5e6, "yaw_stiffness": 20e6},
+        "bogie": {"mass": 2000.0, "inertia": [1500.0, 1400.0, 2500.0], "wheelset_positions": [1.2, 0.0, -1.2]},
+        "secondary": {"lateral_stiffness": 3e5, "yaw_stiffness": 3e5},
+        "carbody": {"mass": 40000.0, "inertia": [6e4, 2e6, 2e6], "bogie_positions": [8.0, -8.0]},
+    })
+    vehicle = Vehicle(layout)
+    data = mujoco.MjData(vehicle.model)
+    mujoco.mj_kinematics(vehicle.model, data)
+    np.testing.assert_allclose(data.xpos[vehicle.wheelset_ids, 0], [9.2, 8.0, 6.8, -6.8, -8.0, -9.2])
+    np.testing.assert_allclose(data.xpos[vehicle.wheelset_ids, 2], 0.45)
