@@ -44,11 +44,13 @@ def test_timestep_is_chosen_from_layout_and_speed(speed):
 def test_slow_runs_take_smaller_steps():
     layout = load_layout(COACH)
     steps = []
-    for speed in (2.0, 20.0):
+    for speed in (2.0, 4.0):
         vehicle = Vehicle(layout)
         steps.append(stable_timestep(vehicle, CreepForces(vehicle.model, vehicle.wheelset_names, speed)))
-    # The creep damping rate 2*f22/(V*m) sets the step at low speed: dt scales with V.
-    assert steps[0] == pytest.approx(steps[1] * 2.0 / 20.0, rel=0.05)
+    # The creep damping rate 2*f22/(V*m) sets the step at low speed: dt scales with V
+    # (to 5 %: the suspension's own rates add a little).
+    assert steps[1] < MAX_TIMESTEP
+    assert steps[0] == pytest.approx(steps[1] * 2.0 / 4.0, rel=0.05)
 
 
 def test_impossibly_slow_run_is_refused_naming_the_limit():
