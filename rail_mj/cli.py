@@ -17,7 +17,8 @@ import numpy as np
 
 from rail_mj.analysis import summary
 from rail_mj.layout import LayoutError, load_layout
-from rail_mj.model import atomic_write, generate
+from rail_mj.files import atomic_write
+from rail_mj.model import generate
 from rail_mj.runner import Run, SimulationError, simulate
 
 EXIT_BAD_INPUT = 2
@@ -154,6 +155,117 @@ def _print_summary(result: dict) -> None:
         click.echo(f"samples: {result['csv']}")
     if "rrd" in result:
         click.echo(f"recording: {result['rrd']}  (open it with: rerun {result['rrd']})")
+
+
+def _positive(option: str, value: float) -> None:
+    if not (math.isfinite(value) and value > 0):
+        raise Failure(f"{option} must be a positive number, got {value}", EXIT_BAD_INPUT)
+
+
+def _stability(layout_path: str):
+    from rail_mj.stability import Stability
+
+    return Stability(_layout(layout_path))
+
+
+@cli.command("eigen")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("--speed", type=float, required=True, help="Forward speed, m/s.")
+@click.option("--json", "as_json", is_flag=True, help="Print the modes as JSON.")
+def eigen_cmd(layout, speed, as_json):
+    """Eigenvalues and modes of LAYOUT linearised at SPEED, least damped first."""
+    _positive("--speed", speed)
+    modes = _stability(layout).modes(speed)
+    oscillatory = [m for m in modes if m.oscillatory]
+    aperiodic = [m.eigenvalue.real for m in modes if not m.oscillatory]
+    if as_json:
+        click.echo(json.dumps({
+            "speed_m_per_s": speed,
+            "stable": all(m.eigenvalue.real < 0 for m in modes),
+            "modes": [m.as_dict() for m in oscillatory],
+            "aperiodic_roots": aperiodic,
+        }, indent=2))
+        return
+    click.echo(f"{'mode':<46} {'f (Hz)':>8} {'zeta':>8} {'real (1/s)':>11} {'imag (rad/s)':>12}  participation")
+    for m in oscillatory:
+        bodies = sorted(m.participation.items(), key=lambda kv: -kv[1])
+        part = ", ".join(f"{b} {s:.0%}" for b, s in bodies if s >= 0.05)
+        click.echo(f"{m.name:<46} {m.frequency:>8.3f} {m.damping_ratio:>8.4f} {m.eigenvalue.real:>11.4f} "
+                   f"{m.eigenvalue.imag:>12.4f}  {part}")
+    if aperiodic:
+        click.echo(f"aperiodic roots (1/s): {', '.join(f'{r:.4g}' for r in sorted(aperiodic, reverse=True))}")
+    unstable = [m.name for m in modes if m.eigenvalue.real >= 0]
+    click.echo(f"unstable at {speed:g} m/s: {', '.join(unstable)}" if unstable else f"stable at {speed:g} m/s")
+
+
+@cli.command("critical-speed")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("--method", type=click.Choice(["eigen", "time"]), default="eigen", show_default=True,
+              help="eigen: where the least-damped root crosses zero; time: simulations from a small disturbance.")
+@click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed searched, m/s.")
+@click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed searched, m/s.")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def critical_speed_cmd(layout, method, vmin, vmax, as_json):
+    """The lowest speed at which LAYOUT stops being stable, and the mode that sets it."""
+    from rail_mj.stability import time_critical_speed
+
+    if not (math.isfinite(vmin) and math.isfinite(vmax) and 0 < vmin < vmax):
+        raise Failure(f"need 0 < --vmin < --vmax, got {vmin} and {vmax}", EXIT_BAD_INPUT)
+    if method == "eigen":
+        result = _stability(layout).critical_speed(vmin, vmax)
+    else:
+        result = time_critical_speed(_layout(layout), vmin, vmax)
+    if as_json:
+        click.echo(json.dumps(result.as_dict(), indent=2))
+    elif result.critical_speed is None:
+        click.echo(f"no critical speed ({result.method}): {result.note}")
+    else:
+        click.echo(f"critical speed ({result.method}): {result.critical_speed:.2f} m/s "
+                   f"({result.critical_speed * 3.6:.1f} km/h), {result.frequency:.3f} Hz, {result.mode}")
+        if len(result.unstable_ranges) > 1 or (result.unstable_ranges and result.unstable_ranges[0][1] < vmax):
+            spans = "; ".join(f"{a:.1f}-{b:.1f}" for a, b in result.unstable_ranges)
+            click.echo(f"unstable ranges (m/s): {spans}")
+
+
+def _speeds(text: str) -> list[float]:
+    try:
+        a, b, n = text.split(":")
+        a, b, n = float(a), float(b), int(n)
+    except ValueError:
+        raise Failure(f"--speeds must be A:B:N (from A to B m/s in N steps), got {text!r}",
+                      EXIT_BAD_INPUT) from None
+    if not (math.isfinite(a) and math.isfinite(b) and 0 < a < b and 2 <= n <= 10_000):
+        raise Failure(f"--speeds A:B:N needs 0 < A < B and 2 <= N <= 10000, got {text!r}", EXIT_BAD_INPUT)
+    return list(np.linspace(a, b, n))
+
+
+@cli.command("root-locus")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("--speeds", required=True, help="A:B:N, N speeds from A to B m/s.")
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="The plot, PNG.")
+@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
+              help="The data as CSV [default: the plot's name with .csv].")
+def root_locus_cmd(layout, speeds, out, csv_path):
+    """Frequency and damping of every mode of LAYOUT against speed, critical speed marked."""
+    from rail_mj.plots import locus_csv, plot_root_locus, root_locus
+
+    vs = _speeds(speeds)
+    _check_output(out, "-o")
+    csv_path = csv_path or str(Path(out).with_suffix(".csv"))
+    _check_output(csv_path, "--csv")
+    stability = _stability(layout)
+    rows = root_locus(stability, vs)
+    critical = stability.critical_speed(vs[0], vs[-1])
+    try:
+        atomic_write(Path(csv_path), locus_csv(rows))
+        plot_root_locus(rows, critical, out, stability.layout.name)
+    except OSError as e:
+        raise Failure(f"cannot write output: {e.strerror or e}: {e.filename or ''}", EXIT_BAD_INPUT) from None
+    click.echo(f"plot: {out}\ndata: {csv_path}")
+    if critical.critical_speed is not None:
+        click.echo(f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}")
+    else:
+        click.echo(critical.note)
 
 
 def main(argv: list[str] | None = None) -> int:

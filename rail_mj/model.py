@@ -27,13 +27,12 @@ Example:
 from __future__ import annotations
 
 import functools
-import os
-import tempfile
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
+from rail_mj.files import atomic_write
 from rail_mj.layout import Layout, Suspension
 from rail_mj.wheel import wheel_stl
 
@@ -305,22 +304,3 @@ def generate(layout: Layout, out_dir: str | Path) -> list[Path]:
         atomic_write(path, data)
         written.append(path)
     return written
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def atomic_write(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes owner-only files
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

@@ -1,0 +1,102 @@
+"""Root loci and stability charts: what a person looks at.
+
+Example:
+
+    >>> import tempfile, os
+    >>> from rail_mj import load_layout
+    >>> from rail_mj.stability import Stability
+    >>> s = Stability(load_layout("models/wheelset/wheelset.toml"))
+    >>> rows = root_locus(s, [20.0, 40.0, 60.0])
+    >>> rows[0]["mode"], len(rows)
+    ('wheelset 1 (wheelset hunting)', 6)
+    >>> path = os.path.join(tempfile.mkdtemp(), "locus.png")
+    >>> plot_root_locus(rows, s.critical_speed(10.0, 100.0), path, "wheelset").stat().st_size > 0
+    True
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # headless: files only, no screen needed
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from rail_mj.files import atomic_write  # noqa: E402
+from rail_mj.stability import CriticalSpeed, Stability  # noqa: E402
+
+CSV_COLUMNS = ("speed_m_per_s", "mode", "frequency_hz", "damping_ratio", "real", "imag")
+
+
+def root_locus(stability: Stability, speeds) -> list[dict]:
+    """Every oscillatory mode at every speed, as rows with CSV_COLUMNS."""
+    rows = []
+    for v in speeds:
+        for m in stability.modes(float(v)):
+            if m.oscillatory:
+                rows.append({
+                    "speed_m_per_s": float(v), "mode": m.name, "frequency_hz": m.frequency,
+                    "damping_ratio": m.damping_ratio, "real": m.eigenvalue.real,
+                    "imag": m.eigenvalue.imag,
+                })
+    return rows
+
+
+def locus_csv(rows: list[dict]) -> bytes:
+    buf = io.StringIO()
+    buf.write(",".join(CSV_COLUMNS) + "\n")
+    for r in rows:
+        buf.write(",".join(f'"{r[c]}"' if c == "mode" else f"{r[c]:.10g}" for c in CSV_COLUMNS) + "\n")
+    return buf.getvalue().encode()
+
+
+def plot_root_locus(rows: list[dict], critical: CriticalSpeed | None, path, title: str) -> Path:
+    """Frequency and damping ratio against speed, and the complex plane, coloured by mode
+    name (as named at each speed: a mode can change character, and name, with speed)."""
+    names = sorted({r["mode"] for r in rows}, key=lambda n: min(
+        r["frequency_hz"] for r in rows if r["mode"] == n))
+    colours = plt.colormaps["tab10" if len(names) <= 10 else "tab20"]
+    fig, (ax_f, ax_z, ax_c) = plt.subplots(1, 3, figsize=(17, 6.5), layout="constrained")
+    v_all = np.array([r["speed_m_per_s"] for r in rows]) if rows else np.zeros(1)
+    for k, name in enumerate(names):
+        sel = [r for r in rows if r["mode"] == name]
+        v = np.array([r["speed_m_per_s"] for r in sel])
+        colour = colours(k % colours.N)
+        ax_f.scatter(v, [r["frequency_hz"] for r in sel], color=colour, s=12, label=name)
+        ax_z.scatter(v, [r["damping_ratio"] for r in sel], color=colour, s=12)
+        # Marker size grows with speed, so the direction of travel along a branch shows.
+        size = 4 + 40 * (v - v_all.min()) / max(np.ptp(v_all), 1e-9)
+        ax_c.scatter([r["real"] for r in sel], [r["imag"] for r in sel], color=colour, s=size)
+    ax_f.set(xlabel="speed V (m/s)", ylabel="frequency f (Hz)", title="Frequency of each mode")
+    ax_z.set(xlabel="speed V (m/s)", ylabel="damping ratio ζ (-)", title="Damping ratio (ζ < 0: unstable)")
+    ax_z.axhline(0.0, color="black", linewidth=0.8)
+    ax_c.set(xlabel="real part σ (1/s)", ylabel="imaginary part ω (rad/s)",
+             title="Complex plane (marker size grows with speed)")
+    ax_c.axvline(0.0, color="black", linewidth=0.8)
+    if rows:
+        # Roots damped faster than the fastest oscillation are off to the left: they are
+        # the creep-damped aperiodic motions, of no interest for stability.
+        imag_max = max(r["imag"] for r in rows)
+        real_max = max(r["real"] for r in rows)
+        ax_c.set_xlim(-imag_max, max(0.1 * imag_max, 1.1 * real_max))
+    if critical is not None and critical.critical_speed is not None:
+        for ax in (ax_f, ax_z):
+            ax.axvline(critical.critical_speed, color="red", linestyle="--", linewidth=1.2)
+        ax_z.annotate(f"critical speed {critical.critical_speed:.1f} m/s\n{critical.mode}",
+                      (critical.critical_speed, 0.0), xytext=(6, 12), textcoords="offset points",
+                      color="red", fontsize=9)
+    for ax in (ax_f, ax_z, ax_c):
+        ax.grid(alpha=0.3)
+    fig.legend(loc="outside lower center", ncol=min(4, max(len(names), 1)), fontsize=9,
+               title="mode (named from its eigenvector at each speed)")
+    fig.suptitle(f"Root locus: {title}")
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=110)
+    plt.close(fig)
+    path = Path(path)
+    atomic_write(path, png.getvalue())
+    return path
