@@ -8,7 +8,7 @@ Example:
     >>> s = Stability(load_layout("models/wheelset/wheelset.toml"))
     >>> rows = root_locus(s, [20.0, 40.0, 60.0])
     >>> rows[0]["mode"], len(rows)
-    ('wheelset 1 (wheelset hunting)', 6)
+    ('wheelset 1 (wheelset hunting)', 5)
     >>> path = os.path.join(tempfile.mkdtemp(), "locus.png")
     >>> plot_root_locus(rows, s.critical_speed(10.0, 100.0), path, "wheelset").stat().st_size > 0
     True
