@@ -97,7 +97,7 @@ class Stability:
         >>> from rail_mj import load_layout
         >>> s = Stability(load_layout("models/bogie/bogie.toml"))
         >>> [m.name for m in s.modes(40.0) if m.oscillatory][:1]
-        ['bogie 1 frame yaw (primary hunting)']
+        ['bogie 1 frame lateral/yaw (primary hunting)']
     """
 
     def __init__(self, layout: Layout):
