@@ -210,3 +210,13 @@ def test_cli_stability_bad_arguments(argv, fragment, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and fragment in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_lower_conicity_raises_the_bogie_critical_speed():
+    """The Shinkansen's change from 1:20 to 1:40 (seed, 'The stable bogie')."""
+    import dataclasses
+
+    base = load_layout(MODELS / "bogie" / "bogie.toml")
+    speeds = [Stability(dataclasses.replace(base, wheelset=dataclasses.replace(base.wheelset, conicity=lam)))
+              .critical_speed(5.0, 300.0).critical_speed for lam in (0.15, 0.05, 0.025)]
+    assert speeds[0] < speeds[1] < speeds[2]
