@@ -5,6 +5,9 @@ Entity paths (stable; later tools read them back):
     /lateral/wheelset<i>   lateral displacement y of wheelset i, m (Scalars)
     /yaw/wheelset<i>       yaw psi of wheelset i, rad (Scalars)
     /layout                the layout file and the run's settings, logged once
+    /world/rails           the track, logged once
+    /world/vehicle/<body>  each body's pose (car body, bogieK, wheelsetN) moving along
+                           the track, its MJCF geoms (boxes, axle, wheel meshes) under it
 
 each on two timelines, TIME (seconds) and DISTANCE (millimetres travelled: Rerun
 timelines are integer sequences or times, so distance is a sequence in mm). The
@@ -27,10 +30,12 @@ import os
 import tempfile
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from rail_mj.model import RAIL_HEAD_WIDTH, Vehicle
 from rail_mj.runner import Run
 
 APP_ID = "rail-mj"
@@ -53,8 +58,11 @@ def blueprint() -> rrb.Blueprint:
                 rrb.TimeSeriesView(origin="/lateral", name="Lateral displacement y (m)"),
                 rrb.TimeSeriesView(origin="/yaw", name="Yaw psi (rad)"),
             ),
-            rrb.TextDocumentView(origin="/layout", name="Layout and run"),
-            column_shares=[3, 1],
+            rrb.Vertical(
+                rrb.Spatial3DView(origin="/world", name="Vehicle on the track"),
+                rrb.TextDocumentView(origin="/layout", name="Layout and run"),
+            ),
+            column_shares=[3, 2],
         ),
         collapse_panels=True,
     )
@@ -79,6 +87,7 @@ def log_run(rec: rr.RecordingStream, run: Run) -> None:
         rr.TimeColumn(TIME, duration=run.t),
         rr.TimeColumn(DISTANCE, sequence=np.round(run.x * 1000.0).astype(np.int64)),
     ]
+    log_vehicle(rec, run, indexes)
     for i in range(run.n_wheelsets):
         for path, values, unit in (
             (lateral_path(i), run.y[:, i], "m"),
@@ -86,6 +95,62 @@ def log_run(rec: rr.RecordingStream, run: Run) -> None:
         ):
             rec.log(path, rr.SeriesLines(names=f"wheelset {i + 1} ({unit})"), static=True)
             rec.send_columns(path, indexes=indexes, columns=rr.Scalars.columns(scalars=values))
+
+
+def _xyzw(wxyz: np.ndarray) -> np.ndarray:
+    """MuJoCo quaternions are w, x, y, z; Rerun's are x, y, z, w."""
+    return np.roll(np.asarray(wxyz, dtype=float), -1, axis=-1)
+
+
+def _geom_archetype(model: mujoco.MjModel, g: int):
+    """The Rerun shape of one MJCF geom, in the geom's own frame; None for other types."""
+    colour = (np.asarray(model.geom_rgba[g]) * 255).astype(np.uint8)
+    size = model.geom_size[g]
+    if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+        return rr.Boxes3D(half_sizes=[size], colors=[colour], fill_mode="solid")
+    if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_CYLINDER:  # axis along the geom's z
+        return rr.Cylinders3D(lengths=[2 * size[1]], radii=[size[0]], colors=[colour])
+    if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+        m = model.geom_dataid[g]
+        v0, nv = model.mesh_vertadr[m], model.mesh_vertnum[m]
+        f0, nf = model.mesh_faceadr[m], model.mesh_facenum[m]
+        return rr.Mesh3D(vertex_positions=model.mesh_vert[v0:v0 + nv],
+                         triangle_indices=model.mesh_face[f0:f0 + nf], albedo_factor=colour)
+    return None
+
+
+def log_vehicle(rec: rr.RecordingStream, run: Run, indexes) -> None:
+    """The vehicle's bodies moving along the track in 3D: geometry once, poses in columns.
+
+    The model travels with the vehicle, so each pose gets the distance x = V*t added.
+    """
+    vehicle = Vehicle(run.layout)
+    model, data = vehicle.model, mujoco.MjData(vehicle.model)
+    bodies = range(1, model.nbody)
+    for g in range(model.ngeom):
+        shape = _geom_archetype(model, g)
+        body = model.body(model.geom_bodyid[g]).name
+        if shape is not None:
+            path = f"/world/vehicle/{body}/{model.geom(g).name}"
+            rec.log(path, rr.Transform3D(translation=model.geom_pos[g],
+                                         quaternion=_xyzw(model.geom_quat[g])), static=True)
+            rec.log(path, shape, static=True)
+    pos = np.empty((len(run.t), model.nbody, 3))
+    quat = np.empty((len(run.t), model.nbody, 4))
+    for k, q in enumerate(run.qpos):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        pos[k], quat[k] = data.xpos, data.xquat
+    pos[:, :, 0] += run.x[:, None]
+    for b in bodies:
+        rec.send_columns(f"/world/vehicle/{model.body(b).name}", indexes=indexes,
+                         columns=rr.Transform3D.columns(translation=pos[:, b], quaternion=_xyzw(quat[:, b])))
+    b = run.layout.wheelset.contact_half_spacing
+    length = float(run.x[-1]) + 40.0
+    rec.log("/world/rails", rr.Boxes3D(
+        centers=[[length / 2 - 20.0, side * b, -0.08] for side in (1, -1)],
+        half_sizes=[[length / 2, RAIL_HEAD_WIDTH / 2, 0.08]] * 2,
+        colors=[[190, 190, 200]] * 2, fill_mode="solid"), static=True)
 
 
 def write_recording(run: Run, path: str | Path) -> Path:

@@ -62,6 +62,7 @@ class Run:
     t: np.ndarray
     y: np.ndarray
     psi: np.ndarray
+    qpos: np.ndarray  # the model's joint positions at each sample, for the 3D view
 
     @property
     def x(self) -> np.ndarray:
@@ -170,7 +171,7 @@ def simulate(
     psi = np.empty_like(y)
 
     def partial(k: int) -> Run:
-        return Run(layout, speed, dt, t[:k].copy(), y[:k].copy(), psi[:k].copy())
+        return Run(layout, speed, dt, t[:k].copy(), y[:k].copy(), psi[:k].copy(), qpos[:k].copy())
 
     qpos[0] = data.qpos
     done = 0  # samples converted to wheelset y and psi and checked
@@ -204,7 +205,7 @@ def simulate(
             done = k + 1
             if progress is not None:
                 progress(k / (n_samples - 1))
-    return Run(layout, speed, dt, t, y, psi)
+    return Run(layout, speed, dt, t, y, psi, qpos)
 
 
 def _wheelset_poses(vehicle: Vehicle, qpos: np.ndarray, y: np.ndarray, psi: np.ndarray) -> None:

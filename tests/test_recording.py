@@ -62,3 +62,28 @@ def test_cli_writes_recording(tmp_path, capsys):
     assert f"rerun {rrd}" in capsys.readouterr().out
     assert len(read_series(rrd)) == 8
     assert [p.name for p in tmp_path.iterdir()] == ["coach.rrd"]  # no temporary left behind
+
+
+def test_recording_moves_the_vehicle_along_the_track(tmp_path):
+    layout = load_layout(MODELS / "bogie" / "bogie.toml")
+    run = simulate(layout, speed=25.0, distance=10.0, initial_lateral=0.002)
+    path = write_recording(run, tmp_path / "bogie.rrd")
+    poses = {}
+    for chunk in RrdReader(str(path)).stream():
+        batch = chunk.to_record_batch()
+        if not chunk.is_static and "Transform3D:translation" in batch.schema.names:
+            t = batch.column(TIME).cast(pa.int64()).to_numpy() / 1e9
+            xyz = np.array([v[0] for v in batch.column("Transform3D:translation").to_pylist()])
+            poses[chunk.entity_path] = xyz[np.argsort(t, kind="stable")]
+    assert set(poses) == {"/world/vehicle/carbody", "/world/vehicle/bogie1",
+                          "/world/vehicle/wheelset1", "/world/vehicle/wheelset2"}
+    # Rerun stores translations as float32: relative resolution 2^-24 = 6e-8.
+    f32 = 2.0**-23
+    for i, x_w in enumerate(layout.wheelset_x):
+        xyz = poses[f"/world/vehicle/wheelset{i + 1}"]
+        # x = V*t + position, but for the frame's yaw (1e-3 rad) times lateral offsets (1e-3 m).
+        np.testing.assert_allclose(xyz[:, 0], run.x + x_w, rtol=f32, atol=1e-6)
+        np.testing.assert_allclose(xyz[:, 1], run.y[:, i], rtol=f32, atol=1e-30)  # the same lateral motion
+        np.testing.assert_allclose(xyz[:, 2], layout.wheelset.rolling_radius, rtol=f32)
+    static = static_entities(path)
+    assert "/world/rails" in static and "/world/vehicle/wheelset1/wheelset1_left_wheel" in static
