@@ -9,6 +9,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -17,7 +18,7 @@ import numpy as np
 
 from rail_mj.analysis import summary
 from rail_mj.layout import LayoutError, load_layout
-from rail_mj.files import atomic_write
+from rail_mj.files import staged
 from rail_mj.model import generate
 from rail_mj.runner import Run, SimulationError, simulate
 
@@ -52,12 +53,13 @@ def cli():
 def generate_cmd(layout, out_dir):
     """Generate the MJCF model of LAYOUT."""
     lay = _layout(layout)
+    _check_outputs(layout, [("-o", out_dir)], folders=True)
     try:
         written = generate(lay, out_dir)
     except ValueError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     except OSError as e:
-        raise Failure(f"cannot write to {out_dir}: {e.strerror or e}", EXIT_BAD_INPUT) from None
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
     for path in written:
         click.echo(str(path))
 
@@ -69,9 +71,24 @@ def _csv_bytes(run: Run) -> bytes:
     return buf.getvalue().encode()
 
 
-def _check_output(path: str | None, option: str) -> None:
-    if path is not None and Path(path).is_dir():
-        raise Failure(f"{option} {path}: is a folder, expected a file name", EXIT_BAD_INPUT)
+def _check_outputs(layout: str, outputs: list[tuple[str, str | None]], folders: bool = False) -> None:
+    """Refuse, before any work, outputs that cannot or must not be written: a folder
+    given for a file, the layout itself, two outputs on one path, an unwritable place."""
+    seen = {Path(layout).resolve(): "the layout file"}
+    for option, path in outputs:
+        if path is None:
+            continue
+        target = Path(path)
+        if not folders and target.is_dir():
+            raise Failure(f"{option} {path}: is a folder, expected a file name", EXIT_BAD_INPUT)
+        if target.resolve() in seen:
+            raise Failure(f"{option} {path}: would overwrite {seen[target.resolve()]}", EXIT_BAD_INPUT)
+        seen[target.resolve()] = option
+        existing = target.resolve().parent if not folders else target.resolve()
+        while not existing.exists():
+            existing = existing.parent
+        if not existing.is_dir() or not os.access(existing, os.W_OK):
+            raise Failure(f"{option} {path}: cannot write in {existing}", EXIT_BAD_INPUT)
 
 
 @cli.command("run")
@@ -87,15 +104,8 @@ def _check_output(path: str | None, option: str) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_json):
     """Run LAYOUT at constant speed on straight track and summarise each wheelset's motion."""
-    for option, value in (("--speed", speed), ("--distance", distance)):
-        if not (math.isfinite(value) and value > 0):
-            raise Failure(f"{option} must be a positive number, got {value}", EXIT_BAD_INPUT)
-    for option, value in (("--initial-lateral", initial_lateral), ("--initial-yaw", initial_yaw)):
-        if not math.isfinite(value):
-            raise Failure(f"{option} must be a finite number, got {value}", EXIT_BAD_INPUT)
     lay = _layout(layout)
-    _check_output(rrd, "--rrd")
-    _check_output(out, "--out")
+    _check_outputs(layout, [("--out", out), ("--rrd", rrd)])
     try:
         run = _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw)
     except SimulationError as e:
@@ -103,17 +113,22 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_
     except ValueError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     result = summary(run)
+    outputs = [p for p in (out, rrd) if p]
     try:
-        if out:
-            atomic_write(Path(out), _csv_bytes(run))
-            result["csv"] = out
-        if rrd:
-            from rail_mj.recording import write_recording  # rerun is slow to import
+        with staged(outputs) as temps:  # both or neither
+            for tmp, path in zip(temps, outputs):
+                if path == out:
+                    tmp.write_bytes(_csv_bytes(run))
+                else:
+                    from rail_mj.recording import save_recording  # rerun is slow to import
 
-            write_recording(run, rrd)
-            result["rrd"] = rrd
+                    save_recording(run, tmp)
     except OSError as e:
-        raise Failure(f"cannot write output: {e.strerror or e}: {e.filename or ''}", EXIT_BAD_INPUT) from None
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    if out:
+        result["csv"] = out
+    if rrd:
+        result["rrd"] = rrd
     if as_json:
         click.echo(json.dumps(result, indent=2))
     else:
@@ -157,15 +172,13 @@ def _print_summary(result: dict) -> None:
         click.echo(f"recording: {result['rrd']}  (open it with: rerun {result['rrd']})")
 
 
-def _positive(option: str, value: float) -> None:
-    if not (math.isfinite(value) and value > 0):
-        raise Failure(f"{option} must be a positive number, got {value}", EXIT_BAD_INPUT)
-
-
 def _stability(layout_path: str):
     from rail_mj.stability import Stability
 
-    return Stability(_layout(layout_path))
+    try:
+        return Stability(_layout(layout_path))
+    except ValueError as e:  # the model does not compile
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
 
 
 @cli.command("eigen")
@@ -174,7 +187,8 @@ def _stability(layout_path: str):
 @click.option("--json", "as_json", is_flag=True, help="Print the modes as JSON.")
 def eigen_cmd(layout, speed, as_json):
     """Eigenvalues and modes of LAYOUT linearised at SPEED, least damped first."""
-    _positive("--speed", speed)
+    if not (math.isfinite(speed) and speed > 0):
+        raise Failure(f"--speed must be a positive number, got {speed}", EXIT_BAD_INPUT)
     modes = _stability(layout).modes(speed)
     oscillatory = [m for m in modes if m.oscillatory]
     aperiodic = [m.eigenvalue.real for m in modes if not m.oscillatory]
@@ -214,7 +228,11 @@ def critical_speed_cmd(layout, method, vmin, vmax, as_json):
     if method == "eigen":
         result = _stability(layout).critical_speed(vmin, vmax)
     else:
-        result = time_critical_speed(_layout(layout), vmin, vmax)
+        _stability(layout)  # a model that does not compile fails here, with exit 2
+        try:
+            result = time_critical_speed(_layout(layout), vmin, vmax)
+        except SimulationError as e:
+            raise Failure(str(e), EXIT_RUN_FAILED) from None
     if as_json:
         click.echo(json.dumps(result.as_dict(), indent=2))
     elif result.critical_speed is None:
@@ -247,20 +265,20 @@ def _speeds(text: str) -> list[float]:
               help="The data as CSV [default: the plot's name with .csv].")
 def root_locus_cmd(layout, speeds, out, csv_path):
     """Frequency and damping of every mode of LAYOUT against speed, critical speed marked."""
-    from rail_mj.plots import locus_csv, plot_root_locus, root_locus
+    from rail_mj.plots import locus_csv, root_locus, root_locus_png
 
     vs = _speeds(speeds)
-    _check_output(out, "-o")
     csv_path = csv_path or str(Path(out).with_suffix(".csv"))
-    _check_output(csv_path, "--csv")
+    _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     stability = _stability(layout)
     rows = root_locus(stability, vs)
     critical = stability.critical_speed(vs[0], vs[-1])
     try:
-        atomic_write(Path(csv_path), locus_csv(rows))
-        plot_root_locus(rows, critical, out, stability.layout.name)
+        with staged([csv_path, out]) as (csv_tmp, png_tmp):
+            csv_tmp.write_bytes(locus_csv(rows))
+            png_tmp.write_bytes(root_locus_png(rows, critical, stability.layout.name))
     except OSError as e:
-        raise Failure(f"cannot write output: {e.strerror or e}: {e.filename or ''}", EXIT_BAD_INPUT) from None
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
     click.echo(f"plot: {out}\ndata: {csv_path}")
     if critical.critical_speed is not None:
         click.echo(f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}")

@@ -69,20 +69,3 @@ def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
     fy = 2.0 * (-p.f22 * xi_y - p.f23 * xi_sp)
     mz = -2.0 * p.b * fx_left + 2.0 * (p.f23 * xi_y - p.f33 * xi_sp)
     return fy, mz
-
-
-def linear_coefficients(p: ContactParameters, speed: float):
-    """Stiffness K and damping C (n, 2, 2) with [Fy, Mz] = -K @ [y, psi] - C @ [y_dot, psi_dot].
-
-    Read off the force law itself by unit perturbations about the centred state, so
-    it holds for whatever law `wheelset_forces` implements (exact for a linear law).
-    """
-    n = p.r0.shape[0]
-    K = np.empty((n, 2, 2))
-    C = np.empty((n, 2, 2))
-    zero, one = np.zeros(n), np.ones(n)
-    for j in range(2):
-        unit = [one if j == 0 else zero, one if j == 1 else zero]
-        K[:, :, j] = -np.stack(wheelset_forces(p, unit[0], unit[1], zero, zero, speed), axis=1)
-        C[:, :, j] = -np.stack(wheelset_forces(p, zero, zero, unit[0], unit[1], speed), axis=1)
-    return K, C

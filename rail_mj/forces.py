@@ -30,7 +30,7 @@ import contextlib
 import mujoco
 import numpy as np
 
-from rail_mj.creep import ContactParameters, linear_coefficients, wheelset_forces
+from rail_mj.creep import ContactParameters, wheelset_forces
 from rail_mj.model import NUMERIC_CREEP, NUMERIC_WHEEL
 
 
@@ -45,8 +45,8 @@ def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParame
 class CreepForces:
     """Creep forces on every wheelset of `model` at forward speed `speed` (m/s).
 
-    Call it as MuJoCo's passive callback (`installed(forces)`), or call
-    `wheelset_states` / `generalised_forces` yourself. The yaw angle is taken from
+    Call it as MuJoCo's passive callback (`installed(forces)`); `wheelset_states`
+    gives the kinematic inputs of the creep law. The yaw angle is taken from
     the body rotation (atan2), the rates from the body Jacobians at the wheelset
     centre.
     """
@@ -61,40 +61,25 @@ class CreepForces:
         self._jacp = np.zeros((n, 3, nv))
         self._jacr = np.zeros((n, 3, nv))
 
-    def _jacobians(self, model, data):
+    def _kinematics(self, model, data):
+        """(y, psi, y_dot, psi_dot) over wheelsets, and the lateral and yaw Jacobian rows."""
         for i, body in enumerate(self.body_ids):
             mujoco.mj_jacBody(model, data, self._jacp[i], self._jacr[i], body)
-        # Lateral translation and yaw rows: (n, nv) each.
-        return self._jacp[:, 1, :], self._jacr[:, 2, :]
+        jy, jpsi = self._jacp[:, 1, :], self._jacr[:, 2, :]
+        xmat = data.xmat[self.body_ids]
+        # Yaw from the body rotation: atan2(R10, R00) of the row-major 3x3 xmat.
+        states = (data.xpos[self.body_ids, 1], np.arctan2(xmat[:, 3], xmat[:, 0]),
+                  jy @ data.qvel, jpsi @ data.qvel)
+        return states, jy, jpsi
 
     def wheelset_states(self, model, data):
         """(y, psi, y_dot, psi_dot), arrays over wheelsets, in the track frame."""
-        jy, jpsi = self._jacobians(model, data)
-        xmat = data.xmat[self.body_ids]
-        y = data.xpos[self.body_ids, 1]
-        psi = np.arctan2(xmat[:, 3], xmat[:, 0])
-        return y, psi, jy @ data.qvel, jpsi @ data.qvel
+        return self._kinematics(model, data)[0]
 
     def __call__(self, model, data):
-        jy, jpsi = self._jacobians(model, data)
-        xmat = data.xmat[self.body_ids]
-        fy, mz = wheelset_forces(
-            self.params,
-            data.xpos[self.body_ids, 1],
-            np.arctan2(xmat[:, 3], xmat[:, 0]),
-            jy @ data.qvel,
-            jpsi @ data.qvel,
-            self.speed,
-        )
-        data.qfrc_passive += fy @ jy + mz @ jpsi
-
-    def linear_matrices(self, model, data):
-        """Creep stiffness and damping (nv, nv) in generalised coordinates, linearised
-        at the configuration in `data` (kinematics must be current)."""
-        jy, jpsi = self._jacobians(model, data)
-        K, C = linear_coefficients(self.params, self.speed)
-        J = np.stack([jy, jpsi], axis=1)  # (n, 2, nv)
-        return np.einsum("nki,nkl,nlj->ij", J, K, J), np.einsum("nki,nkl,nlj->ij", J, C, J)
+        states, jy, jpsi = self._kinematics(model, data)
+        fy, mz = wheelset_forces(self.params, *states, self.speed)
+        data.qfrc_passive += fy @ jy + mz @ jpsi  # J^T [Fy, Mz] over every wheelset
 
 
 @contextlib.contextmanager

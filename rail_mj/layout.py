@@ -25,6 +25,9 @@ from pathlib import Path
 from typing import Any
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
+# Beyond these no vehicle is meant, and arithmetic on them overflows.
+MAX_MAGNITUDE = 1e15  # any number in SI units
+MAX_POSITION = 1000.0  # m from the body centre
 
 
 class LayoutError(ValueError):
@@ -138,8 +141,8 @@ class _Table:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, f"must be a number, got {_kind(value)}")
         value = _float(value)
-        if not math.isfinite(value):
-            self.fail(key, f"must be finite, got {value}")
+        if not math.isfinite(value) or abs(value) > MAX_MAGNITUDE:
+            self.fail(key, f"must be finite and at most {MAX_MAGNITUDE:g} in size, got {value:g}")
         if low is not None and (value <= low if low_open else value < low):
             self.fail(key, f"must be {'>' if low_open else '>='} {low:g}, got {value:g}")
         if high is not None and value > high:
@@ -160,9 +163,13 @@ class _Table:
             self.fail(key, f"must be a list of 3 numbers [x, y, z], got {_kind(value)}")
         out = []
         for i, v in enumerate(value):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < _float(v) < math.inf):
-                self.fail(key, f"entry {i + 1} must be a positive, finite number, got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < _float(v) <= MAX_MAGNITUDE):
+                self.fail(key, f"entry {i + 1} must be a positive number up to {MAX_MAGNITUDE:g}, got {v!r}")
             out.append(_float(v))
+        a, b, c = sorted(out)
+        if a + b < c * (1 - 1e-9):  # a rigid body's principal moments: each <= the sum of the others
+            self.fail(key, f"is not a rigid body's inertia: the largest, {c:g}, exceeds the sum "
+                           f"of the other two, {a + b:g}")
         return tuple(out)
 
     def positions(self, key, min_spacing: float, what: str, *, required=True):
@@ -173,8 +180,8 @@ class _Table:
         if not isinstance(value, list) or not value:
             self.fail(key, f"must be a non-empty list of x positions in m, got {_kind(value)}")
         for v in value:
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(_float(v)):
-                self.fail(key, f"must hold finite numbers only, got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not abs(_float(v)) <= MAX_POSITION:
+                self.fail(key, f"must hold numbers only, within +/-{MAX_POSITION:g} m, got {v!r}")
         xs = [_float(v) for v in value]
         for front, back in zip(xs, xs[1:]):
             if back >= front:

@@ -32,7 +32,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from rail_mj.files import atomic_write
+from rail_mj.files import staged
 from rail_mj.layout import Layout, Suspension
 from rail_mj.wheel import wheel_stl
 
@@ -197,7 +197,8 @@ def compile_spec(spec: mujoco.MjSpec, layout: Layout) -> mujoco.MjModel:
     try:
         return spec.compile()
     except ValueError as e:
-        raise ValueError(f"{layout.source}: MuJoCo could not compile the model: {e}") from None
+        why = "; ".join(line.strip() for line in str(e).splitlines() if line.strip())
+        raise ValueError(f"{layout.source}: MuJoCo could not compile the model: {why}") from None
 
 
 class Vehicle:
@@ -293,14 +294,12 @@ def generated_files(layout: Layout) -> dict[str, bytes]:
 def generate(layout: Layout, out_dir: str | Path) -> list[Path]:
     """Write `<name>.xml`, `scene.xml` and `assets/` into `out_dir`.
 
-    Every file is written to a temporary name and renamed into place, so an
-    interrupted run never leaves a half-written file.
+    The files are written to temporary names and renamed into place together, so a
+    failure never leaves a half-written file or half a model.
     """
     files = generated_files(layout)
-    out_dir = Path(out_dir)
-    written = []
-    for rel, data in files.items():
-        path = out_dir / rel
-        atomic_write(path, data)
-        written.append(path)
+    written = [Path(out_dir) / rel for rel in files]
+    with staged(written) as temps:
+        for tmp, data in zip(temps, files.values()):
+            tmp.write_bytes(data)
     return written

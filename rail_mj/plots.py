@@ -55,6 +55,13 @@ def locus_csv(rows: list[dict]) -> bytes:
 
 
 def plot_root_locus(rows: list[dict], critical: CriticalSpeed | None, path, title: str) -> Path:
+    """Write `root_locus_png` to `path`."""
+    path = Path(path)
+    atomic_write(path, root_locus_png(rows, critical, title))
+    return path
+
+
+def root_locus_png(rows: list[dict], critical: CriticalSpeed | None, title: str) -> bytes:
     """Frequency and damping ratio against speed, and the complex plane, coloured by mode
     name (as named at each speed: a mode can change character, and name, with speed)."""
     names = sorted({r["mode"] for r in rows}, key=lambda n: min(
@@ -97,6 +104,4 @@ def plot_root_locus(rows: list[dict], critical: CriticalSpeed | None, path, titl
     png = io.BytesIO()
     fig.savefig(png, format="png", dpi=110)
     plt.close(fig)
-    path = Path(path)
-    atomic_write(path, png.getvalue())
-    return path
+    return png.getvalue()

@@ -26,8 +26,6 @@ Example:
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import mujoco
@@ -35,7 +33,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rail_mj.model import RAIL_HEAD_WIDTH, Vehicle
+from rail_mj.files import staged
+from rail_mj.model import RAIL_HEAD_WIDTH
 from rail_mj.runner import Run
 
 APP_ID = "rail-mj"
@@ -124,9 +123,7 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, indexes) -> None:
 
     The model travels with the vehicle, so each pose gets the distance x = V*t added.
     """
-    vehicle = Vehicle(run.layout)
-    model, data = vehicle.model, mujoco.MjData(vehicle.model)
-    bodies = range(1, model.nbody)
+    model = run.vehicle.model
     for g in range(model.ngeom):
         shape = _geom_archetype(model, g)
         body = model.body(model.geom_bodyid[g]).name
@@ -135,16 +132,12 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, indexes) -> None:
             rec.log(path, rr.Transform3D(translation=model.geom_pos[g],
                                          quaternion=_xyzw(model.geom_quat[g])), static=True)
             rec.log(path, shape, static=True)
-    pos = np.empty((len(run.t), model.nbody, 3))
-    quat = np.empty((len(run.t), model.nbody, 4))
-    for k, q in enumerate(run.qpos):
-        data.qpos[:] = q
-        mujoco.mj_kinematics(model, data)
-        pos[k], quat[k] = data.xpos, data.xquat
+    pos = run.body_pos.copy()
     pos[:, :, 0] += run.x[:, None]
-    for b in bodies:
+    for b in range(1, model.nbody):
         rec.send_columns(f"/world/vehicle/{model.body(b).name}", indexes=indexes,
-                         columns=rr.Transform3D.columns(translation=pos[:, b], quaternion=_xyzw(quat[:, b])))
+                         columns=rr.Transform3D.columns(translation=pos[:, b],
+                                                        quaternion=_xyzw(run.body_quat[:, b])))
     b = run.layout.wheelset.contact_half_spacing
     length = float(run.x[-1]) + 40.0
     rec.log("/world/rails", rr.Boxes3D(
@@ -153,21 +146,17 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, indexes) -> None:
         colors=[[190, 190, 200]] * 2, fill_mode="solid"), static=True)
 
 
+def save_recording(run: Run, path: str | Path) -> None:
+    """Write `run` to an .rrd file at `path` (use `write_recording` for a safe write)."""
+    rec = rr.RecordingStream(APP_ID, recording_id=f"{run.layout.name}-{run.speed:g}")
+    rec.save(str(path), default_blueprint=blueprint())
+    log_run(rec, run)
+    rec.flush()
+    rec.disconnect()
+
+
 def write_recording(run: Run, path: str | Path) -> Path:
     """Write `run` to an .rrd file; the file appears only once it is complete."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    Path(tmp).unlink()  # Rerun creates the file itself, with the usual permissions
-    try:
-        rec = rr.RecordingStream(APP_ID, recording_id=f"{run.layout.name}-{run.speed:g}")
-        rec.save(tmp, default_blueprint=blueprint())
-        log_run(rec, run)
-        rec.flush()
-        rec.disconnect()
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    with staged([path]) as (tmp,):
+        save_recording(run, tmp)
+    return Path(path)

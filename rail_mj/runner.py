@@ -25,6 +25,7 @@ import numpy as np
 
 from rail_mj.forces import CreepForces, installed
 from rail_mj.layout import Layout
+from rail_mj.linear import state_matrix
 from rail_mj.model import YAW, Vehicle
 
 # RK4 is stable for |lambda|*dt up to 2.78 on the real axis and 2.83 on the imaginary
@@ -48,6 +49,14 @@ class SimulationError(RuntimeError):
         self.run = run  # what was simulated before the failure, if anything
 
 
+class RunRefused(SimulationError):
+    """A run refused before it started: it would take too many steps."""
+
+
+class Derailed(SimulationError):
+    """A wheelset left the rails: hunting that linear creep cannot bound."""
+
+
 @dataclasses.dataclass
 class Run:
     """A simulated run: samples in time, each wheelset's y and psi (wheelset 1 leads).
@@ -56,13 +65,26 @@ class Run:
     (n_samples, n_wheelsets).
     """
 
-    layout: Layout
+    vehicle: Vehicle
     speed: float
     timestep: float
     t: np.ndarray
-    y: np.ndarray
-    psi: np.ndarray
-    qpos: np.ndarray  # the model's joint positions at each sample, for the 3D view
+    body_pos: np.ndarray  # (n_samples, nbody, 3): every body's position in the moving frame
+    body_quat: np.ndarray  # (n_samples, nbody, 4): and orientation, MuJoCo's w, x, y, z
+
+    @property
+    def layout(self) -> Layout:
+        return self.vehicle.layout
+
+    @property
+    def y(self) -> np.ndarray:
+        return self.body_pos[:, self.vehicle.wheelset_ids, 1]
+
+    @property
+    def psi(self) -> np.ndarray:
+        # A rotation about z alone: quaternion (cos psi/2, 0, 0, sin psi/2).
+        q = self.body_quat[:, self.vehicle.wheelset_ids]
+        return 2.0 * np.arctan2(q[..., 3], q[..., 0])
 
     @property
     def x(self) -> np.ndarray:
@@ -83,30 +105,13 @@ class Run:
         return names, np.column_stack(cols)
 
 
-def linear_system(vehicle: Vehicle, forces: CreepForces) -> np.ndarray:
-    """State matrix A (2nv x 2nv) of the vehicle linearised about the centred state:
-    suspension springs and dampers from the model, creep from the force law."""
-    model = vehicle.model
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    nv = model.nv
-    M = np.zeros((nv, nv))
-    mujoco.mj_fullM(model, data, M)
-    K_creep, C_creep = forces.linear_matrices(model, data)
-    # Every joint has one dof here (slide or hinge), so joint stiffness is per dof.
-    K = K_creep + np.diag(model.jnt_stiffness[model.dof_jntid])
-    C = C_creep + np.diag(model.dof_damping)
-    Minv = np.linalg.inv(M)
-    return np.block([[np.zeros((nv, nv)), np.eye(nv)], [-Minv @ K, -Minv @ C]])
-
-
 def stable_timestep(vehicle: Vehicle, forces: CreepForces) -> float:
     """Timestep for RK4 with explicit creep forces: STEP_FRACTION / (fastest linear rate).
 
     The creep damping 2*f22/V grows without bound as V falls, so the slowest runs
     need the smallest steps.
     """
-    rate = np.max(np.abs(np.linalg.eigvals(linear_system(vehicle, forces))))
+    rate = np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, forces))))
     return min(MAX_TIMESTEP, STEP_FRACTION / rate) if rate > 0 else MAX_TIMESTEP
 
 
@@ -148,16 +153,19 @@ def simulate(
     model = vehicle.model
     forces = CreepForces(model, vehicle.wheelset_names, speed)
     dt = stable_timestep(vehicle, forces)
-    duration = distance / speed
-    n_steps = math.ceil(duration / dt)
-    if n_steps > MAX_STEPS:
+    steps = distance / speed / float(dt)
+    if not steps <= MAX_STEPS:  # also catches inf from an absurdly slow run
         w, c = layout.wheelset, layout.creep
-        raise SimulationError(
-            f"{speed:g} m/s is too slow to simulate {distance:g} m: the creep damping "
-            f"2*f22/V = {2 * c.f22 / speed:.3g} N s/m on a {w.mass:g} kg wheelset needs a "
-            f"timestep of {dt:.2g} s, {n_steps:.3g} steps (limit {MAX_STEPS:.0e}); "
-            f"raise --speed or shorten --distance"
+        creep_rate = 2 * c.f22 / (speed * w.mass)  # lateral creep damping / wheelset mass
+        cause = (f"the creep damping 2*f22/V = {2 * c.f22 / speed:.3g} N s/m on a {w.mass:g} kg "
+                 f"wheelset" if creep_rate * dt > 0.5 * STEP_FRACTION
+                 else "the fastest mode of the linearised vehicle")
+        raise RunRefused(
+            f"{speed:g} m/s for {distance:g} m is too slow to simulate: {cause} needs a timestep "
+            f"of {dt:.2g} s, {steps:.3g} steps (limit {MAX_STEPS:.0e}); raise --speed or "
+            f"shorten --distance"
         )
+    n_steps = math.ceil(steps)
     model.opt.timestep = dt
     data = mujoco.MjData(model)
     data.qpos[vehicle.root_lateral_dofs] = initial_lateral
@@ -167,11 +175,13 @@ def simulate(
     n_samples = -(-n_steps // every) + 1  # the last sample at or past `distance`
     t = np.arange(n_samples) * (every * dt)  # exact, where data.time accumulates round-off
     qpos = np.empty((n_samples, model.nq))
-    y = np.empty((n_samples, len(vehicle.wheelset_names)))
-    psi = np.empty_like(y)
+    pos = np.empty((n_samples, model.nbody, 3))
+    quat = np.empty((n_samples, model.nbody, 4))
+    kinematics = mujoco.MjData(model)
+    ws = vehicle.wheelset_ids
 
     def partial(k: int) -> Run:
-        return Run(layout, speed, dt, t[:k].copy(), y[:k].copy(), psi[:k].copy(), qpos[:k].copy())
+        return Run(vehicle, speed, dt, t[:k].copy(), pos[:k].copy(), quat[:k].copy())
 
     qpos[0] = data.qpos
     done = 0  # samples converted to wheelset y and psi and checked
@@ -182,7 +192,7 @@ def simulate(
             if k % CHECK_EVERY and k < n_samples - 1:
                 continue
             # Checked in batches: per-sample Python work would cost more than the steps.
-            _wheelset_poses(vehicle, qpos[done:k + 1], y[done:k + 1], psi[done:k + 1])
+            _body_poses(model, kinematics, qpos[done:k + 1], pos[done:k + 1], quat[done:k + 1])
             warning = _warnings(data)
             if warning or not np.all(np.isfinite(qpos[done:k + 1])):
                 raise SimulationError(
@@ -191,11 +201,12 @@ def simulate(
                     f"the suspension or creep stiffness is too high for this step",
                     partial(done),
                 )
-            off = np.nonzero(np.max(np.abs(y[done:k + 1]), axis=1) > derailment_lateral)[0]
+            lateral = np.abs(pos[done:k + 1, ws, 1])
+            off = np.nonzero(np.max(lateral, axis=1) > derailment_lateral)[0]
             if len(off):
                 j = done + off[0]
-                worst = int(np.argmax(np.abs(y[j])))
-                raise SimulationError(
+                worst = int(np.argmax(lateral[off[0]]))
+                raise Derailed(
                     f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
                     f"x = {speed * t[j]:.4g} m (t = {t[j]:.4g} s). {speed:g} m/s is above "
                     f"this vehicle's critical speed, and linear creep has no flange contact to "
@@ -205,17 +216,12 @@ def simulate(
             done = k + 1
             if progress is not None:
                 progress(k / (n_samples - 1))
-    return Run(layout, speed, dt, t, y, psi, qpos)
+    return Run(vehicle, speed, dt, t, pos, quat)
 
 
-def _wheelset_poses(vehicle: Vehicle, qpos: np.ndarray, y: np.ndarray, psi: np.ndarray) -> None:
-    """Absolute y and psi of every wheelset for each row of `qpos` (filled in place)."""
-    model = vehicle.model
-    data = mujoco.MjData(model)
-    ids = vehicle.wheelset_ids
+def _body_poses(model, data, qpos: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
+    """Every body's position and orientation for each row of `qpos` (filled in place)."""
     for k in range(len(qpos)):
         data.qpos[:] = qpos[k]
         mujoco.mj_kinematics(model, data)
-        y[k] = data.xpos[ids, 1]
-        xmat = data.xmat[ids]
-        psi[k] = np.arctan2(xmat[:, 3], xmat[:, 0])
+        pos[k], quat[k] = data.xpos, data.xquat

@@ -1,10 +1,8 @@
 """Stability: eigenvalues and modes of the linearised vehicle, and its critical speed.
 
-The vehicle is linearised about the centred state by central finite differences of
-MuJoCo's own forward dynamics (`mj_forward`, creep callback installed), so the
-result is the MuJoCo model's, not a re-derivation: A = [[0, I], [dqacc/dq, dqacc/dv]]
-in continuous time. The creep law is linear and the kinematics nearly so at the
-centred state, so central differences with a micrometre step are exact to round-off.
+The vehicle is linearised about the centred state by `rail_mj.linear` (central
+finite differences of MuJoCo's own forward dynamics, creep callback installed), so
+the eigenvalues are the MuJoCo model's, not a re-derivation.
 
 Example:
 
@@ -27,12 +25,12 @@ import numpy as np
 from scipy.optimize import brentq
 
 from rail_mj.analysis import oscillation
-from rail_mj.forces import CreepForces, installed
+from rail_mj.forces import CreepForces
 from rail_mj.layout import Layout
+from rail_mj.linear import state_matrix
 from rail_mj.model import LATERAL, YAW, Vehicle
-from rail_mj.runner import SimulationError, simulate
+from rail_mj.runner import Derailed, simulate
 
-FD_STEP = 1e-6  # m or rad: central differences, exact for the linear creep law
 # Roots smaller than this fraction of the largest are rigid-body or pure-integrator
 # roots (a free coordinate with no stiffness to anything): they are not modes.
 RIGID_TOLERANCE = 1e-9
@@ -110,9 +108,7 @@ class Stability:
         nv = model.nv
         # Absolute lateral and yaw of every moving body in terms of the (relative) joint
         # coordinates, at the centred state: rows of the body Jacobians.
-        self.bodies = [model.body(i).name for i in range(1, model.nbody)
-                       if model.body_dofnum[i] or model.body_parentid[i] and
-                       _moves(model, i)]
+        self.bodies = [model.body(i).name for i in range(1, model.nbody) if _moves(model, i)]
         jacp, jacr = np.zeros((3, nv)), np.zeros((3, nv))
         self._absolute = {}
         for name in self.bodies:
@@ -124,21 +120,8 @@ class Stability:
 
     def state_matrix(self, speed: float) -> np.ndarray:
         """Continuous-time A (2nv x 2nv) at the centred state, x = [qpos, qvel]."""
-        model, data = self.model, self.data
-        nv = model.nv
-        forces = CreepForces(model, self.vehicle.wheelset_names, speed)
-        A = np.zeros((2 * nv, 2 * nv))
-        A[:nv, nv:] = np.eye(nv)
-        with installed(forces):
-            for j in range(2 * nv):
-                acc = []
-                for sign in (1.0, -1.0):
-                    mujoco.mj_resetData(model, data)
-                    (data.qpos if j < nv else data.qvel)[j % nv] = sign * FD_STEP
-                    mujoco.mj_forward(model, data)
-                    acc.append(data.qacc.copy())
-                A[nv:, j] = (acc[0] - acc[1]) / (2 * FD_STEP)
-        return A
+        forces = CreepForces(self.model, self.vehicle.wheelset_names, speed)
+        return state_matrix(self.model, forces, self.data)
 
     def eigenvalues(self, speed: float) -> np.ndarray:
         """The roots that are modes: rigid-body and pure-integrator roots removed."""
@@ -158,27 +141,24 @@ class Stability:
 
     # --- mode names ---------------------------------------------------------
 
+    def _energies(self, body: str, y: complex, psi: complex) -> tuple[float, float]:
+        """Kinetic-energy measures m*|y|^2 and Iz*|psi|^2 of a body's modal motion."""
+        m, iz = self._mass[body]
+        return m * abs(y) ** 2, iz * abs(psi) ** 2
+
     def _mode(self, eigenvalue: complex, q: np.ndarray) -> Mode:
-        energy = {}
-        motion = {}
-        for name in self.bodies:
-            jy, jpsi = self._absolute[name]
-            y, psi = jy @ q, jpsi @ q
-            m, iz = self._mass[name]
-            energy[name] = m * abs(y) ** 2 + iz * abs(psi) ** 2
-            motion[name] = (m * abs(y) ** 2, iz * abs(psi) ** 2)
-        total = sum(energy.values()) or 1.0
-        share = {n: float(e / total) for n, e in energy.items()}
+        motion = {n: self._energies(n, jy @ q, jpsi @ q) for n, (jy, jpsi) in self._absolute.items()}
+        total = sum(sum(e) for e in motion.values()) or 1.0
+        share = {n: float(sum(e) / total) for n, e in motion.items()}
         return Mode(complex(eigenvalue), self._name(q, share, motion), share)
 
     def _relative_energy(self, q: np.ndarray, wheelset: str) -> float:
         """Kinetic-energy measure of a wheelset's motion relative to its frame (the
         primary suspension's deflection: its own joints are relative)."""
         model = self.model
-        m, iz = self._mass[wheelset]
         y = q[model.joint(f"{wheelset}_{LATERAL}").dofadr[0]]
         psi = q[model.joint(f"{wheelset}_{YAW}").dofadr[0]]
-        return m * abs(y) ** 2 + iz * abs(psi) ** 2
+        return sum(self._energies(wheelset, y, psi))
 
     def _name(self, q, share, motion) -> str:
         """A plain name from the eigenvector.
@@ -263,12 +243,11 @@ class Stability:
             return CriticalSpeed("eigen", None, None, None, vmin, vmax,
                                  f"unstable already at {vmin:g} m/s: {mode.name} grows at "
                                  f"{mode.eigenvalue.real:.3g} 1/s", ranges)
-        for k in range(1, points):
-            if growth[k] >= 0:
-                vc = ranges[0][0]
-                mode = self.least_damped(vc)
-                return CriticalSpeed("eigen", float(vc), mode.frequency, mode.name, vmin, vmax,
-                                     "the least-damped root crosses the imaginary axis", ranges)
+        if ranges:
+            vc = ranges[0][0]
+            mode = self.least_damped(vc)
+            return CriticalSpeed("eigen", vc, mode.frequency, mode.name, vmin, vmax,
+                                 "the least-damped root crosses the imaginary axis", ranges)
         return CriticalSpeed("eigen", None, None, None, vmin, vmax,
                              f"stable over the whole range {vmin:g}-{vmax:g} m/s", ranges)
 
@@ -311,29 +290,41 @@ def time_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, 
     """Critical speed from simulations: a scan of runs from a small disturbance brackets
     the lowest speed where the motion stops decaying, Brent's method refines it.
 
-    The mode is named by matching the measured frequency to the linear modes there.
+    A run that leaves the rails counts as growing. The mode is named by matching the
+    measured frequency to the linear modes at the critical speed.
     """
     _check_range(vmin, vmax)
     y0, psi0 = TIME_DISTURBANCE
+    measured: dict[float, tuple[float, float]] = {}  # speed -> (growth 1/s, frequency Hz)
+
+    def measure(speed: float) -> tuple[float, float]:
+        if speed not in measured:
+            try:
+                sigma, freq = late_growth(simulate(layout, speed, speed * duration, y0, psi0))
+                if not math.isfinite(sigma):
+                    sigma = -1.0  # not a single cycle left in the second half: decayed
+            except Derailed as e:
+                sigma, freq = 1.0, math.nan
+                if e.run is not None and len(e.run.t) > 2:
+                    grew, freq = late_growth(e.run)
+                    sigma = grew if grew > 1e-3 else 1e-3  # NaN or slower: still growing
+            measured[speed] = (sigma, freq)
+        return measured[speed]
 
     def growth(speed: float) -> float:
-        try:
-            run = simulate(layout, speed, speed * duration, y0, psi0)
-        except SimulationError as e:  # left the rails: plainly growing
-            return 1.0 if e.run is None else max(late_growth(e.run)[0], 1e-3)
-        sigma = late_growth(run)[0]
-        return sigma if math.isfinite(sigma) else -1.0  # no oscillation left: decayed
+        return measure(speed)[0]
 
     speeds = np.linspace(vmin, vmax, points)
-    previous = growth(speeds[0])
-    if previous >= 0:
+    if growth(speeds[0]) >= 0:
         return CriticalSpeed("time", None, None, None, vmin, vmax,
-                             f"the motion already grows at {vmin:g} m/s ({previous:.3g} 1/s)")
+                             f"the motion already grows at {vmin:g} m/s ({growth(speeds[0]):.3g} 1/s)")
     for lo, hi in zip(speeds, speeds[1:]):
-        g = growth(hi)
-        if g >= 0:
+        if growth(hi) >= 0:
             vc = float(brentq(growth, lo, hi, xtol=rtol * lo, rtol=1e-12))
-            _, freq = late_growth(simulate(layout, vc, vc * duration, y0, psi0))
+            freq = measure(vc)[1]
+            if not math.isfinite(freq):
+                return CriticalSpeed("time", vc, None, None, vmin, vmax,
+                                     "the disturbed motion stops decaying; no frequency measured")
             modes = [m for m in Stability(layout).modes(vc) if m.oscillatory]
             name = min(modes, key=lambda m: abs(m.frequency - freq)).name if modes else None
             return CriticalSpeed("time", vc, freq, name, vmin, vmax,

@@ -17,7 +17,7 @@ FLANGE_HEIGHT = 0.028
 FLANGE_ROOT = -0.035  # where the cone meets the flange
 FLANGE_BACK = -0.060  # back face of the wheel (inside face, towards the track centre)
 TREAD_OUTER = 0.075  # outer face of the wheel
-HUB_RADIUS = 0.09
+HUB_FRACTION = 0.2  # hub (bore) radius as a fraction of r0
 SECTIONS = 48
 
 
@@ -29,14 +29,15 @@ def wheel_profile(rolling_radius: float, conicity: float) -> np.ndarray:
     """
     r0, lam = rolling_radius, conicity
     root = r0 - lam * FLANGE_ROOT
+    hub = HUB_FRACTION * r0
     points = [
-        (HUB_RADIUS, FLANGE_BACK),
+        (hub, FLANGE_BACK),
         (root + FLANGE_HEIGHT - 0.006, FLANGE_BACK),
         (root + FLANGE_HEIGHT, FLANGE_BACK + 0.006),
         (root + FLANGE_HEIGHT, FLANGE_ROOT - 0.012),
         (root, FLANGE_ROOT),
         (r0 - lam * TREAD_OUTER, TREAD_OUTER),
-        (HUB_RADIUS, TREAD_OUTER),
+        (hub, TREAD_OUTER),
     ]
     points.append(points[0])
     return np.asarray(points, dtype=float)

@@ -80,7 +80,7 @@ def wagon(f11=10e6, f22=9e6):
         "creep": {"f11": f11, "f22": f22},
         "primary": {"lateral_stiffness": 2e6, "yaw_stiffness": 7e6,
                     "lateral_damping": 3e3, "yaw_damping": 5e2},
-        "carbody": {"fixed": False, "mass": 20000.0, "inertia": [3e4, 2e5, 2.5e5],
+        "carbody": {"fixed": False, "mass": 20000.0, "inertia": [6e4, 2e5, 2.5e5],
                     "wheelset_positions": [4.5, -4.5]},
     })
 
@@ -312,7 +312,7 @@ def test_stiff_wagon_primary_behaves_as_rigid_truck():
                      "contact_half_spacing": 0.75, "conicity": 0.2},
         "creep": {"f11": 8e6, "f22": 6e6},
         "primary": {"lateral_stiffness": 1e10, "yaw_stiffness": 1e10},
-        "carbody": {"fixed": False, "mass": 20000.0, "inertia": [3e4, 2e5, 2.5e5],
+        "carbody": {"fixed": False, "mass": 20000.0, "inertia": [6e4, 2e5, 2.5e5],
                     "wheelset_positions": [4.5, -4.5]},
     })
     V = 2.0

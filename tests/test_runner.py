@@ -12,7 +12,7 @@ from rail_mj.cli import main
 from rail_mj.forces import CreepForces
 from rail_mj.layout import load_layout
 from rail_mj.model import Vehicle
-from rail_mj.runner import (MAX_TIMESTEP, STEP_FRACTION, SimulationError, linear_system,
+from rail_mj.runner import (MAX_TIMESTEP, STEP_FRACTION, RunRefused, SimulationError,
                             simulate, stable_timestep)
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
@@ -28,17 +28,25 @@ def test_runs_are_deterministic():
 
 @pytest.mark.parametrize("speed", [2.0, 100.0])
 def test_timestep_is_chosen_from_layout_and_speed(speed):
-    """Slow runs need small steps (creep damping 2*f22/V), fast ones do not; both run
-    with no flags and the step resolves every linear mode: dt*|lambda|max <= STEP_FRACTION."""
+    """Slow runs need small steps, fast ones do not; both run with no flags. The step
+    resolves the fastest rates that the layout alone predicts: the wheelset's lateral
+    creep damping 2*f22/(m*V) and yaw creep damping 2*f11*b^2/(Iz*V) (section 2), and
+    the primary yaw spring's natural frequency sqrt(kpsi/Iz)."""
     layout = load_layout(COACH)
     vehicle = Vehicle(layout)
-    forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed)
-    dt = stable_timestep(vehicle, forces)
-    rate = np.max(np.abs(np.linalg.eigvals(linear_system(vehicle, forces))))
-    assert dt <= MAX_TIMESTEP and dt * rate <= STEP_FRACTION * (1 + 1e-12)
+    dt = stable_timestep(vehicle, CreepForces(vehicle.model, vehicle.wheelset_names, speed))
+    w, c, p = layout.wheelset, layout.creep, layout.primary
+    rates = [2 * c.f22 / (w.mass * speed), 2 * c.f11 * w.contact_half_spacing**2 / (w.inertia[2] * speed),
+             (p.yaw_stiffness / w.inertia[2]) ** 0.5]
+    # These diagonal rates are the fastest eigenvalues to within the coupling between
+    # lateral, yaw and the frame (a few %): the step fits them, and is not needlessly small.
+    assert dt <= MAX_TIMESTEP
+    assert dt * max(rates) <= 1.1 * STEP_FRACTION
+    assert dt == MAX_TIMESTEP or dt * max(rates) >= 0.5 * STEP_FRACTION
     run = simulate(layout, speed=speed, distance=min(4.0, speed), initial_lateral=0.002)
     assert run.timestep == dt and np.all(np.isfinite(run.y))
-    assert np.max(np.abs(run.y)) < 0.0025  # a short, sub-critical run does not run away
+    # A short, sub-critical run does not grow: 2 mm start, any overshoot well under 25 %.
+    assert np.max(np.abs(run.y)) < 0.0025
 
 
 def test_slow_runs_take_smaller_steps():
@@ -54,8 +62,10 @@ def test_slow_runs_take_smaller_steps():
 
 
 def test_impossibly_slow_run_is_refused_naming_the_limit():
-    with pytest.raises(SimulationError, match=r"too slow.*2\*f22/V.*timestep.*limit"):
+    with pytest.raises(RunRefused, match=r"too slow.*2\*f22/V.*timestep.*limit"):
         simulate(load_layout(COACH), speed=1e-4, distance=100.0)
+    with pytest.raises(RunRefused, match="too slow"):  # steps overflow to inf
+        simulate(load_layout(COACH), speed=1e-300, distance=100.0)
 
 
 def test_hunting_without_flange_contact_stops_with_a_reason():
@@ -94,7 +104,8 @@ def test_cli_run_writes_csv_and_json_summary(layout_path, tmp_path, capsys):
     assert len(result["wheelsets"]) == n
     for w in result["wheelsets"]:
         assert set(w) >= {"max_abs_lateral_m", "growth_rate_per_s", "wavelength_m", "frequency_hz"}
-        assert w["max_abs_lateral_m"] == pytest.approx(0.003, rel=0.5)
+        # Sub-critical at 30 m/s: the 3 mm start is the largest |y|, give or take overshoot.
+        assert 0.003 <= w["max_abs_lateral_m"] < 0.0045
 
 
 def test_cli_reports_divergence_in_one_line_and_writes_nothing(tmp_path, capsys):
@@ -105,3 +116,32 @@ def test_cli_reports_divergence_in_one_line_and_writes_nothing(tmp_path, capsys)
     assert status == 3
     assert len(err.strip().splitlines()) == 1 and "left the rails" in err
     assert not out.exists() and not rrd.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_outputs_never_overwrite_the_layout(tmp_path, capsys):
+    layout = tmp_path / "coach.toml"
+    layout.write_text(COACH.read_text())
+    assert main(["run", str(layout), "--speed", "30", "--distance", "5", "--out", str(layout)]) == 2
+    assert "would overwrite the layout file" in capsys.readouterr().err
+    assert layout.read_text() == COACH.read_text()
+
+
+def test_a_failed_output_takes_the_other_with_it(tmp_path, capsys):
+    """Both outputs or neither: --rrd into a place no file can be made (/proc) fails
+    after the CSV was staged, and the CSV must not appear."""
+    out = tmp_path / "run.csv"
+    status = main(["run", str(WHEELSET), "--speed", "30", "--distance", "5", "--out", str(out),
+                   "--rrd", "/proc/run.rrd"])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and len(err.splitlines()) == 1
+    assert "/proc/run.rrd" in err and ".tmp" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_small_wheels_generate_and_run(tmp_path):
+    """A 1:10 roller-rig scale wheelset: r0 = 46 mm."""
+    text = WHEELSET.read_text().replace("rolling_radius = 0.46", "rolling_radius = 0.046")
+    layout = tmp_path / "small.toml"
+    layout.write_text(text)
+    assert main(["generate", str(layout), "-o", str(tmp_path / "gen")]) == 0
+    assert main(["run", str(layout), "--speed", "10", "--distance", "5", "--json"]) == 0

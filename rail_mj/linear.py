@@ -1,0 +1,39 @@
+"""Linearisation of the MuJoCo vehicle about the centred state.
+
+Central finite differences of MuJoCo's own forward dynamics (`mj_forward`, with
+the creep callback installed) give the continuous-time state matrix
+
+    A = [[0, I], [dqacc/dq, dqacc/dv]]      for the state x = [qpos, qvel],
+
+with no integrator in between. The creep law is linear and the kinematics nearly
+so at the centred state, so a micrometre step is exact to round-off. The runner
+uses A to choose its timestep, `rail_mj.stability` for eigenvalues and modes.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from rail_mj.forces import CreepForces, installed
+
+FD_STEP = 1e-6  # m or rad
+
+
+def state_matrix(model: mujoco.MjModel, forces: CreepForces,
+                 data: mujoco.MjData | None = None) -> np.ndarray:
+    """A (2nv x 2nv) of `model` with `forces` acting, about qpos = qvel = 0."""
+    data = data or mujoco.MjData(model)
+    nv = model.nv
+    A = np.zeros((2 * nv, 2 * nv))
+    A[:nv, nv:] = np.eye(nv)
+    with installed(forces):
+        for j in range(2 * nv):
+            acc = []
+            for sign in (1.0, -1.0):
+                mujoco.mj_resetData(model, data)
+                (data.qpos if j < nv else data.qvel)[j % nv] = sign * FD_STEP
+                mujoco.mj_forward(model, data)
+                acc.append(data.qacc.copy())
+            A[nv:, j] = (acc[0] - acc[1]) / (2 * FD_STEP)
+    return A
