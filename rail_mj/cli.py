@@ -286,6 +286,30 @@ def root_locus_cmd(layout, speeds, out, csv_path):
         click.echo(critical.note)
 
 
+@cli.command("contact")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def contact_cmd(layout, as_json):
+    """The Hertz contact ellipse and Kalker creep coefficients of LAYOUT's [contact]."""
+    from rail_mj.layout import contact_patch_of
+
+    lay = _layout(layout)
+    if lay.contact is None:
+        raise Failure(f"{layout}: contact: no [contact] table; the layout gives f11..f33 itself",
+                      EXIT_BAD_INPUT)
+    result = contact_patch_of(lay).as_dict()
+    if as_json:
+        click.echo(json.dumps(result, indent=2))
+        return
+    r = result
+    click.echo(f"{lay.name}: wheel load {r['normal_load_n'] / 1e3:.2f} kN")
+    click.echo(f"Hertz ellipse: a = {r['a_m'] * 1e3:.3f} mm (rolling), b = {r['b_m'] * 1e3:.3f} mm, "
+               f"a/b = {r['a_over_b']:.4f}, peak pressure {r['peak_pressure_pa'] / 1e6:.0f} MPa")
+    click.echo(f"Kalker: C11 {r['C11']:.3f}, C22 {r['C22']:.3f}, C23 {r['C23']:.3f}, C33 {r['C33']:.3f}")
+    click.echo(f"creep coefficients: f11 {r['f11'] / 1e6:.3f} MN, f22 {r['f22'] / 1e6:.3f} MN, "
+               f"f23 {r['f23'] / 1e3:.3f} kN m, f33 {r['f33']:.2f} N m^2")
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
         cli.main(args=argv, prog_name="rail-mj", standalone_mode=False)

@@ -24,6 +24,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from rail_mj.contact import ContactError, contact_patch
+
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 # Beyond these no vehicle is meant, and arithmetic on them overflows.
 MAX_MAGNITUDE = 1e15  # any number in SI units
@@ -50,6 +52,17 @@ class Creep:
     f22: float  # N, lateral
     f23: float = 0.0  # N m, lateral/spin
     f33: float = 0.0  # N m^2, spin
+
+
+@dataclasses.dataclass(frozen=True)
+class Contact:
+    """The bodies in contact, from which Hertz and Kalker give the creep coefficients."""
+
+    young_modulus: float  # Pa, wheel and rail alike
+    poisson_ratio: float
+    rail_transverse_radius: float  # m, the rail head's crown
+    wheel_transverse_radius: float | None  # m; None: a conical tread, flat across
+    wheel_load: float  # N per wheel: given, or the static weight shared equally
 
 
 @dataclasses.dataclass(frozen=True)
@@ -87,11 +100,8 @@ class Layout:
     carbody: CarBody
     bogie: Bogie | None = None
     secondary: Suspension | None = None
+    contact: Contact | None = None  # when given, `creep` was computed from it
     source: str = "<layout>"
-
-    @property
-    def n_bogies(self) -> int:
-        return len(self.carbody.bogie_positions) if self.bogie else 0
 
     @property
     def wheelset_x(self) -> tuple[float, ...]:
@@ -247,14 +257,18 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if wheelset.rolling_radius >= wheelset.contact_half_spacing * 2:
         t.fail("rolling_radius", "is not smaller than the track gauge: check the units (m)")
 
-    t = _Table(source, "creep", top.get("creep"))
-    creep = Creep(
-        f11=t.positive("f11"),
-        f22=t.positive("f22"),
-        f23=t.non_negative("f23", 0.0),
-        f33=t.non_negative("f33", 0.0),
-    )
-    t.done()
+    has_contact = top.get("contact", None, required=False) is not None
+    if has_contact and top.get("creep", None, required=False) is not None:
+        top.fail("creep", "given with [contact]: the creep coefficients come from the contact; give one of them")
+    if not has_contact:
+        t = _Table(source, "creep", top.get("creep"))
+        creep = Creep(
+            f11=t.positive("f11"),
+            f22=t.positive("f22"),
+            f23=t.non_negative("f23", 0.0),
+            f33=t.non_negative("f33", 0.0),
+        )
+        t.done()
 
     primary = _suspension(_Table(source, "primary", top.get("primary")))
 
@@ -300,11 +314,56 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
         )
     t.done()
+    contact = None
+    if has_contact:
+        contact, creep = _contact(_Table(source, "contact", top.get("contact")), wheelset, bogie, carbody)
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
-        bogie=bogie, secondary=secondary, source=source,
+        bogie=bogie, secondary=secondary, contact=contact, source=source,
     )
+
+
+GRAVITY = 9.81  # m/s^2
+
+
+def _contact(t: _Table, wheelset: Wheelset, bogie: Bogie | None, carbody: CarBody):
+    """[contact]: Hertz's ellipse and Kalker's coefficients (reference sheet, section 5)."""
+    n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
+        bogie.wheelset_positions)
+    load = t.positive("wheel_load", required=False)
+    if load is None:
+        if carbody.mass is None:
+            t.fail("wheel_load", "missing: a fixed car body without mass gives no weight to "
+                                 "share; give the static load per wheel in N")
+        # The static weight, shared equally by every wheel: exact for a symmetric vehicle.
+        mass = carbody.mass + (len(carbody.bogie_positions) * bogie.mass if bogie else 0.0)
+        load = GRAVITY * (mass / n_wheelsets + wheelset.mass) / 2
+    contact = Contact(
+        young_modulus=t.positive("young_modulus"),
+        poisson_ratio=t.number("poisson_ratio", low=0.0, high=0.5),
+        rail_transverse_radius=t.positive("rail_transverse_radius"),
+        wheel_transverse_radius=t.positive("wheel_transverse_radius", required=False),
+        wheel_load=load,
+    )
+    t.done()
+    try:
+        patch = contact_patch(
+            load, wheelset.rolling_radius, contact.rail_transverse_radius,
+            young_modulus=contact.young_modulus, poisson_ratio=contact.poisson_ratio,
+            wheel_transverse_radius=contact.wheel_transverse_radius,
+        )
+    except ContactError as e:
+        t.fail(None, str(e))
+    return contact, Creep(**patch.creep_coefficients)
+
+
+def contact_patch_of(layout: Layout):
+    """The Hertz ellipse and Kalker coefficients of a layout with [contact]."""
+    c = layout.contact
+    return contact_patch(c.wheel_load, layout.wheelset.rolling_radius, c.rail_transverse_radius,
+                         young_modulus=c.young_modulus, poisson_ratio=c.poisson_ratio,
+                         wheel_transverse_radius=c.wheel_transverse_radius)
 
 
 def load_layout(path: str | Path) -> Layout:

@@ -1,0 +1,150 @@
+"""Hertz contact and Kalker's coefficients against the reference sheet, section 5."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from conftest import MODELS
+from rail_mj.cli import main
+from rail_mj.contact import KALKER, KALKER_S, contact_patch, hertz_ellipse, kalker_coefficients
+from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
+from rail_mj.runner import simulate
+
+E, NU = 210e9, 0.28
+
+
+def test_reference_case():
+    """N = 98.1 kN, wheel 0.46 m, conical tread, rail head 0.30 m, E 210 GPa, nu 0.28:
+    a = 7.15 mm, b = 5.38 mm, p0 = 1219 MPa, C11 4.55, C22 4.14, C23 1.87, C33 1.00,
+    f11 14.3 MN, f22 13.1 MN, f23 36.5 kN m, f33 121 N m^2."""
+    c = contact_patch(98.1e3, 0.46, 0.30, young_modulus=E, poisson_ratio=NU)
+    # The issue's tolerances: semi-axes within 1 %, creep coefficients within 3 %; the
+    # sheet quotes 3 significant figures, and we land within its rounding on most.
+    assert c.a == pytest.approx(7.15e-3, rel=1e-2) and c.b == pytest.approx(5.38e-3, rel=1e-2)
+    assert c.a / c.b == pytest.approx(1.329, rel=1e-3)
+    assert c.p0 == pytest.approx(1219e6, rel=1e-2)
+    for name, value in (("C11", 4.55), ("C22", 4.14), ("C23", 1.87), ("C33", 1.00)):
+        assert c.C[name] == pytest.approx(value, rel=3e-2), name
+    f = c.creep_coefficients
+    for name, value in (("f11", 14.3e6), ("f22", 13.1e6), ("f23", 36.5e3), ("f33", 121.0)):
+        assert f[name] == pytest.approx(value, rel=3e-2), name
+
+
+def test_circular_contact_matches_hertz_closed_form():
+    """Equal curvature sums: a = b = (3*N*R / (4*E*))^(1/3), E* = E/(2*(1 - nu^2))."""
+    N, R = 50e3, 0.4
+    estar = E / (2 * (1 - NU**2))
+    a, b = hertz_ellipse(N, 1 / (2 * R), 1 / (2 * R), E, NU)
+    expected = (3 * N * R / (4 * estar)) ** (1 / 3)
+    assert a == pytest.approx(expected, rel=1e-12) and b == pytest.approx(expected, rel=1e-12)
+
+
+def test_nearly_circular_contact_is_continuous_with_the_circle():
+    N, R = 50e3, 0.4
+    circle = hertz_ellipse(N, 1 / (2 * R), 1 / (2 * R), E, NU)
+    near = hertz_ellipse(N, 1 / (2 * R), 1.0001 / (2 * R), E, NU)
+    assert near[0] == pytest.approx(circle[0], rel=1e-3) and near[1] == pytest.approx(circle[1], rel=1e-3)
+
+
+def test_swapping_the_curvatures_swaps_the_axes():
+    a, b = hertz_ellipse(80e3, 1.0, 2.5, E, NU)
+    b2, a2 = hertz_ellipse(80e3, 2.5, 1.0, E, NU)
+    assert a > b and (a, b) == pytest.approx((a2, b2), rel=1e-12)
+
+
+def test_hertz_load_scaling():
+    """The ellipse grows as N^(1/3), the peak pressure as N^(1/3)."""
+    small = contact_patch(10e3, 0.46, 0.3, young_modulus=E, poisson_ratio=NU)
+    large = contact_patch(80e3, 0.46, 0.3, young_modulus=E, poisson_ratio=NU)
+    assert large.a / small.a == pytest.approx(2.0, rel=1e-9)
+    assert large.p0 / small.p0 == pytest.approx(2.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("row", range(len(KALKER_S)))
+@pytest.mark.parametrize("column, nu", [(0, 0.0), (1, 0.25), (2, 0.5)])
+def test_kalker_table_nodes_are_reproduced(row, column, nu):
+    s = KALKER_S[row]
+    a_over_b = s if s <= 1.0 else 1.0 / (2.0 - s)
+    got = kalker_coefficients(a_over_b, nu)
+    for name, table in KALKER.items():
+        assert got[name] == pytest.approx(table[row, column], rel=1e-12), name
+
+
+def test_kalker_table_refuses_ellipses_it_does_not_cover():
+    with pytest.raises(ValueError, match="outside Kalker's table"):
+        kalker_coefficients(0.05, 0.28)
+
+
+CONTACT_LAYOUT = (MODELS / "manchester-coach" / "manchester-coach.toml").read_text().replace(
+    """[creep]
+f11 = 10.0e6
+f22 = 9.0e6
+f23 = 0.0
+f33 = 0.0
+""", """[contact]
+young_modulus = 210e9
+poisson_ratio = 0.28
+rail_transverse_radius = 0.30
+""")
+
+
+def test_layout_takes_creep_from_contact_and_static_weight(tmp_path):
+    path = tmp_path / "coach.toml"
+    path.write_text(CONTACT_LAYOUT)
+    layout = load_layout(path)
+    # Car body, two bogie frames and four wheelsets over eight wheels.
+    weight = GRAVITY * (32000.0 + 2 * 2615.0 + 4 * 1813.0) / 8
+    assert layout.contact.wheel_load == pytest.approx(weight, rel=1e-12)
+    expected = contact_patch(weight, 0.46, 0.30, young_modulus=E, poisson_ratio=NU).creep_coefficients
+    assert layout.creep.f11 == pytest.approx(expected["f11"], rel=1e-12)
+    assert layout.creep.f33 == pytest.approx(expected["f33"], rel=1e-12)
+    # Kalker: f scales as (ab) ~ N^(2/3) from the 10 t reference case's 14.3 MN.
+    assert layout.creep.f11 == pytest.approx(14.33e6 * (weight / 98.1e3) ** (2 / 3), rel=1e-3)
+    run = simulate(layout, speed=30.0, distance=10.0, initial_lateral=0.002)
+    assert np.all(np.isfinite(run.y))
+
+
+def test_cli_contact_json(tmp_path, capsys):
+    path = tmp_path / "coach.toml"
+    path.write_text(CONTACT_LAYOUT)
+    assert main(["contact", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out) >= {"a_m", "b_m", "peak_pressure_pa", "f11", "f22", "f23", "f33"}
+    assert out["a_m"] > out["b_m"] > 0 and math.isfinite(out["f33"])
+
+
+@pytest.mark.parametrize("change, fragment", [
+    (lambda t: t + "\n[creep]\nf11 = 1e7\nf22 = 1e7\n", "creep: given with [contact]"),
+    (lambda t: t.replace("poisson_ratio = 0.28", "poisson_ratio = 0.7"), "contact.poisson_ratio"),
+    (lambda t: t.replace("rail_transverse_radius = 0.30\n", ""), "contact.rail_transverse_radius"),
+    (lambda t: t.replace("fixed = false", "fixed = true").replace("mass = 32000.0\n", ""),
+     "contact.wheel_load: missing"),
+])
+def test_bad_contact_tables(change, fragment, tmp_path, capsys):
+    path = tmp_path / "bad.toml"
+    path.write_text(change(CONTACT_LAYOUT))
+    with pytest.raises(LayoutError, match=fragment.replace("[", r"\[").replace("]", r"\]")):
+        load_layout(path)
+    assert main(["contact", str(path)]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_contact_command_needs_a_contact_table(capsys):
+    assert main(["contact", str(MODELS / "bogie" / "bogie.toml")]) == 2
+    assert "no [contact] table" in capsys.readouterr().err
+
+
+def test_layout_from_dict_with_contact_and_explicit_load():
+    layout = layout_from_dict({
+        "name": "w", "wheelset": {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0],
+                                  "rolling_radius": 0.46, "contact_half_spacing": 0.75, "conicity": 0.15},
+        "contact": {"young_modulus": E, "poisson_ratio": NU, "rail_transverse_radius": 0.3,
+                    "wheel_load": 98.1e3},
+        "primary": {"lateral_stiffness": 0.0, "yaw_stiffness": 2e6},
+        "carbody": {"fixed": True, "wheelset_positions": [0.0]},
+    })
+    assert layout.creep.f11 == pytest.approx(14.3e6, rel=3e-2)  # the reference case again
