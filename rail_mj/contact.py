@@ -7,7 +7,7 @@ the creep coefficients f11, f22, f23, f33.
 Example (the reference case: a 10 t wheel, r 0.46 m, conical tread, rail head 0.30 m):
 
     >>> c = contact_patch(98.1e3, 0.46, 0.30, young_modulus=210e9, poisson_ratio=0.28)
-    >>> round(c.a * 1e3, 2), round(c.b * 1e3, 2), round(c.p0 / 1e6)
+    >>> round(float(c.a) * 1e3, 2), round(float(c.b) * 1e3, 2), round(float(c.p0) / 1e6)
     (7.15, 5.38, 1219)
 """
 
@@ -114,7 +114,7 @@ def hertz_ellipse(normal_load: float, curvature_sum_rolling: float, curvature_su
         k_minus_e_over_m = (ellipk(m) - ellipe(m)) / m
     longer = (3.0 * normal_load * k_minus_e_over_m / (2.0 * math.pi * estar * small)) ** (1 / 3)
     shorter = longer * math.sqrt(1.0 - m)
-    return (shorter, longer) if swap else (longer, shorter)
+    return (float(shorter), float(longer)) if swap else (float(longer), float(shorter))
 
 
 def kalker_coefficients(a_over_b: float, poisson_ratio: float) -> dict:

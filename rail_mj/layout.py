@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from rail_mj.contact import ContactError, contact_patch
+from rail_mj.creep import LAWS
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 # Beyond these no vehicle is meant, and arithmetic on them overflows.
@@ -44,6 +45,7 @@ class Wheelset:
     contact_half_spacing: float  # b
     conicity: float  # lam, effective
     flangeway_clearance: float = 0.008
+    wheel_load: float | None = None  # N per wheel; None: the static weight shared equally
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,6 +54,8 @@ class Creep:
     f22: float  # N, lateral
     f23: float = 0.0  # N m, lateral/spin
     f33: float = 0.0  # N m^2, spin
+    law: str = "linear"  # one of rail_mj.creep.LAWS
+    friction: float | None = None  # mu, for the saturating laws
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,7 +66,6 @@ class Contact:
     poisson_ratio: float
     rail_transverse_radius: float  # m, the rail head's crown
     wheel_transverse_radius: float | None  # m; None: a conical tread, flat across
-    wheel_load: float  # N per wheel: given, or the static weight shared equally
 
 
 @dataclasses.dataclass(frozen=True)
@@ -252,23 +255,28 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         # Treads steeper than 1:2 are not wheels; the linear contact model assumes small angles.
         conicity=t.number("conicity", low=0.0, low_open=True, high=0.5),
         flangeway_clearance=t.positive("flangeway_clearance", 0.008),
+        wheel_load=t.positive("wheel_load", required=False),
     )
     t.done()
     if wheelset.rolling_radius >= wheelset.contact_half_spacing * 2:
         t.fail("rolling_radius", "is not smaller than the track gauge: check the units (m)")
 
     has_contact = top.get("contact", None, required=False) is not None
-    if has_contact and top.get("creep", None, required=False) is not None:
-        top.fail("creep", "given with [contact]: the creep coefficients come from the contact; give one of them")
-    if not has_contact:
-        t = _Table(source, "creep", top.get("creep"))
-        creep = Creep(
-            f11=t.positive("f11"),
-            f22=t.positive("f22"),
-            f23=t.non_negative("f23", 0.0),
-            f33=t.non_negative("f33", 0.0),
-        )
-        t.done()
+    t = _Table(source, "creep", top.get("creep", {} if has_contact else ...))
+    if has_contact:
+        given = sorted({"f11", "f22", "f23", "f33"} & set(t.data))
+        if given:
+            t.fail(given[0], "given with [contact]: the creep coefficients come from the contact; "
+                             "give one of them")
+        coefficients = None
+    else:
+        coefficients = dict(f11=t.positive("f11"), f22=t.positive("f22"),
+                            f23=t.non_negative("f23", 0.0), f33=t.non_negative("f33", 0.0))
+    law = t.get("law", "linear")
+    if law not in LAWS:
+        t.fail("law", f"must be one of {', '.join(LAWS)}, got {law!r}")
+    friction = t.number("friction", low=0.0, low_open=True, high=2.0, required=law != "linear")
+    creep_table = t
 
     primary = _suspension(_Table(source, "primary", top.get("primary")))
 
@@ -314,9 +322,22 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
         )
     t.done()
+    if wheelset.wheel_load is None and carbody.mass is not None:
+        # The static weight, shared equally by every wheel: exact for a symmetric vehicle.
+        n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
+            bogie.wheelset_positions)
+        mass = carbody.mass + (len(carbody.bogie_positions) * bogie.mass if bogie else 0.0)
+        wheelset = dataclasses.replace(
+            wheelset, wheel_load=GRAVITY * (mass / n_wheelsets + wheelset.mass) / 2)
+    needs_load = "[contact]" if has_contact else f"creep law {law!r}" if law != "linear" else None
+    if needs_load and wheelset.wheel_load is None:
+        top.fail("wheelset.wheel_load", f"missing: {needs_load} needs the wheel load, and a fixed car "
+                                         f"body without mass gives no weight to share; give it in N")
     contact = None
     if has_contact:
-        contact, creep = _contact(_Table(source, "contact", top.get("contact")), wheelset, bogie, carbody)
+        contact, coefficients = _contact(_Table(source, "contact", top.get("contact")), wheelset)
+    creep_table.done()
+    creep = Creep(**coefficients, law=law, friction=friction)
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
@@ -327,41 +348,30 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
 GRAVITY = 9.81  # m/s^2
 
 
-def _contact(t: _Table, wheelset: Wheelset, bogie: Bogie | None, carbody: CarBody):
+def _contact(t: _Table, wheelset: Wheelset):
     """[contact]: Hertz's ellipse and Kalker's coefficients (reference sheet, section 5)."""
-    n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
-        bogie.wheelset_positions)
-    load = t.positive("wheel_load", required=False)
-    if load is None:
-        if carbody.mass is None:
-            t.fail("wheel_load", "missing: a fixed car body without mass gives no weight to "
-                                 "share; give the static load per wheel in N")
-        # The static weight, shared equally by every wheel: exact for a symmetric vehicle.
-        mass = carbody.mass + (len(carbody.bogie_positions) * bogie.mass if bogie else 0.0)
-        load = GRAVITY * (mass / n_wheelsets + wheelset.mass) / 2
     contact = Contact(
         young_modulus=t.positive("young_modulus"),
         poisson_ratio=t.number("poisson_ratio", low=0.0, high=0.5),
         rail_transverse_radius=t.positive("rail_transverse_radius"),
         wheel_transverse_radius=t.positive("wheel_transverse_radius", required=False),
-        wheel_load=load,
     )
     t.done()
     try:
         patch = contact_patch(
-            load, wheelset.rolling_radius, contact.rail_transverse_radius,
+            wheelset.wheel_load, wheelset.rolling_radius, contact.rail_transverse_radius,
             young_modulus=contact.young_modulus, poisson_ratio=contact.poisson_ratio,
             wheel_transverse_radius=contact.wheel_transverse_radius,
         )
     except ContactError as e:
         t.fail(None, str(e))
-    return contact, Creep(**patch.creep_coefficients)
+    return contact, patch.creep_coefficients
 
 
 def contact_patch_of(layout: Layout):
     """The Hertz ellipse and Kalker coefficients of a layout with [contact]."""
     c = layout.contact
-    return contact_patch(c.wheel_load, layout.wheelset.rolling_radius, c.rail_transverse_radius,
+    return contact_patch(layout.wheelset.wheel_load, layout.wheelset.rolling_radius, c.rail_transverse_radius,
                          young_modulus=c.young_modulus, poisson_ratio=c.poisson_ratio,
                          wheel_transverse_radius=c.wheel_transverse_radius)
 

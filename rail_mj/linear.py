@@ -5,8 +5,8 @@ the creep callback installed) give the continuous-time state matrix
 
     A = [[0, I], [dqacc/dq, dqacc/dv]]      for the state x = [qpos, qvel],
 
-with no integrator in between. The creep law is linear and the kinematics nearly
-so at the centred state, so a micrometre step is exact to round-off. The runner
+with no integrator in between. The linear creep law and the kinematics near the
+centred state make central differences exact but for round-off. The runner
 uses A to choose its timestep, `rail_mj.stability` for eigenvalues and modes.
 """
 
@@ -17,7 +17,10 @@ import numpy as np
 
 from rail_mj.forces import CreepForces, installed
 
-FD_STEP = 1e-6  # m or rad
+# m or rad. Small enough that a saturating law's O(|F|) curvature at zero (the
+# Shen-Hedrick-Elkins u^2/3 term, u ~ 1e-6 here) is below 1e-6, large enough that
+# round-off in the differences stays near 1e-8 relative.
+FD_STEP = 1e-8
 
 
 def state_matrix(model: mujoco.MjModel, forces: CreepForces,

@@ -32,6 +32,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from rail_mj.creep import LAWS
 from rail_mj.files import staged
 from rail_mj.layout import Layout, Suspension
 from rail_mj.wheel import wheel_stl
@@ -51,6 +52,7 @@ DEFAULT_TIMESTEP = 1e-3
 # so that a generated MJCF alone is enough to simulate the vehicle.
 NUMERIC_WHEEL = "rail_mj/wheel"  # r0, b, conicity, flangeway clearance
 NUMERIC_CREEP = "rail_mj/creep"  # f11, f22, f23, f33
+NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAWS), mu*N per wheel
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
 LATERAL, YAW = "lateral", "yaw"
@@ -190,6 +192,8 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
         w.rolling_radius, w.contact_half_spacing, w.conicity, w.flangeway_clearance,
     ])
     spec.add_numeric(name=NUMERIC_CREEP, data=[c.f11, c.f22, c.f23, c.f33])
+    limit = c.friction * w.wheel_load if c.law != "linear" else 0.0  # unused by the linear law
+    spec.add_numeric(name=NUMERIC_SATURATION, data=[LAWS[c.law], limit])
     return spec
 
 

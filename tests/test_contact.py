@@ -98,7 +98,7 @@ def test_layout_takes_creep_from_contact_and_static_weight(tmp_path):
     layout = load_layout(path)
     # Car body, two bogie frames and four wheelsets over eight wheels.
     weight = GRAVITY * (32000.0 + 2 * 2615.0 + 4 * 1813.0) / 8
-    assert layout.contact.wheel_load == pytest.approx(weight, rel=1e-12)
+    assert layout.wheelset.wheel_load == pytest.approx(weight, rel=1e-12)
     expected = contact_patch(weight, 0.46, 0.30, young_modulus=E, poisson_ratio=NU).creep_coefficients
     assert layout.creep.f11 == pytest.approx(expected["f11"], rel=1e-12)
     assert layout.creep.f33 == pytest.approx(expected["f33"], rel=1e-12)
@@ -118,11 +118,11 @@ def test_cli_contact_json(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("change, fragment", [
-    (lambda t: t + "\n[creep]\nf11 = 1e7\nf22 = 1e7\n", "creep: given with [contact]"),
+    (lambda t: t + "\n[creep]\nf11 = 1e7\nf22 = 1e7\n", "creep.f11: given with [contact]"),
     (lambda t: t.replace("poisson_ratio = 0.28", "poisson_ratio = 0.7"), "contact.poisson_ratio"),
     (lambda t: t.replace("rail_transverse_radius = 0.30\n", ""), "contact.rail_transverse_radius"),
     (lambda t: t.replace("fixed = false", "fixed = true").replace("mass = 32000.0\n", ""),
-     "contact.wheel_load: missing"),
+     "wheelset.wheel_load: missing"),
 ])
 def test_bad_contact_tables(change, fragment, tmp_path, capsys):
     path = tmp_path / "bad.toml"
@@ -141,9 +141,9 @@ def test_contact_command_needs_a_contact_table(capsys):
 def test_layout_from_dict_with_contact_and_explicit_load():
     layout = layout_from_dict({
         "name": "w", "wheelset": {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0],
-                                  "rolling_radius": 0.46, "contact_half_spacing": 0.75, "conicity": 0.15},
-        "contact": {"young_modulus": E, "poisson_ratio": NU, "rail_transverse_radius": 0.3,
-                    "wheel_load": 98.1e3},
+                                  "rolling_radius": 0.46, "contact_half_spacing": 0.75, "conicity": 0.15,
+                                  "wheel_load": 98.1e3},
+        "contact": {"young_modulus": E, "poisson_ratio": NU, "rail_transverse_radius": 0.3},
         "primary": {"lateral_stiffness": 0.0, "yaw_stiffness": 2e6},
         "carbody": {"fixed": True, "wheelset_positions": [0.0]},
     })

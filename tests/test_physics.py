@@ -11,7 +11,7 @@ import pytest
 
 from conftest import WHEELSET, free_truck, free_wheelset
 from rail_mj.analysis import summary
-from rail_mj.creep import ContactParameters, wheelset_forces
+from rail_mj.creep import LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactParameters, wheelset_forces
 from rail_mj.forces import CreepForces, installed
 from rail_mj.layout import layout_from_dict
 from rail_mj.model import Vehicle
@@ -113,17 +113,20 @@ def test_spin_terms_sum_kalkers_law_over_both_wheels():
     assert got_mz[0] == pytest.approx(mz, rel=1e-12)
 
 
-def test_creep_law_is_vectorised_over_wheelsets():
+@pytest.mark.parametrize("law", [LINEAR, SHEN_HEDRICK_ELKINS, POLACH])
+def test_creep_law_is_vectorised_over_wheelsets(law):
     rng = np.random.default_rng(7)
     n = 6
     p = ContactParameters.broadcast(n, r0=rng.uniform(0.4, 0.5, n), b=0.75, conicity=rng.uniform(0.05, 0.3, n),
-                                    f11=10e6, f22=rng.uniform(5e6, 1e7, n), f23=1e4, f33=50.0)
+                                    f11=10e6, f22=rng.uniform(5e6, 1e7, n), f23=1e4, f33=50.0,
+                                    friction_limit=rng.uniform(1e4, 3e4, n), law=law)
     states = rng.normal(scale=1e-3, size=(4, n))
     fy, mz = wheelset_forces(p, *states, 33.0)
     for i in range(n):
-        pi = ContactParameters(*(np.array([getattr(p, f.name)[i]]) for f in dataclasses.fields(p)))
-        one = wheelset_forces(pi, *states[:, i:i + 1], 33.0)
-        assert (fy[i], mz[i]) == (one[0][0], one[1][0])
+        one = dataclasses.replace(p, **{f.name: getattr(p, f.name)[i:i + 1]
+                                        for f in dataclasses.fields(p) if f.name != "law"})
+        single = wheelset_forces(one, *states[:, i:i + 1], 33.0)
+        assert (fy[i], mz[i]) == (single[0][0], single[1][0])
 
 
 def test_centred_vehicle_stays_centred():
