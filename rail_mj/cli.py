@@ -214,8 +214,10 @@ def eigen_cmd(layout, speed, as_json):
 
 @cli.command("critical-speed")
 @click.argument("layout", type=click.Path(dir_okay=False))
-@click.option("--method", type=click.Choice(["eigen", "time"]), default="eigen", show_default=True,
-              help="eigen: where the least-damped root crosses zero; time: simulations from a small disturbance.")
+@click.option("--method", type=click.Choice(["eigen", "time", "nonlinear"]), default="eigen", show_default=True,
+              help="eigen: where the least-damped root crosses zero; time: simulations from a small "
+                   "disturbance; nonlinear: lower the speed from hunting until the limit cycle dies "
+                   "(needs [flange] and a saturating creep law).")
 @click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed searched, m/s.")
 @click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed searched, m/s.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
@@ -227,6 +229,16 @@ def critical_speed_cmd(layout, method, vmin, vmax, as_json):
         raise Failure(f"need 0 < --vmin < --vmax, got {vmin} and {vmax}", EXIT_BAD_INPUT)
     if method == "eigen":
         result = _stability(layout).critical_speed(vmin, vmax)
+    elif method == "nonlinear":
+        from rail_mj.bifurcation import nonlinear_critical_speed
+
+        _stability(layout)
+        try:
+            result, _ = nonlinear_critical_speed(_layout(layout), vmin, vmax)
+        except ValueError as e:
+            raise Failure(str(e), EXIT_BAD_INPUT) from None
+        except SimulationError as e:
+            raise Failure(str(e), EXIT_RUN_FAILED) from None
     else:
         _stability(layout)  # a model that does not compile fails here, with exit 2
         try:
@@ -237,9 +249,13 @@ def critical_speed_cmd(layout, method, vmin, vmax, as_json):
         click.echo(json.dumps(result.as_dict(), indent=2))
     elif result.critical_speed is None:
         click.echo(f"no critical speed ({result.method}): {result.note}")
+        if result.linear_critical_speed is not None:
+            click.echo(f"linear critical speed: {result.linear_critical_speed:.2f} m/s")
     else:
         click.echo(f"critical speed ({result.method}): {result.critical_speed:.2f} m/s "
                    f"({result.critical_speed * 3.6:.1f} km/h), {result.frequency:.3f} Hz, {result.mode}")
+        if result.linear_critical_speed is not None:
+            click.echo(f"linear critical speed: {result.linear_critical_speed:.2f} m/s; {result.note}")
         if len(result.unstable_ranges) > 1 or (result.unstable_ranges and result.unstable_ranges[0][1] < vmax):
             spans = "; ".join(f"{a:.1f}-{b:.1f}" for a, b in result.unstable_ranges)
             click.echo(f"unstable ranges (m/s): {spans}")
@@ -284,6 +300,47 @@ def root_locus_cmd(layout, speeds, out, csv_path):
         click.echo(f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}")
     else:
         click.echo(critical.note)
+
+
+@cli.command("bifurcation")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="The diagram, PNG.")
+@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
+              help="The data as CSV [default: the plot's name with .csv].")
+@click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed, m/s.")
+@click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed, m/s.")
+@click.option("--step", type=float, default=0.03, show_default=True,
+              help="Speed step, as a fraction of the speed.")
+def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step):
+    """Limit-cycle amplitude of LAYOUT against speed: both branches, both critical speeds."""
+    from rail_mj.bifurcation import bifurcation
+    from rail_mj.plots import bifurcation_csv, bifurcation_png
+
+    if not (math.isfinite(vmin) and math.isfinite(vmax) and 0 < vmin < vmax):
+        raise Failure(f"need 0 < --vmin < --vmax, got {vmin} and {vmax}", EXIT_BAD_INPUT)
+    if not 0.001 <= step <= 0.2:
+        raise Failure(f"--step must be between 0.001 and 0.2, got {step}", EXIT_BAD_INPUT)
+    csv_path = csv_path or str(Path(out).with_suffix(".csv"))
+    _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
+    lay = _layout(layout)
+    _stability(layout)
+    try:
+        critical, down, up = bifurcation(lay, vmin, vmax, step)
+    except ValueError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    except SimulationError as e:
+        raise Failure(str(e), EXIT_RUN_FAILED) from None
+    if down is None:
+        raise Failure(f"{layout}: {critical.note}", EXIT_RUN_FAILED)
+    try:
+        with staged([csv_path, out]) as (csv_tmp, png_tmp):
+            csv_tmp.write_bytes(bifurcation_csv([down, up]))
+            png_tmp.write_bytes(bifurcation_png(critical, down, up, lay.wheelset.flangeway_clearance, lay.name))
+    except OSError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    click.echo(f"plot: {out}\ndata: {csv_path}")
+    click.echo(f"linear critical speed {critical.linear_critical_speed:.2f} m/s; nonlinear "
+               + (f"{critical.critical_speed:.2f} m/s" if critical.critical_speed else f"none: {critical.note}"))
 
 
 @cli.command("contact")

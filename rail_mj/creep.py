@@ -42,14 +42,22 @@ class ContactParameters:
     f23: np.ndarray  # N m
     f33: np.ndarray  # N m^2
     friction_limit: np.ndarray  # mu*N per wheel, N (unused by the linear law)
+    clearance: np.ndarray  # flangeway clearance, m
+    flange_stiffness: np.ndarray  # N/m, the rail's lateral stiffness under the flange
+    flange_damping: np.ndarray  # N s/m
+    flange_slope: np.ndarray  # tan of the flange angle: the radius rise per metre on the flange
     law: int = LINEAR
+    flange: bool = False  # flange contact on
 
     @classmethod
     def broadcast(cls, n: int, *, r0, b, conicity, f11, f22, f23=0.0, f33=0.0,
-                  friction_limit=np.inf, law=LINEAR):
+                  friction_limit=np.inf, law=LINEAR, clearance=0.008, flange_stiffness=0.0,
+                  flange_damping=0.0, flange_slope=None):
         full = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy()  # noqa: E731
+        flange = flange_slope is not None
         return cls(full(r0), full(b), full(conicity), full(f11), full(f22), full(f23), full(f33),
-                   full(friction_limit), int(law))
+                   full(friction_limit), full(clearance), full(flange_stiffness),
+                   full(flange_damping), full(flange_slope if flange else conicity), int(law), flange)
 
 
 def saturation(law: int, resultant, limit):
@@ -72,17 +80,51 @@ def saturation(law: int, resultant, limit):
     raise ValueError(f"unknown creep law {law}")
 
 
-def creepages(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
-    """Creepages of the left wheel (reference sheet, section 2).
+def rolling_radius_changes(p: ContactParameters, y):
+    """(r_left - r0, r_right - r0) for a wheelset displaced y to the left of the track.
 
-    Returns (xi_x_left, xi_y, xi_sp_left). The right wheel has -xi_x_left, the same
-    xi_y, and a spin that differs only by the constant contact-angle term, which
-    cancels between the two wheels.
+    On the tread each wheel is a cone: +/-lam*y. Past the flangeway clearance the contact
+    runs up the flanging wheel's flange, whose radius rises as tan(flange angle) per
+    metre: the steep rise of the rolling-radius difference at flange contact.
     """
-    xi_x = -(p.b * psi_dot / speed) - p.conicity * y / p.r0
+    tread = p.conicity * y
+    if not p.flange:
+        return tread, -tread
+    rise = p.flange_slope - p.conicity
+    return (tread + rise * np.maximum(y - p.clearance, 0.0),
+            -tread + rise * np.maximum(-y - p.clearance, 0.0))
+
+
+def flange_force(p: ContactParameters, y, y_dot):
+    """Lateral force (N) of the rails on each wheelset's flanges: zero within the
+    flangeway clearance, beyond it an elastic rail (stiffness k, damping c) that
+    only pushes: -sign(y) * max(0, k*(|y| - clearance) + c*|y|')."""
+    if not p.flange:
+        return np.zeros_like(y)
+    over = np.abs(y) - p.clearance
+    side = np.sign(y)
+    push = np.maximum(p.flange_stiffness * over + p.flange_damping * side * y_dot, 0.0)
+    return np.where(over > 0, -side * push, 0.0)
+
+
+def creepages(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
+    """Creepages (reference sheet, section 2): (xi_x_left, xi_x_right, xi_y, xi_sp).
+
+    On the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and xi_x_right is its negative; the
+    lateral creepage is the same on both wheels, and the spin differs between them only
+    by the constant contact-angle term, which cancels between the two wheels.
+    """
+    dr_left, dr_right = rolling_radius_changes(p, y)
+    turning = p.b * psi_dot / speed
     xi_y = y_dot / speed - psi
-    xi_sp = psi_dot / speed
-    return xi_x, xi_y, xi_sp
+    return -turning - dr_left / p.r0, turning - dr_right / p.r0, xi_y, psi_dot / speed
+
+
+def _saturated(p: ContactParameters, fx, fy):
+    """Each wheel's (Fx, Fy) scaled together so that the resultant follows the creep law."""
+    linear = np.hypot(fx, fy)
+    scale = saturation(p.law, linear, p.friction_limit) / np.maximum(linear, 1e-300)
+    return scale * fx, scale * fy
 
 
 def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
@@ -90,20 +132,20 @@ def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
 
     Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
     A saturating law scales each wheel's (Fx, Fy) by one factor (the spin moment stays
-    linear). The longitudinal forces of the two wheels, +/-Fx at y = +/-b, make the yaw
-    moment -2*b*Fx_left. With the linear law and f23 = f33 = 0 this is exactly
+    linear). The longitudinal forces, Fx_left at y = +b and Fx_right at y = -b, make the
+    yaw moment b*(Fx_right - Fx_left); the flanges add their lateral force. On the tread,
+    with the linear law and f23 = f33 = 0, this is exactly
 
         Fy = -2*f22*(y_dot/V - psi),   Mz = -2*f11*b*(b*psi_dot/V + lam*y/r0).
     """
-    xi_x, xi_y, xi_sp = creepages(p, y, psi, y_dot, psi_dot, speed)
-    fx_left = -p.f11 * xi_x
-    fy_wheel = -p.f22 * xi_y - p.f23 * xi_sp  # the same on both wheels
-    if p.law != LINEAR:
-        # Both wheels carry the same resultant here (+/-Fx, equal Fy): one factor serves.
-        linear = np.hypot(fx_left, fy_wheel)
-        scale = np.divide(saturation(p.law, linear, p.friction_limit), linear,
-                          out=np.ones_like(linear), where=linear > 0)
-        fx_left, fy_wheel = scale * fx_left, scale * fy_wheel
-    fy = 2.0 * fy_wheel
-    mz = -2.0 * p.b * fx_left + 2.0 * (p.f23 * xi_y - p.f33 * xi_sp)
-    return fy, mz
+    xi_left, xi_right, xi_y, xi_sp = creepages(p, y, psi, y_dot, psi_dot, speed)
+    fx = -p.f11 * np.stack([xi_left, xi_right])  # (2, n): left wheels, right wheels
+    fy = -p.f22 * xi_y - p.f23 * xi_sp  # the same on both wheels
+    if p.law == LINEAR:
+        fy_sum = 2.0 * fy
+    else:
+        fx, fy = _saturated(p, fx, np.broadcast_to(fy, fx.shape))
+        fy_sum = fy[0] + fy[1]
+    fy_sum = fy_sum + flange_force(p, y, y_dot)
+    mz = p.b * (fx[1] - fx[0]) + 2.0 * (p.f23 * xi_y - p.f33 * xi_sp)
+    return fy_sum, mz

@@ -31,16 +31,18 @@ import mujoco
 import numpy as np
 
 from rail_mj.creep import ContactParameters, wheelset_forces
-from rail_mj.model import NUMERIC_CREEP, NUMERIC_SATURATION, NUMERIC_WHEEL
+from rail_mj.model import NUMERIC_CREEP, NUMERIC_FLANGE, NUMERIC_SATURATION, NUMERIC_WHEEL
 
 
 def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParameters:
-    r0, b, conicity, _clearance = model.numeric(NUMERIC_WHEEL).data
+    r0, b, conicity, clearance = model.numeric(NUMERIC_WHEEL).data
     f11, f22, f23, f33 = model.numeric(NUMERIC_CREEP).data
     law, limit = model.numeric(NUMERIC_SATURATION).data
+    flange, stiffness, damping, slope = model.numeric(NUMERIC_FLANGE).data
     return ContactParameters.broadcast(
         n_wheelsets, r0=r0, b=b, conicity=conicity, f11=f11, f22=f22, f23=f23, f33=f33,
-        friction_limit=limit, law=int(law),
+        friction_limit=limit, law=int(law), clearance=clearance, flange_stiffness=stiffness,
+        flange_damping=damping, flange_slope=slope if flange else None,
     )
 
 

@@ -59,6 +59,16 @@ class Creep:
 
 
 @dataclasses.dataclass(frozen=True)
+class Flange:
+    """Flange contact past the flangeway clearance (wheelset.flangeway_clearance)."""
+
+    # A round value of the order of a rail's lateral stiffness on its fastenings.
+    stiffness: float = 15.0e6  # N/m
+    damping: float = 0.0  # N s/m
+    angle: float = math.radians(70.0)  # rad; flanges are cut at 65-75 degrees
+
+
+@dataclasses.dataclass(frozen=True)
 class Contact:
     """The bodies in contact, from which Hertz and Kalker give the creep coefficients."""
 
@@ -104,6 +114,7 @@ class Layout:
     bogie: Bogie | None = None
     secondary: Suspension | None = None
     contact: Contact | None = None  # when given, `creep` was computed from it
+    flange: Flange | None = None  # None: no flange contact (the classical linear model)
     source: str = "<layout>"
 
     @property
@@ -338,10 +349,26 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         contact, coefficients = _contact(_Table(source, "contact", top.get("contact")), wheelset)
     creep_table.done()
     creep = Creep(**coefficients, law=law, friction=friction)
+    flange = None
+    if top.get("flange", None, required=False) is not None:
+        t = _Table(source, "flange", top.get("flange"))
+        if law == "linear":
+            # On the flange the rolling radius rises by tan(70 deg) per metre: unbounded
+            # linear creep turns a millimetre of flange contact into hundreds of kN.
+            t.fail(None, "flange contact needs a saturating creep law: set creep.law to "
+                         "\"shen-hedrick-elkins\" or \"polach\" and creep.friction")
+        default = Flange()
+        flange = Flange(
+            stiffness=t.positive("stiffness", default.stiffness),
+            damping=t.non_negative("damping", default.damping),
+            angle=t.number("angle", default.angle, low=wheelset.conicity, low_open=True,
+                           high=math.radians(89.0)),
+        )
+        t.done()
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
-        bogie=bogie, secondary=secondary, contact=contact, source=source,
+        bogie=bogie, secondary=secondary, contact=contact, flange=flange, source=source,
     )
 
 

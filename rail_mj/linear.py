@@ -24,8 +24,9 @@ FD_STEP = 1e-8
 
 
 def state_matrix(model: mujoco.MjModel, forces: CreepForces,
-                 data: mujoco.MjData | None = None) -> np.ndarray:
-    """A (2nv x 2nv) of `model` with `forces` acting, about qpos = qvel = 0."""
+                 data: mujoco.MjData | None = None, qpos0: np.ndarray | None = None) -> np.ndarray:
+    """A (2nv x 2nv) of `model` with `forces` acting, about qpos = qpos0 (default the
+    centred state, 0) and qvel = 0."""
     data = data or mujoco.MjData(model)
     nv = model.nv
     A = np.zeros((2 * nv, 2 * nv))
@@ -35,6 +36,8 @@ def state_matrix(model: mujoco.MjModel, forces: CreepForces,
             acc = []
             for sign in (1.0, -1.0):
                 mujoco.mj_resetData(model, data)
+                if qpos0 is not None:
+                    data.qpos[:] = qpos0
                 (data.qpos if j < nv else data.qvel)[j % nv] = sign * FD_STEP
                 mujoco.mj_forward(model, data)
                 acc.append(data.qacc.copy())

@@ -53,6 +53,7 @@ DEFAULT_TIMESTEP = 1e-3
 NUMERIC_WHEEL = "rail_mj/wheel"  # r0, b, conicity, flangeway clearance
 NUMERIC_CREEP = "rail_mj/creep"  # f11, f22, f23, f33
 NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAWS), mu*N per wheel
+NUMERIC_FLANGE = "rail_mj/flange"  # on (1) or off (0), stiffness, damping, tan(flange angle)
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
 LATERAL, YAW = "lateral", "yaw"
@@ -194,6 +195,9 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     spec.add_numeric(name=NUMERIC_CREEP, data=[c.f11, c.f22, c.f23, c.f33])
     limit = c.friction * w.wheel_load if c.law != "linear" else 0.0  # unused by the linear law
     spec.add_numeric(name=NUMERIC_SATURATION, data=[LAWS[c.law], limit])
+    f = layout.flange
+    spec.add_numeric(name=NUMERIC_FLANGE, data=[1.0, f.stiffness, f.damping, float(np.tan(f.angle))]
+                     if f else [0.0, 0.0, 0.0, 0.0])
     return spec
 
 

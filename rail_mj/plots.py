@@ -105,3 +105,36 @@ def root_locus_png(rows: list[dict], critical: CriticalSpeed | None, title: str)
     fig.savefig(png, format="png", dpi=110)
     plt.close(fig)
     return png.getvalue()
+
+
+def bifurcation_csv(branches) -> bytes:
+    buf = io.StringIO()
+    buf.write("branch,speed_m_per_s,amplitude_m,frequency_hz,settled\n")
+    for b in branches:
+        for v, a, f, ok in zip(b.speeds, b.amplitudes, b.frequencies, b.alive):
+            buf.write(f"{b.direction},{v:.10g},{a:.10g},{f:.10g},{int(ok)}\n")
+    return buf.getvalue().encode()
+
+
+def bifurcation_png(critical: CriticalSpeed, down, up, clearance: float, title: str) -> bytes:
+    """Limit-cycle amplitude against speed: the branch followed down from hunting and the
+    one followed up from a small disturbance, with both critical speeds marked."""
+    fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
+    for branch, marker, label in ((down, "o-", "speed lowered from hunting (limit cycle)"),
+                                  (up, "s--", "from a small disturbance at each speed")):
+        ax.plot(branch.speeds, np.asarray(branch.amplitudes) * 1e3, marker, ms=5, label=label)
+    ax.axhline(clearance * 1e3, color="grey", linestyle=":", label=f"flangeway clearance {clearance * 1e3:g} mm")
+    if critical.linear_critical_speed is not None:
+        ax.axvline(critical.linear_critical_speed, color="red", linestyle="--",
+                   label=f"linear critical speed {critical.linear_critical_speed:.1f} m/s")
+    if critical.critical_speed is not None:
+        ax.axvline(critical.critical_speed, color="green", linestyle="--",
+                   label=f"nonlinear critical speed {critical.critical_speed:.1f} m/s")
+    ax.set(xlabel="speed V (m/s)", ylabel="amplitude: largest wheelset |y| (mm)",
+           title=f"Bifurcation diagram: {title}")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", fontsize=9)
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=110)
+    plt.close(fig)
+    return png.getvalue()

@@ -42,6 +42,13 @@ TIME = "time"
 DISTANCE = "distance_mm"
 
 
+FLANGE_EVENTS = "/events/flange"
+
+
+def flange_path(i: int) -> str:
+    return f"/flange/wheelset{i + 1}"
+
+
 def lateral_path(i: int) -> str:
     return f"/lateral/wheelset{i + 1}"
 
@@ -50,13 +57,15 @@ def yaw_path(i: int) -> str:
     return f"/yaw/wheelset{i + 1}"
 
 
-def blueprint() -> rrb.Blueprint:
+def blueprint(flange: bool = False) -> rrb.Blueprint:
+    plots = [rrb.TimeSeriesView(origin="/lateral", name="Lateral displacement y (m)"),
+             rrb.TimeSeriesView(origin="/yaw", name="Yaw psi (rad)")]
+    if flange:
+        plots += [rrb.TimeSeriesView(origin="/flange", name="Flange contact: rail deflection (m)"),
+                  rrb.TextLogView(origin=FLANGE_EVENTS, name="Flange contacts")]
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(
-                rrb.TimeSeriesView(origin="/lateral", name="Lateral displacement y (m)"),
-                rrb.TimeSeriesView(origin="/yaw", name="Yaw psi (rad)"),
-            ),
+            rrb.Vertical(*plots),
             rrb.Vertical(
                 rrb.Spatial3DView(origin="/world", name="Vehicle on the track"),
                 rrb.TextDocumentView(origin="/layout", name="Layout and run"),
@@ -87,6 +96,8 @@ def log_run(rec: rr.RecordingStream, run: Run) -> None:
         rr.TimeColumn(DISTANCE, sequence=np.round(run.x * 1000.0).astype(np.int64)),
     ]
     log_vehicle(rec, run, indexes)
+    if run.layout.flange is not None:
+        log_flange_contacts(rec, run, indexes)
     for i in range(run.n_wheelsets):
         for path, values, unit in (
             (lateral_path(i), run.y[:, i], "m"),
@@ -94,6 +105,29 @@ def log_run(rec: rr.RecordingStream, run: Run) -> None:
         ):
             rec.log(path, rr.SeriesLines(names=f"wheelset {i + 1} ({unit})"), static=True)
             rec.send_columns(path, indexes=indexes, columns=rr.Scalars.columns(scalars=values))
+
+
+def log_flange_contacts(rec: rr.RecordingStream, run: Run, indexes) -> None:
+    """Per wheelset, how far past the flangeway clearance it presses into the rail (signed:
+    positive into the left rail), and a log line each time a flange strikes a rail."""
+    clearance = run.layout.wheelset.flangeway_clearance
+    into = np.sign(run.y) * np.maximum(np.abs(run.y) - clearance, 0.0)
+    times, distances, lines = [], [], []
+    for i in range(run.n_wheelsets):
+        rec.log(flange_path(i), rr.SeriesLines(names=f"wheelset {i + 1} (m)"), static=True)
+        rec.send_columns(flange_path(i), indexes=indexes, columns=rr.Scalars.columns(scalars=into[:, i]))
+        side = np.sign(into[:, i])
+        for k in np.nonzero((side != 0) & (side != np.concatenate([[0.0], side[:-1]])))[0]:
+            rail = "left" if side[k] > 0 else "right"
+            times.append(run.t[k])
+            distances.append(int(round(run.x[k] * 1000.0)))
+            lines.append(f"wheelset {i + 1} flange strikes the {rail} rail at x = {run.x[k]:.2f} m")
+    if lines:
+        order = np.argsort(times, kind="stable")
+        rec.send_columns(FLANGE_EVENTS, indexes=[
+            rr.TimeColumn(TIME, duration=np.asarray(times)[order]),
+            rr.TimeColumn(DISTANCE, sequence=np.asarray(distances, dtype=np.int64)[order]),
+        ], columns=rr.TextLog.columns(text=[lines[k] for k in order], level=["WARN"] * len(lines)))
 
 
 def _xyzw(wxyz: np.ndarray) -> np.ndarray:
@@ -149,7 +183,7 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, indexes) -> None:
 def save_recording(run: Run, path: str | Path) -> None:
     """Write `run` to an .rrd file at `path` (use `write_recording` for a safe write)."""
     rec = rr.RecordingStream(APP_ID, recording_id=f"{run.layout.name}-{run.speed:g}")
-    rec.save(str(path), default_blueprint=blueprint())
+    rec.save(str(path), default_blueprint=blueprint(run.layout.flange is not None))
     log_run(rec, run)
     rec.flush()
     rec.disconnect()

@@ -82,6 +82,7 @@ class CriticalSpeed:
     note: str
     # Speed ranges of the scan where some mode grows, [[from, to], ...] (eigen method).
     unstable_ranges: list[list[float]] = dataclasses.field(default_factory=list)
+    linear_critical_speed: float | None = None  # m/s (nonlinear method: where it started from)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)

@@ -124,7 +124,7 @@ def test_creep_law_is_vectorised_over_wheelsets(law):
     fy, mz = wheelset_forces(p, *states, 33.0)
     for i in range(n):
         one = dataclasses.replace(p, **{f.name: getattr(p, f.name)[i:i + 1]
-                                        for f in dataclasses.fields(p) if f.name != "law"})
+                                        for f in dataclasses.fields(p) if f.name not in ("law", "flange")})
         single = wheelset_forces(one, *states[:, i:i + 1], 33.0)
         assert (fy[i], mz[i]) == (single[0][0], single[1][0])
 

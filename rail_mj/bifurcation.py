@@ -1,0 +1,127 @@
+"""Nonlinear stability: limit cycles, the nonlinear critical speed and the bifurcation diagram.
+
+With flange contact and saturating creep, hunting above the linear critical speed
+grows into a limit cycle. Lowering the speed step by step, each step continuing from
+the last one's state and long enough to settle, follows that limit cycle down until
+it dies: the nonlinear critical speed, below the linear one (reference sheet,
+section 7). Raising the speed from a small disturbance follows the centred branch
+up to the linear critical speed, where the motion jumps onto the limit cycle.
+
+Example:
+
+    >>> from rail_mj import load_layout
+    >>> # (see tests/test_bifurcation.py for a layout with [flange] and a saturating law)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from rail_mj.layout import Layout
+from rail_mj.runner import simulate
+from rail_mj.stability import CriticalSpeed, Stability
+
+DWELL = 6.0  # s at each speed: tens of hunting cycles, enough for the limit cycle to settle
+# A motion smaller than this fraction of the flangeway clearance has died away; one
+# whose peaks shrink by more than SHRINKING over a quarter of a step is dying.
+DEAD_FRACTION = 0.05
+SHRINKING = 0.1
+
+
+@dataclasses.dataclass
+class Branch:
+    """Amplitude (largest wheelset |y| over the last half of each step) against speed."""
+
+    direction: str  # "down" (from the limit cycle) or "up" (from a small disturbance)
+    speeds: list[float]
+    amplitudes: list[float]  # m
+    frequencies: list[float]  # Hz, of the largest wheelset motion; nan when it has died
+    alive: list[bool]  # whether a settled oscillation (not a dying one) was there
+
+
+def _amplitude(run) -> tuple[float, float, float]:
+    """(amplitude, its change from the first to the second quarter of the late half, frequency)."""
+    from rail_mj.analysis import oscillation
+
+    late = run.t >= run.t[-1] / 2
+    y = run.y[late]
+    i = int(np.argmax(np.max(np.abs(y), axis=0)))
+    half = len(y) // 2
+    first, second = np.max(np.abs(y[:half, i])), np.max(np.abs(y[half:, i]))
+    freq, _ = oscillation(run.t[late], y[:, i])
+    return float(second), float(second - first), freq
+
+
+def follow(layout: Layout, speeds, state=None, initial_lateral: float = 0.0,
+           dwell: float = DWELL, stop_when_dead: bool = False, restart: bool = False) -> Branch:
+    """Step through `speeds`, each run continuing from the previous one's final state
+    (or, with `restart`, each from the initial disturbance afresh)."""
+    direction = "down" if speeds[-1] < speeds[0] else "small disturbance" if restart else "up"
+    branch = Branch(direction, [], [], [], [])
+    dead = DEAD_FRACTION * layout.wheelset.flangeway_clearance
+    for v in speeds:
+        run = simulate(layout, float(v), float(v) * dwell, initial_lateral, 1e-4 if state is None else 0.0,
+                       state=state)
+        state = None if restart else run.final_state
+        amplitude, change, freq = _amplitude(run)
+        branch.speeds.append(float(v))
+        branch.amplitudes.append(amplitude)
+        branch.frequencies.append(freq)
+        branch.alive.append(bool(amplitude >= dead and change >= -SHRINKING * amplitude))
+        if stop_when_dead and amplitude < dead and change <= 0:
+            break
+    return branch
+
+
+def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0,
+                             step: float = 0.02, dwell: float = DWELL) -> tuple[CriticalSpeed, Branch]:
+    """Lowest speed at which the hunting limit cycle survives, with the branch it followed.
+
+    Starts at 1.1 x the linear (eigen) critical speed on the limit cycle, reached from a
+    disturbance of twice the flangeway clearance, and lowers the speed by `step` (a
+    fraction) per `dwell` seconds until the motion dies away.
+    """
+    if layout.flange is None or layout.creep.law == "linear":
+        raise ValueError(f"{layout.source}: the nonlinear critical speed needs [flange] and a "
+                         f"saturating creep law: without them hunting grows without bound")
+    linear = Stability(layout).critical_speed(vmin, vmax)
+    if linear.critical_speed is None:
+        return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
+                             f"no linear critical speed to start from: {linear.note}"), None
+    vc = linear.critical_speed
+    start = min(1.1 * linear.critical_speed, vmax)
+    speeds = start * (1.0 - step) ** np.arange(int(math.log(vmin / start) / math.log(1.0 - step)) + 1)
+    branch = follow(layout, speeds, initial_lateral=2.0 * layout.wheelset.flangeway_clearance,
+                    dwell=dwell, stop_when_dead=True)
+    alive = [k for k, ok in enumerate(branch.alive) if ok]
+    if alive and alive[-1] == len(branch.alive) - 1:
+        return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
+                             f"the limit cycle survives down to {branch.speeds[-1]:.2f} m/s",
+                             linear_critical_speed=vc), branch
+    if not alive:
+        return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
+                             f"no limit cycle at {start:.2f} m/s", linear_critical_speed=vc), branch
+    last = alive[-1]  # the lowest speed that still carried the limit cycle
+    return CriticalSpeed("nonlinear", branch.speeds[last], branch.frequencies[last], linear.mode,
+                         vmin, vmax, f"the limit cycle dies below this speed (steps of {step:.0%}); "
+                         f"the mode is the linear one at {vc:.2f} m/s", linear_critical_speed=vc), branch
+
+
+def bifurcation(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, step: float = 0.03,
+                dwell: float = DWELL) -> tuple[CriticalSpeed, Branch, Branch]:
+    """Both branches of the bifurcation diagram around the linear critical speed Vc:
+    down from the limit cycle at 1.1*Vc until it dies, and, at the same speeds, runs from
+    a small disturbance (5 % of the clearance) for twice as long, which decay below Vc
+    and grow onto the limit cycle above it. Between the two critical speeds both the
+    centred state and the limit cycle are stable: the hysteresis of hunting."""
+    critical, down = nonlinear_critical_speed(layout, vmin, vmax, step, dwell)
+    if down is None:
+        return critical, None, None
+    low = down.speeds[-1] * (1.0 - step) ** np.arange(3, 0, -1)  # a little below where it died
+    speeds = [float(v) for v in low if v >= vmin] + down.speeds[::-1]
+    up = follow(layout, speeds, initial_lateral=DEAD_FRACTION * layout.wheelset.flangeway_clearance,
+                dwell=2 * dwell, restart=True)
+    return critical, down, up

@@ -1,0 +1,134 @@
+"""Flange contact, limit cycles and the nonlinear critical speed (reference sheet, section 7)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from rerun.chunk import RrdReader
+
+from conftest import MODELS
+from rail_mj.bifurcation import bifurcation, nonlinear_critical_speed
+from rail_mj.cli import main
+from rail_mj.creep import POLACH, ContactParameters, flange_force, rolling_radius_changes
+from rail_mj.layout import LayoutError, load_layout
+from rail_mj.plots import bifurcation_csv, bifurcation_png
+from rail_mj.recording import FLANGE_EVENTS, flange_path, write_recording
+from rail_mj.runner import simulate
+from rail_mj.stability import Stability
+
+FLANGED = """
+wheel_load = 60e3
+[flange]
+"""
+MU, LOAD, K_FLANGE = 0.3, 60e3, 15e6
+
+
+def flanged_wheelset(tmp_path):
+    """The shipped restrained wheelset (linear critical speed 57.50 m/s) with Polach
+    saturation and flange contact: no lateral spring, so the rails alone hold it."""
+    text = (MODELS / "wheelset" / "wheelset.toml").read_text()
+    text = text.replace("conicity = 0.1\n", "conicity = 0.1\nwheel_load = 60e3\n")
+    text = text.replace("f22 = 10.0e6\n", f'f22 = 10.0e6\nlaw = "polach"\nfriction = {MU}\n')
+    path = tmp_path / "flanged.toml"
+    path.write_text(text + "\n[flange]\n")
+    return path
+
+
+P = ContactParameters.broadcast(3, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=10e6,
+                                friction_limit=MU * LOAD, law=POLACH, clearance=0.008,
+                                flange_stiffness=K_FLANGE, flange_damping=1e4,
+                                flange_slope=math.tan(math.radians(70)))
+
+
+def test_flange_force_is_a_one_sided_elastic_rail():
+    y = np.array([0.005, 0.010, -0.012])
+    force = flange_force(P, y, np.zeros(3))
+    assert force[0] == 0.0  # within the clearance
+    assert force[1] == pytest.approx(-K_FLANGE * 0.002)  # pushed back to the right
+    assert force[2] == pytest.approx(K_FLANGE * 0.004)  # pushed back to the left
+    # Leaving the rail fast, the damper may not pull the wheel back onto it.
+    assert flange_force(P, np.array([0.009]), np.array([-10.0]))[0] == 0.0
+
+
+def test_rolling_radius_rises_up_the_flange():
+    y = np.array([0.004, 0.008, 0.010])
+    left, right = rolling_radius_changes(P, y)
+    np.testing.assert_allclose(right, -0.1 * y)  # the other wheel stays on its cone
+    np.testing.assert_allclose(left[:2], 0.1 * y[:2])
+    assert left[2] == pytest.approx(0.1 * 0.008 + math.tan(math.radians(70)) * 0.002)
+
+
+def test_flange_contact_needs_a_saturating_law(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text((MODELS / "wheelset" / "wheelset.toml").read_text() + "\n[flange]\n")
+    with pytest.raises(LayoutError, match="flange: flange contact needs a saturating creep law"):
+        load_layout(path)
+
+
+def test_flange_and_saturation_leave_the_linear_results_unchanged(tmp_path):
+    """Both act only away from the centred state (the flange) or beyond Kalker's slope
+    (saturation): the eigen critical speed is the linear one, 57.50 m/s."""
+    linear = Stability(load_layout(MODELS / "wheelset" / "wheelset.toml")).critical_speed()
+    flanged = Stability(load_layout(flanged_wheelset(tmp_path))).critical_speed()
+    assert flanged.critical_speed == pytest.approx(linear.critical_speed, rel=1e-4)  # Brent's xtol
+    assert flanged.frequency == pytest.approx(linear.frequency, rel=1e-4)
+
+
+def test_hunting_is_a_limit_cycle_held_by_the_flanges(tmp_path):
+    """At 75 m/s (1.3 x the critical speed) hunting grows onto the flanges and stays there.
+    With no lateral spring, Newton across the track is m*y'' = F_creep + F_flange with
+    |F_creep| <= 2*mu*N, so the rail deflection past the clearance is at most
+    (m*max|y''| + 2*mu*N) / k_flange."""
+    layout = load_layout(flanged_wheelset(tmp_path))
+    run = simulate(layout, 75.0, 75.0 * 12.0, 0.002)
+    y = run.y[:, 0]
+    late = run.t > 6.0
+    amplitude = np.max(np.abs(y[late]))
+    assert amplitude > layout.wheelset.flangeway_clearance  # the flanges strike
+    acceleration = np.gradient(np.gradient(y, run.t), run.t)
+    deflection = (layout.wheelset.mass * np.max(np.abs(acceleration)) + 2 * MU * LOAD) / K_FLANGE
+    # 5 % for the second difference of 1 kHz samples missing the true peak acceleration.
+    assert amplitude <= layout.wheelset.flangeway_clearance + 1.05 * deflection
+    # A settled cycle: the late peaks are as high as each other to 2 %.
+    peaks = [np.max(np.abs(y[(run.t > a) & (run.t <= a + 1.5)])) for a in (6.0, 7.5, 9.0, 10.5)]
+    assert max(peaks) <= 1.02 * min(peaks)
+
+
+def test_recording_marks_flange_contacts(tmp_path):
+    layout = load_layout(flanged_wheelset(tmp_path))
+    run = simulate(layout, 75.0, 75.0 * 4.0, 0.002)
+    path = write_recording(run, tmp_path / "hunting.rrd")
+    events, depth = [], None
+    for chunk in RrdReader(str(path)).stream():
+        batch = chunk.to_record_batch()
+        if chunk.entity_path == FLANGE_EVENTS and "TextLog:text" in batch.schema.names:
+            events += [v[0] for v in batch.column("TextLog:text").to_pylist()]
+        if chunk.entity_path == flange_path(0) and "Scalars:scalars" in batch.schema.names:
+            depth = np.array([v[0] for v in batch.column("Scalars:scalars").to_pylist()])
+    strikes = np.sum(np.diff((np.abs(run.y[:, 0]) > 0.008).astype(int)) == 1)
+    assert strikes >= 4 and len(events) == strikes
+    assert any("left rail" in e for e in events) and any("right rail" in e for e in events)
+    assert depth is not None and np.max(np.abs(depth)) == pytest.approx(np.max(np.abs(run.y)) - 0.008, rel=1e-9)
+
+
+def test_nonlinear_critical_speed_is_below_the_linear_one(tmp_path):
+    layout = load_layout(flanged_wheelset(tmp_path))
+    critical, down, up = bifurcation(layout, step=0.08, dwell=3.0)
+    assert critical.linear_critical_speed == pytest.approx(57.50, abs=0.01)
+    assert 0 < critical.critical_speed < critical.linear_critical_speed
+    # Hysteresis: just below the linear critical speed the limit cycle lives on, while a
+    # small disturbance at the same speed dies away.
+    v = max(s for s in down.speeds if s < critical.linear_critical_speed)
+    assert down.alive[down.speeds.index(v)] and not up.alive[up.speeds.index(v)]
+    assert down.amplitudes[0] > layout.wheelset.flangeway_clearance
+    png = bifurcation_png(critical, down, up, 0.008, "flanged")
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    assert bifurcation_csv([down, up]).decode().startswith("branch,speed_m_per_s,amplitude_m")
+
+
+def test_cli_nonlinear_needs_flange_contact(capsys):
+    assert main(["critical-speed", str(MODELS / "bogie" / "bogie.toml"), "--method", "nonlinear"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "needs [flange] and a saturating creep law" in err
