@@ -44,6 +44,47 @@ def oscillation(t: np.ndarray, s: np.ndarray) -> tuple[float, float]:
     return float(freq), sigma
 
 
+# EN 14363's running-instability criterion (after Prud'homme): the rms of each wheelset's
+# sum of guiding forces over a sliding 100 m of track, against (10 + 2*P0/3)/2 kN with
+# P0 the static axle load in kN. EN 14363 band-pass filters Sigma Y around the hunting
+# frequency first; on perfect straight track the model has no other content, so it is
+# taken unfiltered here.
+HUNTING_WINDOW = 100.0  # m
+
+
+def hunting_limit(axle_load: float) -> float:
+    """The rms limit of Sigma Y, N, for a static axle load in N."""
+    return (10e3 + 2.0 * axle_load / 3.0) / 2.0
+
+
+def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:
+    """rms of `signal` (samples along axis 0) over the `window` (m) of x ending at each
+    sample; nan until one full window has passed."""
+    signal = np.asarray(signal, dtype=float)
+    cumulative = np.concatenate([np.zeros((1,) + signal.shape[1:]), np.cumsum(signal**2, axis=0)])
+    start = np.searchsorted(x, x - window, side="left")
+    count = (np.arange(1, len(x) + 1) - start).reshape((-1,) + (1,) * (signal.ndim - 1))
+    rms = np.sqrt(np.maximum(cumulative[1:] - cumulative[start], 0.0) / count)
+    full = (x - x[0] >= window).reshape(count.shape)
+    return np.where(full, rms, np.nan)
+
+
+def hunting(run: Run) -> dict | None:
+    """The instability criterion per wheelset; None without a wheel load or a full window."""
+    load = run.layout.wheelset.wheel_load
+    if load is None or run.x[-1] < HUNTING_WINDOW:
+        return None
+    rms = sliding_rms(run.x, run.guiding_forces(), HUNTING_WINDOW)
+    worst = np.nanmax(rms, axis=0)
+    limit = hunting_limit(2.0 * load)
+    return {
+        "criterion": "EN 14363 rms of the sum of guiding forces over 100 m, unfiltered",
+        "limit_n": limit,
+        "max_rms_n": [float(v) for v in worst],
+        "hunting": bool(np.any(worst > limit)),
+    }
+
+
 def summary(run: Run) -> dict:
     """Per wheelset: largest |y|, growth rate, dominant frequency and wavelength."""
     wheelsets = []
@@ -64,4 +105,5 @@ def summary(run: Run) -> dict:
         "duration_s": float(run.t[-1]),
         "timestep_s": run.timestep,
         "wheelsets": wheelsets,
+        "hunting": hunting(run),
     }

@@ -166,6 +166,11 @@ def _print_summary(result: dict) -> None:
             f"{_fmt(w['growth_rate_per_s'], '>12.4f')}  {_fmt(w['frequency_hz'], '>14.4f')}  "
             f"{_fmt(w['wavelength_m'], '>14.3f')}"
         )
+    h = result.get("hunting")
+    if h is not None:
+        worst = max(h["max_rms_n"])
+        click.echo(f"hunting (EN 14363, rms Sigma Y over 100 m): {'YES' if h['hunting'] else 'no'}, "
+                   f"largest {worst / 1e3:.1f} kN against a limit of {h['limit_n'] / 1e3:.1f} kN")
     if "csv" in result:
         click.echo(f"samples: {result['csv']}")
     if "rrd" in result:

@@ -23,6 +23,7 @@ from typing import Callable
 import mujoco
 import numpy as np
 
+from rail_mj.creep import wheelset_forces
 from rail_mj.forces import CreepForces, installed
 from rail_mj.layout import Layout
 from rail_mj.linear import state_matrix
@@ -72,6 +73,21 @@ class Run:
     body_pos: np.ndarray  # (n_samples, nbody, 3): every body's position in the moving frame
     body_quat: np.ndarray  # (n_samples, nbody, 4): and orientation, MuJoCo's w, x, y, z
     final_state: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at the end
+    states: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at every sample
+
+    def guiding_forces(self) -> np.ndarray:
+        """(n_samples, n_wheelsets): the lateral force of the rails on each wheelset, N:
+        creep and flange, the sum of guiding forces (Sigma Y) of each wheelset."""
+        model = self.vehicle.model
+        data = mujoco.MjData(model)
+        forces = CreepForces(model, self.vehicle.wheelset_names, self.speed)
+        out = np.empty((len(self.t), len(self.vehicle.wheelset_names)))
+        for k, (q, v) in enumerate(zip(*self.states)):
+            data.qpos[:], data.qvel[:] = q, v
+            mujoco.mj_kinematics(model, data)
+            mujoco.mj_comPos(model, data)  # for the Jacobians
+            out[k] = wheelset_forces(forces.params, *forces.wheelset_states(model, data), self.speed)[0]
+        return out
 
     @property
     def layout(self) -> Layout:
@@ -189,20 +205,22 @@ def simulate(
     n_samples = -(-n_steps // every) + 1  # the last sample at or past `distance`
     t = np.arange(n_samples) * (every * dt)  # exact, where data.time accumulates round-off
     qpos = np.empty((n_samples, model.nq))
+    qvel = np.empty((n_samples, model.nv))
     pos = np.empty((n_samples, model.nbody, 3))
     quat = np.empty((n_samples, model.nbody, 4))
     kinematics = mujoco.MjData(model)
     ws = vehicle.wheelset_ids
 
     def partial(k: int) -> Run:
-        return Run(vehicle, speed, dt, t[:k].copy(), pos[:k].copy(), quat[:k].copy())
+        return Run(vehicle, speed, dt, t[:k].copy(), pos[:k].copy(), quat[:k].copy(),
+                   states=(qpos[:k].copy(), qvel[:k].copy()))
 
-    qpos[0] = data.qpos
+    qpos[0], qvel[0] = data.qpos, data.qvel
     done = 0  # samples converted to wheelset y and psi and checked
     with installed(forces):
         for k in range(1, n_samples):
             mujoco.mj_step(model, data, nstep=every)
-            qpos[k] = data.qpos
+            qpos[k], qvel[k] = data.qpos, data.qvel
             if k % CHECK_EVERY and k < n_samples - 1:
                 continue
             # Checked in batches: per-sample Python work would cost more than the steps.
@@ -230,7 +248,7 @@ def simulate(
             done = k + 1
             if progress is not None:
                 progress(k / (n_samples - 1))
-    return Run(vehicle, speed, dt, t, pos, quat, (data.qpos.copy(), data.qvel.copy()))
+    return Run(vehicle, speed, dt, t, pos, quat, (data.qpos.copy(), data.qvel.copy()), (qpos, qvel))
 
 
 def _body_poses(model, data, qpos: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -9,7 +10,8 @@ import pytest
 from rerun.chunk import RrdReader
 
 from conftest import MODELS
-from rail_mj.bifurcation import bifurcation, nonlinear_critical_speed
+from rail_mj.analysis import hunting_limit, sliding_rms
+from rail_mj.bifurcation import bifurcation
 from rail_mj.cli import main
 from rail_mj.creep import POLACH, ContactParameters, flange_force, rolling_radius_changes
 from rail_mj.layout import LayoutError, load_layout
@@ -132,3 +134,38 @@ def test_cli_nonlinear_needs_flange_contact(capsys):
     assert main(["critical-speed", str(MODELS / "bogie" / "bogie.toml"), "--method", "nonlinear"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "needs [flange] and a saturating creep law" in err
+
+
+def test_sliding_rms_matches_a_direct_sum():
+    rng = np.random.default_rng(3)
+    x = np.cumsum(rng.uniform(0.5, 1.5, 400))
+    signal = rng.normal(size=(400, 2))
+    rms = sliding_rms(x, signal, 50.0)
+    for k in (100, 250, 399):
+        inside = (x >= x[k] - 50.0) & (x <= x[k])
+        np.testing.assert_allclose(rms[k], np.sqrt(np.mean(signal[inside] ** 2, axis=0)), rtol=1e-9)
+    assert np.all(np.isnan(rms[x - x[0] < 50.0]))
+
+
+def test_guiding_force_is_newtons_law_for_a_wheelset_without_lateral_spring(tmp_path):
+    """With no lateral spring or damper the rails alone push the wheelset across the
+    track: Sigma Y = m * y''. Central second differences of 1 kHz samples of a 5 Hz
+    oscillation are accurate to (2*pi*f*dt)^2/12 = 8e-5; 1e-3 of the peak force allows it,
+    after the first 0.1 s (the creep-damped start, time constant m*V/(2*f22) = 4.5 ms,
+    is too fast for second differences)."""
+    layout = load_layout(flanged_wheelset(tmp_path))
+    run = simulate(layout, 50.0, 50.0 * 3.0, 0.002)  # below the critical speed: on the treads
+    force = run.guiding_forces()[:, 0]
+    acceleration = np.gradient(np.gradient(run.y[:, 0], run.t), run.t)
+    inner = slice(100, -5)
+    assert np.max(np.abs(force[inner] - layout.wheelset.mass * acceleration[inner])) < 1e-3 * np.max(np.abs(force))
+
+
+def test_hunting_detector(tmp_path, capsys):
+    """EN 14363: rms of Sigma Y over 100 m against (10 + 2*P0/3)/2 kN, P0 = 120 kN here."""
+    path = flanged_wheelset(tmp_path)
+    assert hunting_limit(120e3) == 45e3
+    for speed, expected in ((50.0, False), (75.0, True)):
+        assert main(["run", str(path), "--speed", str(speed), "--distance", "300", "--json"]) == 0
+        result = json.loads(capsys.readouterr().out)["hunting"]
+        assert result["hunting"] is expected and result["limit_n"] == 45e3
