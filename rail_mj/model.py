@@ -59,10 +59,15 @@ NUMERIC_FLANGE = "rail_mj/flange"  # on (1) or off (0), stiffness, damping, tan(
 LATERAL, YAW = "lateral", "yaw"
 
 
+def _g6(*values: float) -> list[float]:
+    """Numbers as MuJoCo's MJCF writer prints them, to 6 significant figures: every
+    physical number goes into the model through this, so that the written MJCF compiles
+    to exactly the model the runner simulates."""
+    return [float(f"{v:.6g}") for v in values]
+
+
 def _pos(x: float, z: float) -> list[float]:
-    """A body position; rounded to a nanometre so that the written MJCF (which prints
-    shortest round-trip decimals) compiles to exactly the in-memory model."""
-    return [round(x, 9), 0.0, round(z, 9)]
+    return _g6(x, 0.0, z)
 
 
 def _quat_about_x(angle: float) -> list[float]:
@@ -74,11 +79,11 @@ def _add_planar_joints(body, suspension: Suspension | None) -> None:
     s = suspension or Suspension(0.0, 0.0)
     body.add_joint(
         name=f"{body.name}_{LATERAL}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0],
-        stiffness=[s.lateral_stiffness, 0.0, 0.0], damping=[s.lateral_damping, 0.0, 0.0],
+        stiffness=_g6(s.lateral_stiffness, 0.0, 0.0), damping=_g6(s.lateral_damping, 0.0, 0.0),
     )
     body.add_joint(
         name=f"{body.name}_{YAW}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1],
-        stiffness=[s.yaw_stiffness, 0.0, 0.0], damping=[s.yaw_damping, 0.0, 0.0],
+        stiffness=_g6(s.yaw_stiffness, 0.0, 0.0), damping=_g6(s.yaw_damping, 0.0, 0.0),
     )
 
 
@@ -88,8 +93,8 @@ def _set_inertia(body, mass: float, inertia) -> None:
     # explicitly because an unset ipos is not the origin.
     body.ipos = [0.0, 0.0, 0.0]
     body.iquat = [1.0, 0.0, 0.0, 0.0]
-    body.mass = mass
-    body.inertia = list(inertia)
+    body.mass = _g6(mass)[0]
+    body.inertia = _g6(*inertia)
 
 
 def add_wheelset(parent, name: str, x: float, z: float, layout: Layout) -> None:
@@ -189,15 +194,15 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     add_carbody(spec.worldbody, layout)
 
     c = layout.creep
-    spec.add_numeric(name=NUMERIC_WHEEL, data=[
+    spec.add_numeric(name=NUMERIC_WHEEL, data=_g6(
         w.rolling_radius, w.contact_half_spacing, w.conicity, w.flangeway_clearance,
-    ])
-    spec.add_numeric(name=NUMERIC_CREEP, data=[c.f11, c.f22, c.f23, c.f33])
+    ))
+    spec.add_numeric(name=NUMERIC_CREEP, data=_g6(c.f11, c.f22, c.f23, c.f33))
     limit = c.friction * w.wheel_load if c.law != "linear" else 0.0  # unused by the linear law
-    spec.add_numeric(name=NUMERIC_SATURATION, data=[LAWS[c.law], limit])
+    spec.add_numeric(name=NUMERIC_SATURATION, data=_g6(LAWS[c.law], limit))
     f = layout.flange
-    spec.add_numeric(name=NUMERIC_FLANGE, data=[1.0, f.stiffness, f.damping, float(np.tan(f.angle))]
-                     if f else [0.0, 0.0, 0.0, 0.0])
+    spec.add_numeric(name=NUMERIC_FLANGE, data=_g6(1.0, f.stiffness, f.damping, np.tan(f.angle))
+                     if f else _g6(0.0, 0.0, 0.0, 0.0))
     return spec
 
 

@@ -18,6 +18,13 @@ WHEELSET = {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0], "rolling_radius"
 BOGIE_FRAME = {"mass": 2615.0, "inertia": [1722.0, 1476.0, 3067.0]}
 
 
+def linear_text(name: str) -> str:
+    """A shipped layout's TOML with linear creep and no flange contact: the classical model."""
+    lines = (MODELS / name / f"{name}.toml").read_text().splitlines(keepends=True)
+    drop = ("law =", "friction =", "[flange]", "wheel_load =")
+    return "".join(line for line in lines if not line.startswith(drop))
+
+
 def free_wheelset(r0: float, b: float, lam: float, f11=10e6, f22=9e6):
     """One wheelset with no suspension at all, under a body held over the centreline."""
     return layout_from_dict({

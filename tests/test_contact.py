@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import MODELS
+from conftest import MODELS, linear_text
 from rail_mj.cli import main
 from rail_mj.contact import KALKER, KALKER_S, contact_patch, hertz_ellipse, kalker_coefficients
 from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
@@ -79,7 +79,7 @@ def test_kalker_table_refuses_ellipses_it_does_not_cover():
         kalker_coefficients(0.05, 0.28)
 
 
-CONTACT_LAYOUT = (MODELS / "manchester-coach" / "manchester-coach.toml").read_text().replace(
+CONTACT_LAYOUT = linear_text("manchester-coach").replace(
     """[creep]
 f11 = 10.0e6
 f22 = 9.0e6

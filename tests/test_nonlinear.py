@@ -131,7 +131,7 @@ def test_nonlinear_critical_speed_is_below_the_linear_one(tmp_path):
 
 
 def test_cli_nonlinear_needs_flange_contact(capsys):
-    assert main(["critical-speed", str(MODELS / "bogie" / "bogie.toml"), "--method", "nonlinear"]) == 2
+    assert main(["critical-speed", str(MODELS / "wagon" / "wagon.toml"), "--method", "nonlinear"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "needs [flange] and a saturating creep law" in err
 

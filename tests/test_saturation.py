@@ -6,9 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import MODELS
+import tomllib
+
+from conftest import linear_text
 from rail_mj.creep import LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactParameters, saturation, wheelset_forces
-from rail_mj.layout import GRAVITY, LayoutError, load_layout
+from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
 from rail_mj.stability import Stability
 
 LIMIT = 0.3 * 50e3  # mu*N, N
@@ -56,7 +58,7 @@ def test_wheelset_forces_are_bounded_by_two_wheels_of_friction(law):
 
 
 def saturating(tmp_path, law: str):
-    text = (MODELS / "manchester-coach" / "manchester-coach.toml").read_text().replace(
+    text = linear_text("manchester-coach").replace(
         "f33 = 0.0\n", f'f33 = 0.0\nlaw = "{law}"\nfriction = 0.3\n')
     path = tmp_path / f"{law}.toml"
     path.write_text(text)
@@ -68,7 +70,7 @@ def test_saturation_keeps_the_linear_critical_speed(law, tmp_path):
     """Every law has Kalker's slope at zero, so the linearised vehicle is the same."""
     layout = saturating(tmp_path, law)
     assert layout.wheelset.wheel_load == pytest.approx(GRAVITY * (32000 + 2 * 2615 + 4 * 1813) / 8)
-    linear = Stability(load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")).critical_speed()
+    linear = Stability(layout_from_dict(tomllib.loads(linear_text("manchester-coach")))).critical_speed()
     saturated = Stability(layout).critical_speed()
     # The finite differences (rail_mj.linear, 1e-8 m) see SHE's O(u) curvature at
     # u ~ 1e-6, and Brent stops within 1e-4 of the crossing: agreement to 1e-4.
@@ -82,7 +84,7 @@ def test_saturation_keeps_the_linear_critical_speed(law, tmp_path):
     ('law = "polach"\nfriction = 0.0', "creep.friction: must be > 0"),
 ])
 def test_bad_creep_laws(change, fragment, tmp_path):
-    text = (MODELS / "bogie" / "bogie.toml").read_text().replace("f22 = 9.0e6\n", f"f22 = 9.0e6\n{change}\n")
+    text = linear_text("bogie").replace("f22 = 9.0e6\n", f"f22 = 9.0e6\n{change}\n")
     path = tmp_path / "bad.toml"
     path.write_text(text)
     with pytest.raises(LayoutError, match=fragment.replace(".", r"\.")):
@@ -90,7 +92,7 @@ def test_bad_creep_laws(change, fragment, tmp_path):
 
 
 def test_a_fixed_body_needs_a_wheel_load_for_saturation(tmp_path):
-    text = (MODELS / "bogie" / "bogie.toml").read_text().replace(
+    text = linear_text("bogie").replace(
         "f22 = 9.0e6\n", 'f22 = 9.0e6\nlaw = "polach"\nfriction = 0.3\n')
     path = tmp_path / "bad.toml"
     path.write_text(text)

@@ -1,0 +1,39 @@
+"""Nonlinear critical speed and bifurcation diagrams of the shipped bogie and coach.
+
+    python tools/nonlinear_examples.py [--out tools/figures]
+
+Both layouts carry Polach saturation and flange contact. Prints a Markdown table
+(copied into README.md) and writes bifurcation_<name>.png. Takes a few minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rail_mj.bifurcation import bifurcation
+from rail_mj.files import atomic_write
+from rail_mj.layout import load_layout
+from rail_mj.plots import bifurcation_png
+
+MODELS = Path(__file__).resolve().parent.parent / "models"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "figures"))
+    args = parser.parse_args()
+    print("| vehicle | linear critical speed | nonlinear critical speed | limit cycle at 1.1 x linear |")
+    print("|---|---|---|---|")
+    for name in ("bogie", "manchester-coach"):
+        layout = load_layout(MODELS / name / f"{name}.toml")
+        critical, down, up = bifurcation(layout, step=0.03)
+        atomic_write(Path(args.out) / f"bifurcation_{name}.png",
+                     bifurcation_png(critical, down, up, layout.wheelset.flangeway_clearance, name))
+        print(f"| {name} | {critical.linear_critical_speed:.1f} m/s | {critical.critical_speed:.1f} m/s "
+              f"({critical.mode}, {critical.frequency:.2f} Hz) | {down.amplitudes[0] * 1e3:.1f} mm at "
+              f"{down.speeds[0]:.1f} m/s |")
+
+
+if __name__ == "__main__":
+    main()
