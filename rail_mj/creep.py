@@ -80,7 +80,12 @@ def saturation(law: int, resultant, limit):
     raise ValueError(f"unknown creep law {law}")
 
 
-def rolling_radius_changes(p: ContactParameters, y):
+def on_flange(p: ContactParameters, y) -> bool:
+    """Whether any wheelset is past its flangeway clearance (and flange contact is on)."""
+    return p.flange and bool(np.any(np.abs(y) > p.clearance))
+
+
+def rolling_radius_changes(p: ContactParameters, y, engaged: bool | None = None):
     """(r_left - r0, r_right - r0) for a wheelset displaced y to the left of the track.
 
     On the tread each wheel is a cone: +/-lam*y. Past the flangeway clearance the contact
@@ -88,18 +93,18 @@ def rolling_radius_changes(p: ContactParameters, y):
     metre: the steep rise of the rolling-radius difference at flange contact.
     """
     tread = p.conicity * y
-    if not p.flange:
+    if not (on_flange(p, y) if engaged is None else engaged):
         return tread, -tread
     rise = p.flange_slope - p.conicity
     return (tread + rise * np.maximum(y - p.clearance, 0.0),
             -tread + rise * np.maximum(-y - p.clearance, 0.0))
 
 
-def flange_force(p: ContactParameters, y, y_dot):
+def flange_force(p: ContactParameters, y, y_dot, engaged: bool | None = None):
     """Lateral force (N) of the rails on each wheelset's flanges: zero within the
     flangeway clearance, beyond it an elastic rail (stiffness k, damping c) that
     only pushes: -sign(y) * max(0, k*(|y| - clearance) + c*|y|')."""
-    if not p.flange:
+    if not (on_flange(p, y) if engaged is None else engaged):
         return np.zeros_like(y)
     over = np.abs(y) - p.clearance
     side = np.sign(y)
@@ -107,14 +112,15 @@ def flange_force(p: ContactParameters, y, y_dot):
     return np.where(over > 0, -side * push, 0.0)
 
 
-def creepages(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
+def creepages(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float,
+              engaged: bool | None = None):
     """Creepages (reference sheet, section 2): (xi_x_left, xi_x_right, xi_y, xi_sp).
 
     On the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and xi_x_right is its negative; the
     lateral creepage is the same on both wheels, and the spin differs between them only
     by the constant contact-angle term, which cancels between the two wheels.
     """
-    dr_left, dr_right = rolling_radius_changes(p, y)
+    dr_left, dr_right = rolling_radius_changes(p, y, engaged)
     turning = p.b * psi_dot / speed
     xi_y = y_dot / speed - psi
     return -turning - dr_left / p.r0, turning - dr_right / p.r0, xi_y, psi_dot / speed
@@ -138,7 +144,8 @@ def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
 
         Fy = -2*f22*(y_dot/V - psi),   Mz = -2*f11*b*(b*psi_dot/V + lam*y/r0).
     """
-    xi_left, xi_right, xi_y, xi_sp = creepages(p, y, psi, y_dot, psi_dot, speed)
+    engaged = on_flange(p, y)  # decided once for the radii and the flange force
+    xi_left, xi_right, xi_y, xi_sp = creepages(p, y, psi, y_dot, psi_dot, speed, engaged)
     fx = -p.f11 * np.stack([xi_left, xi_right])  # (2, n): left wheels, right wheels
     fy = -p.f22 * xi_y - p.f23 * xi_sp  # the same on both wheels
     if p.law == LINEAR:
@@ -146,6 +153,7 @@ def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
     else:
         fx, fy = _saturated(p, fx, np.broadcast_to(fy, fx.shape))
         fy_sum = fy[0] + fy[1]
-    fy_sum = fy_sum + flange_force(p, y, y_dot)
+    if engaged:
+        fy_sum = fy_sum + flange_force(p, y, y_dot, engaged)
     mz = p.b * (fx[1] - fx[0]) + 2.0 * (p.f23 * xi_y - p.f33 * xi_sp)
     return fy_sum, mz
