@@ -7,10 +7,14 @@ it dies: the nonlinear critical speed, below the linear one (reference sheet,
 section 7). Raising the speed from a small disturbance follows the centred branch
 up to the linear critical speed, where the motion jumps onto the limit cycle.
 
-Example:
+Example (about a minute; the layout needs [flange] and a saturating creep law):
 
-    >>> from rail_mj import load_layout
-    >>> # (see tests/test_bifurcation.py for a layout with [flange] and a saturating law)
+    from rail_mj import load_layout
+    from rail_mj.bifurcation import nonlinear_critical_speed
+    critical, branch = nonlinear_critical_speed(load_layout("models/bogie/bogie.toml"))
+    critical.critical_speed, critical.linear_critical_speed   # about 63 and 80.8 m/s
+
+tests/test_nonlinear.py runs it on a restrained wheelset.
 """
 
 from __future__ import annotations
