@@ -38,7 +38,7 @@ MAX_STEPS = 50_000_000  # about half an hour of stepping: beyond this, refuse
 SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
 CHECK_EVERY = 200  # samples between divergence checks
 # A wheel further off-centre than the width of the rail head (UIC60: 72 mm) has
-# left the rail: the linear model has no flange contact to stop it getting there.
+# left the rail: without [flange] nothing stops it getting there.
 DERAILMENT_LATERAL = 0.072
 
 
@@ -238,11 +238,12 @@ def simulate(
             if len(off):
                 j = done + off[0]
                 worst = int(np.argmax(lateral[off[0]]))
+                why = ("the flanges did not hold it at this speed" if layout.flange else
+                       "without [flange] contact nothing bounds the hunting")
                 raise Derailed(
                     f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
                     f"x = {speed * t[j]:.4g} m (t = {t[j]:.4g} s). {speed:g} m/s is above "
-                    f"this vehicle's critical speed, and linear creep has no flange contact to "
-                    f"bound the hunting; lower --speed or shorten --distance",
+                    f"this vehicle's critical speed, and {why}; lower --speed or shorten --distance",
                     partial(j + 1),
                 )
             done = k + 1
