@@ -85,6 +85,14 @@ def hunting(run: Run) -> dict | None:
     }
 
 
+def late_motion(run: Run) -> tuple[np.ndarray, np.ndarray]:
+    """Times and lateral displacement of the wheelset that moves most over the second half
+    of a run, when the least-damped mode (or a limit cycle) has outlived the rest."""
+    late = run.t >= run.t[-1] / 2
+    i = int(np.argmax(np.max(np.abs(run.y[late]), axis=0)))
+    return run.t[late], run.y[late, i]
+
+
 def summary(run: Run) -> dict:
     """Per wheelset: largest |y|, growth rate, dominant frequency and wavelength."""
     wheelsets = []

@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from rail_mj.analysis import late_motion, oscillation
 from rail_mj.layout import Layout
 from rail_mj.runner import simulate
 from rail_mj.stability import CriticalSpeed, Stability
@@ -48,14 +49,10 @@ class Branch:
 
 def _amplitude(run) -> tuple[float, float, float]:
     """(amplitude, its change from the first to the second quarter of the late half, frequency)."""
-    from rail_mj.analysis import oscillation
-
-    late = run.t >= run.t[-1] / 2
-    y = run.y[late]
-    i = int(np.argmax(np.max(np.abs(y), axis=0)))
+    t, y = late_motion(run)
     half = len(y) // 2
-    first, second = np.max(np.abs(y[:half, i])), np.max(np.abs(y[half:, i]))
-    freq, _ = oscillation(run.t[late], y[:, i])
+    first, second = np.max(np.abs(y[:half])), np.max(np.abs(y[half:]))
+    freq, _ = oscillation(t, y)
     return float(second), float(second - first), freq
 
 

@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.creep import wheelset_forces
-from rail_mj.forces import CreepForces, installed
+from rail_mj.forces import CreepForces, contact_parameters, installed
 from rail_mj.layout import Layout
 from rail_mj.linear import state_matrix
 from rail_mj.model import YAW, Vehicle
@@ -72,22 +72,16 @@ class Run:
     t: np.ndarray
     body_pos: np.ndarray  # (n_samples, nbody, 3): every body's position in the moving frame
     body_quat: np.ndarray  # (n_samples, nbody, 4): and orientation, MuJoCo's w, x, y, z
+    wheelset_rates: np.ndarray  # (n_samples, n_wheelsets, 2): y_dot (m/s) and psi_dot (rad/s)
     final_state: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at the end
-    states: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at every sample
 
     def guiding_forces(self) -> np.ndarray:
         """(n_samples, n_wheelsets): the lateral force of the rails on each wheelset, N:
-        creep and flange, the sum of guiding forces (Sigma Y) of each wheelset."""
-        model = self.vehicle.model
-        data = mujoco.MjData(model)
-        forces = CreepForces(model, self.vehicle.wheelset_names, self.speed)
-        out = np.empty((len(self.t), len(self.vehicle.wheelset_names)))
-        for k, (q, v) in enumerate(zip(*self.states)):
-            data.qpos[:], data.qvel[:] = q, v
-            mujoco.mj_kinematics(model, data)
-            mujoco.mj_comPos(model, data)  # for the Jacobians
-            out[k] = wheelset_forces(forces.params, *forces.wheelset_states(model, data), self.speed)[0]
-        return out
+        creep and flange, the sum of guiding forces (Sigma Y) of each wheelset. One call of
+        the creep law over every sample, from the states the run recorded."""
+        params = contact_parameters(self.vehicle.model, len(self.vehicle.wheelset_names))
+        rates = self.wheelset_rates
+        return wheelset_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed)[0]
 
     @property
     def layout(self) -> Layout:
@@ -211,9 +205,10 @@ def simulate(
     kinematics = mujoco.MjData(model)
     ws = vehicle.wheelset_ids
 
+    rates = np.empty((n_samples, len(ws), 2))
+
     def partial(k: int) -> Run:
-        return Run(vehicle, speed, dt, t[:k].copy(), pos[:k].copy(), quat[:k].copy(),
-                   states=(qpos[:k].copy(), qvel[:k].copy()))
+        return Run(vehicle, speed, dt, t[:k].copy(), pos[:k].copy(), quat[:k].copy(), rates[:k].copy())
 
     qpos[0], qvel[0] = data.qpos, data.qvel
     done = 0  # samples converted to wheelset y and psi and checked
@@ -224,7 +219,9 @@ def simulate(
             if k % CHECK_EVERY and k < n_samples - 1:
                 continue
             # Checked in batches: per-sample Python work would cost more than the steps.
-            _body_poses(model, kinematics, qpos[done:k + 1], pos[done:k + 1], quat[done:k + 1])
+            batch = slice(done, k + 1)
+            _sample_kinematics(model, kinematics, ws, qpos[batch], qvel[batch], pos[batch],
+                               quat[batch], rates[batch])
             warning = _warnings(data)
             if warning or not np.all(np.isfinite(qpos[done:k + 1])):
                 raise SimulationError(
@@ -249,12 +246,20 @@ def simulate(
             done = k + 1
             if progress is not None:
                 progress(k / (n_samples - 1))
-    return Run(vehicle, speed, dt, t, pos, quat, (data.qpos.copy(), data.qvel.copy()), (qpos, qvel))
+    return Run(vehicle, speed, dt, t, pos, quat, rates, (data.qpos.copy(), data.qvel.copy()))
 
 
-def _body_poses(model, data, qpos: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
-    """Every body's position and orientation for each row of `qpos` (filled in place)."""
+def _sample_kinematics(model, data, wheelsets, qpos, qvel, pos, quat, rates) -> None:
+    """For each sample (row of qpos, qvel): every body's position and orientation, and each
+    wheelset's lateral and yaw rates in the track frame (all filled in place)."""
+    velocity = np.empty(6)
     for k in range(len(qpos)):
-        data.qpos[:] = qpos[k]
+        data.qpos[:], data.qvel[:] = qpos[k], qvel[k]
         mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_comVel(model, data)
         pos[k], quat[k] = data.xpos, data.xquat
+        for i, body in enumerate(wheelsets):
+            # [angular, linear] velocity of the body origin, in the world (track) frame.
+            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, velocity, 0)
+            rates[k, i] = velocity[4], velocity[2]

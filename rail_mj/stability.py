@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 from scipy.optimize import brentq
 
-from rail_mj.analysis import oscillation
+from rail_mj.analysis import late_motion, oscillation
 from rail_mj.forces import CreepForces
 from rail_mj.layout import Layout
 from rail_mj.linear import state_matrix
@@ -116,6 +116,7 @@ class Stability:
             mujoco.mj_jacBody(model, self.data, jacp, jacr, model.body(name).id)
             self._absolute[name] = (jacp[1].copy(), jacr[2].copy())
         self._mass = {n: (model.body(n).mass[0], model.body(n).inertia[2]) for n in self.bodies}
+        self._yaw_arm = {n: self._arm(n) for n in self.bodies}
 
     # --- linearisation ------------------------------------------------------
 
@@ -204,9 +205,9 @@ class Stability:
         """('lateral', 'yaw') or ('yaw', 'lateral'), the larger motion first: the lateral
         motion at the centre against the lateral motion that yaw makes at the ends."""
         lateral, yaw = motion[body]
-        return ("lateral", "yaw") if lateral >= yaw * self._yaw_arm(body) else ("yaw", "lateral")
+        return ("lateral", "yaw") if lateral >= yaw * self._yaw_arm[body] else ("yaw", "lateral")
 
-    def _yaw_arm(self, body: str) -> float:
+    def _arm(self, body: str) -> float:
         """(Half the frame's length)^2 * m / Iz: turns yaw energy into end-lateral energy."""
         model = self.model
         children = [model.body_pos[i][0] for i in range(model.nbody)
@@ -280,10 +281,8 @@ TIME_DISTURBANCE = (1e-4, 1e-5)  # initial lateral (m) and wheelset yaw (rad): s
 
 def late_growth(run) -> tuple[float, float]:
     """Growth rate (1/s) and frequency (Hz) of the largest wheelset motion over the
-    second half of a run, when the least-damped mode has outlived the others."""
-    late = run.t >= run.t[-1] / 2
-    i = int(np.argmax(np.max(np.abs(run.y[late]), axis=0)))
-    freq, sigma = oscillation(run.t[late], run.y[late, i])
+    second half of a run (`late_motion`)."""
+    freq, sigma = oscillation(*late_motion(run))
     return sigma, freq
 
 

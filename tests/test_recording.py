@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pyarrow as pa
-import pytest
 from rerun.chunk import RrdReader
 
 from conftest import MODELS

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from conftest import BOGIE_FRAME, MODELS, SHIPPED, WHEELSET, free_truck
+from conftest import MODELS, SHIPPED, free_truck
 from planar import closed_form_critical_speed, planar_eigenvalues
 from rail_mj.cli import main
 from rail_mj.forces import CreepForces, installed
