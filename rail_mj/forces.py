@@ -37,11 +37,12 @@ from rail_mj.model import NUMERIC_CREEP, NUMERIC_FLANGE, NUMERIC_SATURATION, NUM
 def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParameters:
     r0, b, conicity, clearance = model.numeric(NUMERIC_WHEEL).data
     f11, f22, f23, f33 = model.numeric(NUMERIC_CREEP).data
-    law, limit = model.numeric(NUMERIC_SATURATION).data
+    law, limit, falling_ratio, falling_rate = model.numeric(NUMERIC_SATURATION).data
     flange, stiffness, damping, slope = model.numeric(NUMERIC_FLANGE).data
     return ContactParameters.broadcast(
         n_wheelsets, r0=r0, b=b, conicity=conicity, f11=f11, f22=f22, f23=f23, f33=f33,
-        friction_limit=limit, law=int(law), clearance=clearance, flange_stiffness=stiffness,
+        friction_limit=limit, falling_friction_ratio=falling_ratio, falling_friction_rate=falling_rate,
+        law=int(law), clearance=clearance, flange_stiffness=stiffness,
         flange_damping=damping, flange_slope=slope if flange else None,
     )
 

@@ -56,6 +56,10 @@ class Creep:
     f33: float = 0.0  # N m^2, spin
     law: str = "linear"  # one of rail_mj.creep.LAWS
     friction: float | None = None  # mu, for the saturating laws
+    # Polach's falling friction (2005), mu = mu0*((1 - A)*exp(-B*w) + A) with slip velocity
+    # w: A = mu_infinity/mu0 and B. A = 1 keeps mu constant (the 1999 law).
+    falling_friction_ratio: float = 1.0  # A
+    falling_friction_rate: float = 0.0  # B, s/m
 
 
 @dataclasses.dataclass(frozen=True)
@@ -287,6 +291,15 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if law not in LAWS:
         t.fail("law", f"must be one of {', '.join(LAWS)}, got {law!r}")
     friction = t.number("friction", low=0.0, low_open=True, high=2.0, required=law != "linear")
+    falling = {k: t.get(k, None, required=False) for k in ("falling_friction_ratio", "falling_friction_rate")}
+    if any(v is not None for v in falling.values()):
+        if law != "polach":
+            t.fail(next(k for k, v in falling.items() if v is not None),
+                   f"falling friction belongs to the polach law, not {law!r}")
+        falling = dict(falling_friction_ratio=t.number("falling_friction_ratio", low=0.0, low_open=True, high=1.0),
+                       falling_friction_rate=t.positive("falling_friction_rate"))
+    else:
+        falling = {}
     creep_table = t
 
     primary = _suspension(_Table(source, "primary", top.get("primary")))
@@ -348,7 +361,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if has_contact:
         contact, coefficients = _contact(_Table(source, "contact", top.get("contact")), wheelset)
     creep_table.done()
-    creep = Creep(**coefficients, law=law, friction=friction)
+    creep = Creep(**coefficients, law=law, friction=friction, **falling)
     flange = None
     if top.get("flange", None, required=False) is not None:
         t = _Table(source, "flange", top.get("flange"))

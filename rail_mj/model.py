@@ -52,7 +52,8 @@ DEFAULT_TIMESTEP = 1e-3
 # so that a generated MJCF alone is enough to simulate the vehicle.
 NUMERIC_WHEEL = "rail_mj/wheel"  # r0, b, conicity, flangeway clearance
 NUMERIC_CREEP = "rail_mj/creep"  # f11, f22, f23, f33
-NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAWS), mu*N per wheel
+NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAWS), mu*N per wheel,
+# and Polach's falling friction: mu_infinity/mu0 and its rate, s/m
 NUMERIC_FLANGE = "rail_mj/flange"  # on (1) or off (0), stiffness, damping, tan(flange angle)
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
@@ -199,7 +200,8 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     ))
     spec.add_numeric(name=NUMERIC_CREEP, data=_g6(c.f11, c.f22, c.f23, c.f33))
     limit = c.friction * w.wheel_load if c.law != "linear" else 0.0  # unused by the linear law
-    spec.add_numeric(name=NUMERIC_SATURATION, data=_g6(LAWS[c.law], limit))
+    spec.add_numeric(name=NUMERIC_SATURATION, data=_g6(LAWS[c.law], limit, c.falling_friction_ratio,
+                                                       c.falling_friction_rate))
     f = layout.flange
     spec.add_numeric(name=NUMERIC_FLANGE, data=_g6(1.0, f.stiffness, f.damping, np.tan(f.angle))
                      if f else _g6(0.0, 0.0, 0.0, 0.0))

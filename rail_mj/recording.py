@@ -33,6 +33,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from rail_mj.analysis import flange_strikes
 from rail_mj.files import staged
 from rail_mj.model import RAIL_HEAD_WIDTH
 from rail_mj.runner import Run
@@ -112,16 +113,14 @@ def log_flange_contacts(rec: rr.RecordingStream, run: Run, indexes) -> None:
     positive into the left rail), and a log line each time a flange strikes a rail."""
     clearance = run.layout.wheelset.flangeway_clearance
     into = np.sign(run.y) * np.maximum(np.abs(run.y) - clearance, 0.0)
-    times, distances, lines = [], [], []
     for i in range(run.n_wheelsets):
         rec.log(flange_path(i), rr.SeriesLines(names=f"wheelset {i + 1} (m)"), static=True)
         rec.send_columns(flange_path(i), indexes=indexes, columns=rr.Scalars.columns(scalars=into[:, i]))
-        side = np.sign(into[:, i])
-        for k in np.nonzero((side != 0) & (side != np.concatenate([[0.0], side[:-1]])))[0]:
-            rail = "left" if side[k] > 0 else "right"
-            times.append(run.t[k])
-            distances.append(int(round(run.x[k] * 1000.0)))
-            lines.append(f"wheelset {i + 1} flange strikes the {rail} rail at x = {run.x[k]:.2f} m")
+    strikes = flange_strikes(run)
+    times = [run.t[s.start] for s in strikes]
+    distances = [int(round(run.x[s.start] * 1000.0)) for s in strikes]
+    lines = [f"wheelset {s.wheelset + 1} flange strikes the {'left' if s.side > 0 else 'right'} rail "
+             f"at x = {run.x[s.start]:.2f} m" for s in strikes]
     if lines:
         order = np.argsort(times, kind="stable")
         rec.send_columns(FLANGE_EVENTS, indexes=[

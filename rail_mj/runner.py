@@ -23,7 +23,7 @@ from typing import Callable
 import mujoco
 import numpy as np
 
-from rail_mj.creep import wheelset_forces
+from rail_mj.creep import ContactForces, contact_forces
 from rail_mj.forces import CreepForces, contact_parameters, installed
 from rail_mj.layout import Layout
 from rail_mj.linear import state_matrix
@@ -75,13 +75,18 @@ class Run:
     wheelset_rates: np.ndarray  # (n_samples, n_wheelsets, 2): y_dot (m/s) and psi_dot (rad/s)
     final_state: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at the end
 
-    def guiding_forces(self) -> np.ndarray:
-        """(n_samples, n_wheelsets): the lateral force of the rails on each wheelset, N:
-        creep and flange, the sum of guiding forces (Sigma Y) of each wheelset. One call of
-        the creep law over every sample, from the states the run recorded."""
+    def contact_forces(self) -> ContactForces:
+        """The rails' forces on each wheelset at every sample, by origin: arrays of shape
+        (n_samples, n_wheelsets). One call of the creep law over every sample, from the
+        states the run recorded."""
         params = contact_parameters(self.vehicle.model, len(self.vehicle.wheelset_names))
         rates = self.wheelset_rates
-        return wheelset_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed)[0]
+        return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed)
+
+    def guiding_forces(self) -> np.ndarray:
+        """(n_samples, n_wheelsets): the sum of guiding forces (Sigma Y, N) of each
+        wheelset, creep and flange."""
+        return self.contact_forces().lateral
 
     @property
     def layout(self) -> Layout:

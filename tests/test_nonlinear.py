@@ -8,12 +8,14 @@ import math
 import numpy as np
 import pytest
 from rerun.chunk import RrdReader
+from scipy.optimize import minimize_scalar
 
 from conftest import MODELS
-from rail_mj.analysis import hunting_limit, sliding_rms
+from rail_mj.analysis import (band_pass, dominant_frequency, flange_strikes, hunting_limit, late_motion,
+                              oscillation, sliding_rms)
 from rail_mj.bifurcation import bifurcation
 from rail_mj.cli import main
-from rail_mj.creep import POLACH, ContactParameters, flange_force, rolling_radius_changes
+from rail_mj.creep import POLACH, ContactParameters, flange_force, flange_lead, rolling_radius_changes
 from rail_mj.layout import LayoutError, load_layout
 from rail_mj.plots import bifurcation_csv, bifurcation_png
 from rail_mj.recording import FLANGE_EVENTS, flange_path, write_recording
@@ -78,13 +80,19 @@ def test_flange_and_saturation_leave_the_linear_results_unchanged(tmp_path):
     assert flanged.frequency == pytest.approx(linear.frequency, rel=1e-4)
 
 
-def test_hunting_is_a_limit_cycle_held_by_the_flanges(tmp_path):
+@pytest.fixture(scope="module")
+def hunting_run(tmp_path_factory):
+    """The flanged wheelset at 75 m/s (1.3 x its critical speed) for 12 s."""
+    layout = load_layout(flanged_wheelset(tmp_path_factory.mktemp("hunting")))
+    return simulate(layout, 75.0, 75.0 * 12.0, 0.002)
+
+
+def test_hunting_is_a_limit_cycle_held_by_the_flanges(hunting_run):
     """At 75 m/s (1.3 x the critical speed) hunting grows onto the flanges and stays there.
     With no lateral spring, Newton across the track is m*y'' = F_creep + F_flange with
     |F_creep| <= 2*mu*N, so the rail deflection past the clearance is at most
     (m*max|y''| + 2*mu*N) / k_flange."""
-    layout = load_layout(flanged_wheelset(tmp_path))
-    run = simulate(layout, 75.0, 75.0 * 12.0, 0.002)
+    run, layout = hunting_run, hunting_run.layout
     y = run.y[:, 0]
     late = run.t > 6.0
     amplitude = np.max(np.abs(y[late]))
@@ -96,6 +104,56 @@ def test_hunting_is_a_limit_cycle_held_by_the_flanges(tmp_path):
     # A settled cycle: the late peaks are as high as each other to 2 %.
     peaks = [np.max(np.abs(y[(run.t > a) & (run.t <= a + 1.5)])) for a in (6.0, 7.5, 9.0, 10.5)]
     assert max(peaks) <= 1.02 * min(peaks)
+
+
+@pytest.mark.parametrize("degrees", [50.0, 60.0, 70.0, 75.0])
+@pytest.mark.parametrize("psi", [0.005, 0.013, 0.03, -0.013])
+@pytest.mark.parametrize("y", [0.010, -0.010])
+def test_flange_contact_lead_is_where_the_yawed_flange_meets_the_rail(degrees, psi, y):
+    """Search numerically, on the yawed flanging wheel's circle at the contact radius, for
+    the point furthest into the rail's flank (a face along the track, inclined at the
+    flange angle gamma): its longitudinal position is the contact's lead. The closed form
+    psi*(r*tan(gamma) - b) keeps first order in psi*tan(gamma), so it may be off by the
+    next order, r*(psi*tan(gamma))^3."""
+    gamma = math.radians(degrees)
+    p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=10e6,
+                                    friction_limit=MU * LOAD, law=POLACH, clearance=0.008,
+                                    flange_stiffness=K_FLANGE, flange_slope=math.tan(gamma))
+    side = math.copysign(1.0, y)
+    radius = 0.46 + max(float(d[0]) for d in rolling_radius_changes(p, np.array([y]), True))
+    forward = np.array([math.cos(psi), math.sin(psi), 0.0])
+    axle = np.array([-math.sin(psi), math.cos(psi), 0.0])
+    into_rail = np.array([0.0, side * math.sin(gamma), -math.cos(gamma)])
+
+    def point(theta):  # on the wheel's circle of the contact radius, theta ahead of the bottom
+        return side * 0.75 * axle + radius * (math.sin(theta) * forward - math.cos(theta) * np.array([0, 0, 1.0]))
+
+    best = minimize_scalar(lambda th: -into_rail @ point(th), bounds=(-0.5, 0.5), method="bounded",
+                           options={"xatol": 1e-12}).x
+    lead = float(flange_lead(p, np.array([y]), np.array([psi]))[0])
+    assert abs(lead - point(best)[0]) <= radius * abs(psi * math.tan(gamma)) ** 3
+
+
+def test_flange_strikes_begin_yawed_into_the_rail_and_turn_away(hunting_run):
+    """The seed and the reference sheet (section 7): at a flange strike the colliding wheel
+    is behind its partner, the wheelset yawed towards the struck rail. Every strike of the
+    limit cycle begins so, because the hunting wheelset arrives heading for the rail. On the
+    flange, though, contact mechanics turns it away: the rolling radius rising up the flange
+    makes the colliding wheel's longitudinal creep force push it forward (the creep couple,
+    reference section 2, with the radius difference), and the flange force, acting ahead of
+    the axle while the wheelset is yawed into the rail (`flange_lead`, for a 70 degree
+    flange), is a yaw stiffness |Q|*(r*tan(gamma) - b) against any yaw."""
+    run = hunting_run
+    y, psi = run.y[:, 0], run.psi[:, 0]
+    forces = run.contact_forces()
+    strikes = [strike for strike in flange_strikes(run) if 0 < strike.start and strike.end < len(y)]
+    assert len(strikes) >= 20
+    for _, s, e, towards in strikes:  # positive yaw moments and angles turn the wheelset into the struck rail
+        assert towards == np.sign(y[s]) and np.all(np.abs(y[s:e]) > 0.008) and abs(y[e]) <= 0.008
+        assert towards * psi[s] > 0  # arrives yawed into the rail: the colliding wheel behind
+        assert towards * psi[e - 1] < towards * psi[s]  # leaves turned away from it
+        assert towards * np.mean(forces.creep_couple[s:e, 0]) < 0
+        assert np.all(forces.flange_moment[s:e, 0] * psi[s:e] <= 0)
 
 
 def test_recording_marks_flange_contacts(tmp_path):
@@ -167,5 +225,27 @@ def test_hunting_detector(tmp_path, capsys):
     assert hunting_limit(120e3) == 45e3
     for speed, expected in ((50.0, False), (75.0, True)):
         assert main(["run", str(path), "--speed", str(speed), "--distance", "300", "--json"]) == 0
-        result = json.loads(capsys.readouterr().out)["hunting"]
+        summary = json.loads(capsys.readouterr().out)
+        result = summary["hunting"]
         assert result["hunting"] is expected and result["limit_n"] == 45e3
+    # The filter's f0 is the limit cycle's frequency, to the periodogram's resolution 1/duration.
+    run = simulate(load_layout(path), 75.0, 300.0, 0.002)  # the CLI's run: default disturbance
+    assert result["frequency_hz"] == pytest.approx(oscillation(*late_motion(run))[0], abs=1.0 / run.t[-1])
+
+
+def test_hunting_filter_keeps_the_hunting_and_drops_its_harmonics():
+    """EN 14363's band-pass around f0: a square-ish Sigma Y, a 5 Hz fundamental with a third
+    harmonic of a third its size, keeps the fundamental's rms. Run forwards and backwards, the
+    4th-order Butterworth band-pass passes 1 - 3e-6 of the amplitude at the band centre, half
+    at the band edges (3 and 7 Hz: -3 dB twice) and 6e-5 at 15 Hz, so the rms is the
+    fundamental's to 1e-5; 1e-4 allows it."""
+    t = np.arange(0.0, 20.0, 1e-3)
+    fundamental = 20e3 * np.sin(2 * np.pi * 5.0 * t)
+    guiding = np.column_stack([fundamental + 20e3 / 3 * np.sin(2 * np.pi * 15.0 * t), 0.5 * fundamental])
+    assert dominant_frequency(t, guiding) == pytest.approx(5.0, abs=1 / 20.0)  # the periodogram's resolution
+    filtered = band_pass(t, guiding, 5.0)
+    inner = slice(2000, -2000)  # away from the ends the filter starts and stops at
+    rms = np.sqrt(np.mean(filtered[inner] ** 2, axis=0))
+    np.testing.assert_allclose(rms, [20e3 / np.sqrt(2), 10e3 / np.sqrt(2)], rtol=1e-4)
+    half = band_pass(t, np.sin(2 * np.pi * 7.0 * t), 5.0)[inner]
+    assert np.sqrt(2 * np.mean(half**2)) == pytest.approx(0.5, rel=1e-3)  # the band edge

@@ -9,7 +9,8 @@ import pytest
 import tomllib
 
 from conftest import linear_text
-from rail_mj.creep import LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactParameters, saturation, wheelset_forces
+from rail_mj.creep import (LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactParameters, contact_forces,
+                           friction_limits, saturation, wheelset_forces)
 from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
 from rail_mj.stability import Stability
 
@@ -82,6 +83,14 @@ def test_saturation_keeps_the_linear_critical_speed(law, tmp_path):
     ('law = "coulomb"', "creep.law: must be one of linear, shen-hedrick-elkins, polach"),
     ('law = "polach"', "creep.friction: missing"),
     ('law = "polach"\nfriction = 0.0', "creep.friction: must be > 0"),
+    ('law = "shen-hedrick-elkins"\nfriction = 0.3\nfalling_friction_ratio = 0.4',
+     "creep.falling_friction_ratio: falling friction belongs to the polach law"),
+    ('law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 0.4', "creep.falling_friction_rate: missing"),
+    ('law = "polach"\nfriction = 0.3\nfalling_friction_rate = 0.6', "creep.falling_friction_ratio: missing"),
+    ('law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 1.5\nfalling_friction_rate = 0.6',
+     "creep.falling_friction_ratio: must be <= 1"),
+    ('law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 0.4\nfalling_friction_rate = -1',
+     "creep.falling_friction_rate: must be > 0"),
 ])
 def test_bad_creep_laws(change, fragment, tmp_path):
     text = linear_text("bogie").replace("f22 = 9.0e6\n", f"f22 = 9.0e6\n{change}\n")
@@ -100,3 +109,55 @@ def test_a_fixed_body_needs_a_wheel_load_for_saturation(tmp_path):
         load_layout(path)
     path.write_text(text.replace("conicity = 0.15\n", "conicity = 0.15\nwheel_load = 55e3\n"))
     assert load_layout(path).wheelset.wheel_load == 55e3
+
+
+# Polach's (2005) falling friction, with illustrative values: mu falls from mu0 (0.3, as in
+# the shipped models) towards A*mu0, A = mu_infinity/mu0 = 0.4, at the rate B = 0.6 s/m.
+FALLING = dict(friction_limit=LIMIT, falling_friction_ratio=0.4, falling_friction_rate=0.6, law=POLACH)
+
+
+def lateral_force_against_slip(speed: float, slips: np.ndarray, **law) -> np.ndarray:
+    """A centred, unyawed wheelset sliding sideways at y_dot = slip*V: Fy of both wheels."""
+    p = ContactParameters.broadcast(len(slips), r0=0.46, b=0.75, conicity=0.15, f11=10e6, f22=9e6, **law)
+    zero = np.zeros(len(slips))
+    return contact_forces(p, zero, zero, slips * speed, zero, speed).creep_lateral
+
+
+def test_falling_friction_keeps_kalkers_slope_and_falls_to_its_floor():
+    p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, f11=10e6, f22=9e6, **FALLING)
+    assert friction_limits(p, np.zeros(1))[0] == LIMIT  # at pure rolling mu is mu0
+    # Kalker's slope at zero: F/slip for slip 1e-9 is 2*f22 to the law's O(u) curvature.
+    assert lateral_force_against_slip(30.0, np.array([1e-9]), **FALLING)[0] / 1e-9 == pytest.approx(-2 * 9e6, rel=1e-6)
+    slips = np.linspace(0.0, 2.0, 200_001)  # up to 60 m/s of slip at 30 m/s: exp(-0.6*60) ~ 2e-16
+    force = -lateral_force_against_slip(30.0, slips, **FALLING)
+    assert np.all(force <= 2 * LIMIT) and np.all(force >= 0.0)
+    peak = int(np.argmax(force))
+    assert 0 < peak < len(slips) - 1  # it rises, then falls: falling friction
+    rounding = 1e-12 * LIMIT
+    assert np.all(np.diff(force[:peak + 1]) >= -rounding) and np.all(np.diff(force[peak:]) <= rounding)
+    # Far past saturation the force is the floor's friction, 2 * A * mu0 * N: Polach's
+    # law is then 1 - O(1/eps^3) of its limit, eps ~ 3e3 here, and exp(-B*w) ~ 2e-16.
+    assert force[-1] == pytest.approx(2 * 0.4 * LIMIT, rel=1e-9)
+    # Continuous: no step larger than Kalker's slope allows between neighbouring samples.
+    assert np.max(np.abs(np.diff(force))) <= 2 * 9e6 * (slips[1] - slips[0])
+
+
+def test_without_falling_friction_polach_is_unchanged():
+    slips = np.linspace(0.0, 0.05, 101)
+    constant = lateral_force_against_slip(30.0, slips, friction_limit=LIMIT, law=POLACH)
+    flat = lateral_force_against_slip(30.0, slips, friction_limit=LIMIT, law=POLACH,
+                                      falling_friction_ratio=1.0, falling_friction_rate=0.6)
+    assert np.array_equal(constant, flat)
+
+
+def test_falling_friction_keeps_the_linear_critical_speed(tmp_path):
+    """The friction only falls with slip, away from the centred state: the linearised
+    vehicle, and so the eigen critical speed, are those of the linear law."""
+    text = linear_text("manchester-coach").replace(
+        "f33 = 0.0\n", 'f33 = 0.0\nlaw = "polach"\nfriction = 0.3\n'
+                       'falling_friction_ratio = 0.4\nfalling_friction_rate = 0.6\n')
+    path = tmp_path / "falling.toml"
+    path.write_text(text)
+    linear = Stability(layout_from_dict(tomllib.loads(linear_text("manchester-coach")))).critical_speed()
+    falling = Stability(load_layout(path)).critical_speed()
+    assert falling.critical_speed == pytest.approx(linear.critical_speed, rel=1e-4)  # as the other laws
