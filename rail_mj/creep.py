@@ -1,8 +1,10 @@
-"""Wheel-rail contact and creep: Kalker's linear law on coned wheels.
+"""Wheel-rail contact and creep: Kalker's law on coned wheels, saturation, flanges.
 
-Pure numpy over arrays of wheelsets, apart from MuJoCo (the binding is
-`rail_mj.forces`): one call serves every wheelset of every vehicle in a model,
-it can be tested on its own, and it can later be compiled to native code.
+One wheelset at a time, written as plain scalar arithmetic and compiled with numba
+(the per-step force callback calls it four times a step: numpy's per-operation cost
+on arrays of a few wheelsets was most of a step). Apart from MuJoCo (the binding is
+`rail_mj.forces`), over arrays of any shape whose last axis is the wheelsets: one
+call serves every wheelset of a model at one instant, or a whole run's samples.
 
 Frames and signs are those of the reference sheet, section 1: y to the left,
 psi positive nose-left, forces in the track frame.
@@ -21,8 +23,10 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 
@@ -58,6 +62,11 @@ class ContactParameters:
         """Whether the law is Polach's with falling friction."""
         return self.law == POLACH and bool(np.any(self.falling_friction_ratio < 1.0))
 
+    @functools.cached_property
+    def table(self) -> np.ndarray:
+        """The per-wheelset numbers as rows of one array, for the compiled kernel."""
+        return np.ascontiguousarray(np.stack([getattr(self, name) for name in _ROWS]))
+
     @classmethod
     def broadcast(cls, n: int, *, r0, b, conicity, f11, f22, f23=0.0, f33=0.0,
                   friction_limit=np.inf, falling_friction_ratio=1.0, falling_friction_rate=0.0,
@@ -71,85 +80,84 @@ class ContactParameters:
                    full(flange_damping), full(flange_slope if flange else conicity), int(law), flange)
 
 
-def saturation(law: int, resultant, limit):
+# The rows of ContactParameters.table, in order.
+_ROWS = ("r0", "b", "conicity", "f11", "f22", "f23", "f33", "friction_limit", "falling_friction_ratio",
+         "falling_friction_rate", "clearance", "flange_stiffness", "flange_damping", "flange_slope")
+(_R0, _B, _LAM, _F11, _F22, _F23, _F33, _LIMIT, _FALL_RATIO, _FALL_RATE, _CLEARANCE, _K_FLANGE,
+ _C_FLANGE, _SLOPE) = range(len(_ROWS))
+
+def _ufunc(signature: str):
+    """Compile a scalar function into a numpy ufunc that compiled code can call too."""
+    return numba.vectorize([signature], cache=True)
+
+
+@_ufunc("float64(int64, float64, float64)")
+def saturation(law, resultant, limit):
     """The saturated tangential force for a linear (Kalker) resultant, per wheel.
 
     Shen-Hedrick-Elkins: u = F/(mu*N), mu*N*(u - u^2/3 + u^3/27) for u < 3, mu*N beyond.
     Polach: eps = pi*F/(4*mu*N), which is his pi*G*a*b*c*s/(4*N*mu) with G*a*b*c*s the
     Kalker resultant; (2*mu*N/pi)*(eps/(1 + eps^2) + atan(eps)). With falling friction
-    `limit` is mu(w)*N at each wheel's slip velocity (`friction_limits`).
+    `limit` is mu(w)*N at the wheel's slip velocity (`falling_friction`).
     Both have Kalker's slope at zero, never exceed mu*N, and are continuous.
     """
     if law == LINEAR:
         return resultant
-    u = np.minimum(resultant / limit, 1e100)  # far past saturation either way; no overflow
+    u = min(resultant / limit, 1e100)  # far past saturation either way; no overflow
     if law == SHEN_HEDRICK_ELKINS:
-        c = np.minimum(u, 3.0)
-        return limit * (c - c**2 / 3.0 + c**3 / 27.0)  # = limit from u = 3 on
-    if law == POLACH:
-        eps = np.pi * u / 4.0
-        return (2.0 * limit / np.pi) * (eps / (1.0 + eps**2) + np.arctan(eps))
-    raise ValueError(f"unknown creep law {law}")
+        c = min(u, 3.0)
+        return limit * (c - c * c / 3.0 + c * c * c / 27.0)  # = limit from u = 3 on
+    eps = math.pi * u / 4.0  # Polach
+    return (2.0 * limit / math.pi) * (eps / (1.0 + eps * eps) + math.atan(eps))
 
 
-def on_flange(p: ContactParameters, y) -> bool:
-    """Whether any wheelset is past its flangeway clearance (and flange contact is on)."""
-    return p.flange and bool(np.any(np.abs(y) > p.clearance))
+@_ufunc("float64(float64, float64, float64, float64)")
+def falling_friction(limit, ratio, rate, slip_velocity):
+    """mu*N at a wheel: Polach's (2005) falling friction mu0*((1 - A)*exp(-B*w) + A) at slip
+    velocity w (m/s), with limit = mu0*N, ratio A = mu_infinity/mu0 and rate B (s/m)."""
+    return limit * ((1.0 - ratio) * math.exp(-rate * slip_velocity) + ratio)
 
 
-def rolling_radius_changes(p: ContactParameters, y, engaged: bool | None = None):
-    """(r_left - r0, r_right - r0) for a wheelset displaced y to the left of the track.
+@_ufunc("float64(float64, float64, float64, float64)")
+def radius_rise(y, conicity, flange_slope, clearance):
+    """How much a wheel's rolling radius grows when the wheelset moves y towards its side
+    (r_left - r0 = radius_rise(y), r_right - r0 = radius_rise(-y)).
 
-    On the tread each wheel is a cone: +/-lam*y. Past the flangeway clearance the contact
-    runs up the flanging wheel's flange, whose radius rises as tan(flange angle) per
-    metre: the steep rise of the rolling-radius difference at flange contact.
+    On the tread each wheel is a cone: lam*y. Past the flangeway clearance the contact
+    runs up the flange, whose radius rises as tan(flange angle) per metre: the steep rise
+    of the rolling-radius difference at flange contact (flange_slope = lam: no flange).
     """
-    tread = p.conicity * y
-    if not (on_flange(p, y) if engaged is None else engaged):
-        return tread, -tread
-    rise = p.flange_slope - p.conicity
-    return (tread + rise * np.maximum(y - p.clearance, 0.0),
-            -tread + rise * np.maximum(-y - p.clearance, 0.0))
+    return conicity * y + (flange_slope - conicity) * max(y - clearance, 0.0)
 
 
-def flange_force(p: ContactParameters, y, y_dot, engaged: bool | None = None):
-    """Lateral force (N) of the rails on each wheelset's flanges: zero within the
-    flangeway clearance, beyond it an elastic rail (stiffness k, damping c) that
-    only pushes: -sign(y) * max(0, k*(|y| - clearance) + c*|y|')."""
-    if not (on_flange(p, y) if engaged is None else engaged):
-        return np.zeros_like(y)
-    over = np.abs(y) - p.clearance
-    side = np.sign(y)
-    push = np.maximum(p.flange_stiffness * over + p.flange_damping * side * y_dot, 0.0)
-    return np.where(over > 0, -side * push, 0.0)
+@_ufunc("float64(float64, float64, float64, float64, float64)")
+def flange_force(y, y_dot, clearance, stiffness, damping):
+    """Lateral force (N) of the rails on a wheelset's flanges: zero within the flangeway
+    clearance, beyond it an elastic rail (stiffness k, damping c) that only pushes:
+    -sign(y) * max(0, k*(|y| - clearance) + c*|y|')."""
+    over = abs(y) - clearance
+    if over <= 0.0:
+        return 0.0
+    side = 1.0 if y > 0.0 else -1.0
+    return -side * max(stiffness * over + damping * side * y_dot, 0.0)
 
 
-def creepages(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float,
-              engaged: bool | None = None):
-    """Creepages (reference sheet, section 2): (xi_x_left, xi_x_right, xi_y, xi_sp).
+@_ufunc("float64(float64, float64, float64, float64, float64)")
+def flange_lead(y, psi, radius, flange_slope, b):
+    """Where the flange contact lies along the track ahead of the wheelset centre, m, for
+    the flanging wheel's contact radius `radius`.
 
-    On the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and xi_x_right is its negative; the
-    lateral creepage is the same on both wheels, and the spin differs between them only
-    by the constant contact-angle term, which cancels between the two wheels.
+    A straight rail's surface normals have no longitudinal part, so the flange touches
+    it where the yawed flange cone's normal has none either: at sin(theta) =
+    tan(gamma)*tan(psi) ahead of the axle in the wheel's own plane (gamma: the flange
+    angle). The wheel's centre itself sits b*psi behind the wheelset's, so in the track
+    frame the left flange touches at psi*(r*tan(gamma) - b), r the contact radius (small
+    angles), and the right one, by mirror symmetry, at -psi*(r*tan(gamma) - b). A wheelset
+    yawed into the rail it strikes has its contact ahead, for a 70 degree flange
+    (r*tan(gamma) = 1.26 m against b = 0.75 m): there the flange force turns it away.
     """
-    dr_left, dr_right = rolling_radius_changes(p, y, engaged)
-    turning = p.b * psi_dot / speed
-    xi_y = y_dot / speed - psi
-    return -turning - dr_left / p.r0, turning - dr_right / p.r0, xi_y, psi_dot / speed
-
-
-def friction_limits(p: ContactParameters, slip_velocity):
-    """mu*N at each wheel: Polach's (2005) falling friction mu0*((1 - A)*exp(-B*w) + A)
-    at slip velocity w (m/s), which falls from mu0 at pure rolling towards A*mu0."""
-    a = p.falling_friction_ratio
-    return p.friction_limit * ((1.0 - a) * np.exp(-p.falling_friction_rate * slip_velocity) + a)
-
-
-def _saturated(p: ContactParameters, fx, fy, limit):
-    """Each wheel's (Fx, Fy) scaled together so that the resultant follows the creep law."""
-    linear = np.hypot(fx, fy)
-    scale = saturation(p.law, linear, limit) / np.maximum(linear, 1e-300)
-    return scale * fx, scale * fy
+    side = 1.0 if y > 0.0 else -1.0 if y < 0.0 else 0.0
+    return side * psi * (radius * flange_slope - b)
 
 
 class ContactForces(NamedTuple):
@@ -171,24 +179,71 @@ class ContactForces(NamedTuple):
         return self.creep_couple + self.spin_moment + self.flange_moment
 
 
-def flange_lead(p: ContactParameters, y, psi):
-    """Where the flange contact lies along the track ahead of the wheelset centre, m.
+@numba.njit(cache=True)
+def _saturated(law, fx, fy, limit):
+    """A wheel's (Fx, Fy) scaled together so that the resultant follows the creep law."""
+    linear = math.hypot(fx, fy)
+    scale = saturation(law, linear, limit) / max(linear, 1e-300)
+    return scale * fx, scale * fy
 
-    A straight rail's surface normals have no longitudinal part, so the flange touches
-    it where the yawed flange cone's normal has none either: at sin(theta) =
-    tan(gamma)*tan(psi) ahead of the axle in the wheel's own plane (gamma: the flange
-    angle). The wheel's centre itself sits b*psi behind the wheelset's, so in the track
-    frame the left flange touches at psi*(r*tan(gamma) - b), r the contact radius (small
-    angles), and the right one, by mirror symmetry, at -psi*(r*tan(gamma) - b). A wheelset
-    yawed into the rail it strikes has its contact ahead, for a 70 degree flange
-    (r*tan(gamma) = 1.26 m against b = 0.75 m): there the flange force turns it away.
-    """
-    radius = p.r0 + np.maximum(*rolling_radius_changes(p, y, True))  # the flanging wheel's
-    return np.sign(y) * psi * (radius * p.flange_slope - p.b)
+
+@numba.njit(cache=True)
+def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
+    """`contact_forces` over flat, contiguous state arrays: the last axis of the original
+    shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the five fields of
+    ContactForces, then the lateral and yaw sums."""
+    n = table.shape[1]
+    out = np.zeros((7, y.size))
+    for k in range(y.size):
+        p = table[:, k % n]
+        # Creepages (reference sheet, section 2): on the tread xi_x_left = -(b*psi'/V) -
+        # lam*y/r0 and xi_x_right is its negative; the lateral creepage is the same on both
+        # wheels, and the spin differs between them only by the constant contact-angle
+        # term, which cancels between the two wheels.
+        slope = p[_SLOPE] if flange else p[_LAM]
+        rise_left = radius_rise(y[k], p[_LAM], slope, p[_CLEARANCE])
+        rise_right = radius_rise(-y[k], p[_LAM], slope, p[_CLEARANCE])
+        turning = p[_B] * psi_dot[k] / speed
+        xi_left = -turning - rise_left / p[_R0]
+        xi_right = turning - rise_right / p[_R0]
+        xi_y = y_dot[k] / speed - psi[k]
+        xi_sp = psi_dot[k] / speed
+        # Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp.
+        fx_left, fx_right = -p[_F11] * xi_left, -p[_F11] * xi_right
+        fy_left = fy_right = -p[_F22] * xi_y - p[_F23] * xi_sp
+        if law != LINEAR:
+            limit_left = limit_right = p[_LIMIT]
+            if falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
+                limit_left = falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
+                                              speed * math.hypot(xi_left, xi_y))
+                limit_right = falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
+                                               speed * math.hypot(xi_right, xi_y))
+            fx_left, fy_left = _saturated(law, fx_left, fy_left, limit_left)
+            fx_right, fy_right = _saturated(law, fx_right, fy_right, limit_right)
+        out[0, k] = fy_left + fy_right
+        out[2, k] = p[_B] * (fx_right - fx_left)  # Fx_left acts at y = +b, Fx_right at -b
+        out[3, k] = 2.0 * (p[_F23] * xi_y - p[_F33] * xi_sp)  # Kalker: Mz = f23*xi_y - f33*xi_sp
+        if flange:
+            force = flange_force(y[k], y_dot[k], p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
+            if force != 0.0:
+                radius = p[_R0] + max(rise_left, rise_right)  # the flanging wheel's
+                out[1, k] = force
+                out[4, k] = force * flange_lead(y[k], psi[k], radius, p[_SLOPE], p[_B])
+        out[5, k] = out[0, k] + out[1, k]
+        out[6, k] = out[2, k] + out[3, k] + out[4, k]
+    return out
+
+
+def _evaluate(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
+    """The kernel's rows, each shaped like the states."""
+    shape = np.shape(y)
+    flat = [np.ascontiguousarray(v, dtype=np.float64).reshape(-1) for v in (y, psi, y_dot, psi_dot)]
+    return _kernel(p.table, p.law, p.flange, p.falling, *flat, float(speed)).reshape((7,) + shape)
 
 
 def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float) -> ContactForces:
-    """The rails' forces on each wheelset, by origin: see `ContactForces`.
+    """The rails' forces on each wheelset, by origin: see `ContactForces`. States are
+    arrays of one shape whose last axis is the wheelsets.
 
     Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
     A saturating law scales each wheel's (Fx, Fy) by one factor (the spin moment stays
@@ -196,25 +251,7 @@ def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float) -
     yaw moment b*(Fx_right - Fx_left). On the flange the rail adds its lateral force,
     applied at the contact's lead (`flange_lead`).
     """
-    engaged = on_flange(p, y)  # decided once for the radii and the flange force
-    xi_left, xi_right, xi_y, xi_sp = creepages(p, y, psi, y_dot, psi_dot, speed, engaged)
-    fx = -p.f11 * np.stack([xi_left, xi_right])  # (2, n): left wheels, right wheels
-    fy = -p.f22 * xi_y - p.f23 * xi_sp  # the same on both wheels
-    if p.law == LINEAR:
-        fy_sum = 2.0 * fy
-    else:
-        limit = p.friction_limit
-        if p.falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
-            limit = friction_limits(p, speed * np.hypot(np.stack([xi_left, xi_right]), xi_y))
-        fx, fy = _saturated(p, fx, np.broadcast_to(fy, fx.shape), limit)
-        fy_sum = fy[0] + fy[1]
-    spin = 2.0 * (p.f23 * xi_y - p.f33 * xi_sp)
-    if engaged:
-        flange = flange_force(p, y, y_dot, engaged)
-        flange_moment = flange * flange_lead(p, y, psi)
-    else:
-        flange = flange_moment = np.zeros_like(fy_sum)
-    return ContactForces(fy_sum, flange, p.b * (fx[1] - fx[0]), spin, flange_moment)
+    return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed)[:5])
 
 
 def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
@@ -224,5 +261,5 @@ def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
 
         Fy = -2*f22*(y_dot/V - psi),   Mz = -2*f11*b*(b*psi_dot/V + lam*y/r0).
     """
-    f = contact_forces(p, y, psi, y_dot, psi_dot, speed)
-    return f.lateral, f.yaw
+    rows = _evaluate(p, y, psi, y_dot, psi_dot, speed)
+    return rows[5], rows[6]

@@ -15,7 +15,7 @@ from rail_mj.analysis import (band_pass, dominant_frequency, flange_strikes, hun
                               oscillation, sliding_rms)
 from rail_mj.bifurcation import bifurcation
 from rail_mj.cli import main
-from rail_mj.creep import POLACH, ContactParameters, flange_force, flange_lead, rolling_radius_changes
+from rail_mj.creep import POLACH, ContactParameters, contact_forces, flange_force, flange_lead, radius_rise
 from rail_mj.layout import LayoutError, load_layout
 from rail_mj.plots import bifurcation_csv, bifurcation_png
 from rail_mj.recording import FLANGE_EVENTS, flange_path, write_recording
@@ -48,20 +48,30 @@ P = ContactParameters.broadcast(3, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=
 
 def test_flange_force_is_a_one_sided_elastic_rail():
     y = np.array([0.005, 0.010, -0.012])
-    force = flange_force(P, y, np.zeros(3))
+    force = flange_force(y, np.zeros(3), 0.008, K_FLANGE, 1e4)
     assert force[0] == 0.0  # within the clearance
     assert force[1] == pytest.approx(-K_FLANGE * 0.002)  # pushed back to the right
     assert force[2] == pytest.approx(K_FLANGE * 0.004)  # pushed back to the left
     # Leaving the rail fast, the damper may not pull the wheel back onto it.
-    assert flange_force(P, np.array([0.009]), np.array([-10.0]))[0] == 0.0
+    assert flange_force(0.009, -10.0, 0.008, K_FLANGE, 1e4) == 0.0
+    # The contact forces carry it, on flanged wheelsets only.
+    zero = np.zeros(3)
+    assert np.array_equal(contact_forces(P, y, zero, zero, zero, 30.0).flange_lateral, force)
 
 
 def test_rolling_radius_rises_up_the_flange():
     y = np.array([0.004, 0.008, 0.010])
-    left, right = rolling_radius_changes(P, y)
+    slope = math.tan(math.radians(70))
+    left, right = radius_rise(y, 0.1, slope, 0.008), radius_rise(-y, 0.1, slope, 0.008)
     np.testing.assert_allclose(right, -0.1 * y)  # the other wheel stays on its cone
     np.testing.assert_allclose(left[:2], 0.1 * y[:2])
-    assert left[2] == pytest.approx(0.1 * 0.008 + math.tan(math.radians(70)) * 0.002)
+    assert left[2] == pytest.approx(0.1 * 0.008 + slope * 0.002)
+    # With the linear law the creep couple is -f11*b*(r_left - r_right)/r0 (section 2).
+    linear = ContactParameters.broadcast(3, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=10e6,
+                                         clearance=0.008, flange_slope=slope)
+    zero = np.zeros(3)
+    couple = contact_forces(linear, y, zero, zero, zero, 30.0).creep_couple
+    np.testing.assert_allclose(couple, -10e6 * 0.75 * (left - right) / 0.46, rtol=1e-12)
 
 
 def test_flange_contact_needs_a_saturating_law(tmp_path):
@@ -116,11 +126,8 @@ def test_flange_contact_lead_is_where_the_yawed_flange_meets_the_rail(degrees, p
     psi*(r*tan(gamma) - b) keeps first order in psi*tan(gamma), so it may be off by the
     next order, r*(psi*tan(gamma))^3."""
     gamma = math.radians(degrees)
-    p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=10e6,
-                                    friction_limit=MU * LOAD, law=POLACH, clearance=0.008,
-                                    flange_stiffness=K_FLANGE, flange_slope=math.tan(gamma))
     side = math.copysign(1.0, y)
-    radius = 0.46 + max(float(d[0]) for d in rolling_radius_changes(p, np.array([y]), True))
+    radius = 0.46 + radius_rise(abs(y), 0.1, math.tan(gamma), 0.008)
     forward = np.array([math.cos(psi), math.sin(psi), 0.0])
     axle = np.array([-math.sin(psi), math.cos(psi), 0.0])
     into_rail = np.array([0.0, side * math.sin(gamma), -math.cos(gamma)])
@@ -130,7 +137,7 @@ def test_flange_contact_lead_is_where_the_yawed_flange_meets_the_rail(degrees, p
 
     best = minimize_scalar(lambda th: -into_rail @ point(th), bounds=(-0.5, 0.5), method="bounded",
                            options={"xatol": 1e-12}).x
-    lead = float(flange_lead(p, np.array([y]), np.array([psi]))[0])
+    lead = flange_lead(y, psi, radius, math.tan(gamma), 0.75)
     assert abs(lead - point(best)[0]) <= radius * abs(psi * math.tan(gamma)) ** 3
 
 

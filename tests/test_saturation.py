@@ -10,7 +10,7 @@ import tomllib
 
 from conftest import linear_text
 from rail_mj.creep import (LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactParameters, contact_forces,
-                           friction_limits, saturation, wheelset_forces)
+                           falling_friction, saturation, wheelset_forces)
 from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
 from rail_mj.stability import Stability
 
@@ -124,8 +124,7 @@ def lateral_force_against_slip(speed: float, slips: np.ndarray, **law) -> np.nda
 
 
 def test_falling_friction_keeps_kalkers_slope_and_falls_to_its_floor():
-    p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, f11=10e6, f22=9e6, **FALLING)
-    assert friction_limits(p, np.zeros(1))[0] == LIMIT  # at pure rolling mu is mu0
+    assert falling_friction(LIMIT, 0.4, 0.6, 0.0) == LIMIT  # at pure rolling mu is mu0
     # Kalker's slope at zero: F/slip for slip 1e-9 is 2*f22 to the law's O(u) curvature.
     assert lateral_force_against_slip(30.0, np.array([1e-9]), **FALLING)[0] / 1e-9 == pytest.approx(-2 * 9e6, rel=1e-6)
     slips = np.linspace(0.0, 2.0, 200_001)  # up to 60 m/s of slip at 30 m/s: exp(-0.6*60) ~ 2e-16

@@ -33,7 +33,7 @@ def main() -> None:
         speed = 1.1 * Stability(layout).critical_speed().critical_speed
         run = simulate(layout, speed, speed * (SETTLE + SAMPLE), 2 * layout.wheelset.flangeway_clearance)
         forces = run.contact_forces()
-        y, psi = run.y[:, 0], run.psi[:, 0]
+        psi = run.psi[:, 0]
         rows = [(side, s, e) for i, s, e, side in flange_strikes(run) if i == 0 and run.t[s] >= SETTLE]
         arrive = np.mean([side * psi[s] for side, s, e in rows]) * 1e3
         leave = np.mean([side * psi[e - 1] for side, s, e in rows]) * 1e3
