@@ -4,6 +4,8 @@ Entity paths (stable; later tools read them back):
 
     /lateral/wheelset<i>   lateral displacement y of wheelset i, m (Scalars)
     /yaw/wheelset<i>       yaw psi of wheelset i, rad (Scalars)
+    /guiding/wheelset<i>   the sum of guiding forces Sigma Y on wheelset i, N (Scalars):
+                           the lateral force of the rails, creep and flange
     /layout                the layout file and the run's settings, logged once
     /world/rails           the track, logged once
     /world/vehicle/<body>  each body's pose (car body, bogieK, wheelsetN) moving along
@@ -58,9 +60,14 @@ def yaw_path(i: int) -> str:
     return f"/yaw/wheelset{i + 1}"
 
 
+def guiding_path(i: int) -> str:
+    return f"/guiding/wheelset{i + 1}"
+
+
 def blueprint(flange: bool = False) -> rrb.Blueprint:
     plots = [rrb.TimeSeriesView(origin="/lateral", name="Lateral displacement y (m)"),
-             rrb.TimeSeriesView(origin="/yaw", name="Yaw psi (rad)")]
+             rrb.TimeSeriesView(origin="/yaw", name="Yaw psi (rad)"),
+             rrb.TimeSeriesView(origin="/guiding", name="Sum of guiding forces ΣY (N)")]
     if flange:
         plots += [rrb.TimeSeriesView(origin="/flange", name="Flange contact: rail deflection (m)"),
                   rrb.TextLogView(origin=FLANGE_EVENTS, name="Flange contacts")]
@@ -99,10 +106,12 @@ def log_run(rec: rr.RecordingStream, run: Run) -> None:
     log_vehicle(rec, run, indexes)
     if run.layout.flange is not None:
         log_flange_contacts(rec, run, indexes)
+    guiding = run.guiding_forces()
     for i in range(run.n_wheelsets):
         for path, values, unit in (
             (lateral_path(i), run.y[:, i], "m"),
             (yaw_path(i), run.psi[:, i], "rad"),
+            (guiding_path(i), guiding[:, i], "N"),
         ):
             rec.log(path, rr.SeriesLines(names=f"wheelset {i + 1} ({unit})"), static=True)
             rec.send_columns(path, indexes=indexes, columns=rr.Scalars.columns(scalars=values))

@@ -9,7 +9,8 @@ from rerun.chunk import RrdReader
 from conftest import MODELS
 from rail_mj.cli import main
 from rail_mj.layout import load_layout
-from rail_mj.recording import DISTANCE, TIME, flange_path, lateral_path, write_recording, yaw_path
+from rail_mj.recording import (DISTANCE, TIME, flange_path, guiding_path, lateral_path, write_recording,
+                               yaw_path)
 from rail_mj.runner import simulate
 
 
@@ -38,9 +39,12 @@ def test_recording_holds_the_run(tmp_path):
     series = read_series(path)
     # The shipped bogie has flange contact: its rail-deflection series come along.
     assert set(series) == ({lateral_path(i) for i in range(2)} | {yaw_path(i) for i in range(2)}
-                           | {flange_path(i) for i in range(2)})
+                           | {guiding_path(i) for i in range(2)} | {flange_path(i) for i in range(2)})
+    guiding = run.guiding_forces()
+    assert np.max(np.abs(guiding)) > 0
     for i in range(run.n_wheelsets):
-        for entity, expected in ((lateral_path(i), run.y[:, i]), (yaw_path(i), run.psi[:, i])):
+        for entity, expected in ((lateral_path(i), run.y[:, i]), (yaw_path(i), run.psi[:, i]),
+                                 (guiding_path(i), guiding[:, i])):
             t, dist, values = series[entity]
             order = np.argsort(t, kind="stable")
             np.testing.assert_array_equal(values[order], expected)  # float64 both ways: exact
@@ -61,7 +65,7 @@ def test_cli_writes_recording(tmp_path, capsys):
                    "--speed", "40", "--distance", "20", "--rrd", str(rrd)])
     assert status == 0 and rrd.is_file()
     assert f"rerun {rrd}" in capsys.readouterr().out
-    assert len(read_series(rrd)) == 3 * 4  # lateral, yaw and flange of four wheelsets
+    assert len(read_series(rrd)) == 4 * 4  # lateral, yaw, guiding forces and flange of four wheelsets
     assert [p.name for p in tmp_path.iterdir()] == ["coach.rrd"]  # no temporary left behind
 
 
