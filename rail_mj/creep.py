@@ -86,6 +86,7 @@ _ROWS = ("r0", "b", "conicity", "f11", "f22", "f23", "f33", "friction_limit", "f
 (_R0, _B, _LAM, _F11, _F22, _F23, _F33, _LIMIT, _FALL_RATIO, _FALL_RATE, _CLEARANCE, _K_FLANGE,
  _C_FLANGE, _SLOPE) = range(len(_ROWS))
 
+
 def _ufunc(signature: str):
     """Compile a scalar function into a numpy ufunc that compiled code can call too."""
     return numba.vectorize([signature], cache=True)
@@ -168,15 +169,8 @@ class ContactForces(NamedTuple):
     creep_couple: np.ndarray  # b*(Fx_right - Fx_left): the longitudinal creep forces' yaw moment
     spin_moment: np.ndarray  # 2*(f23*xi_y - f33*xi_sp): Kalker's spin moment, both wheels
     flange_moment: np.ndarray  # the flange force acting at the flange contact's lead
-
-    @property
-    def lateral(self):
-        """Sigma Y: everything lateral, creep and flange."""
-        return self.creep_lateral + self.flange_lateral
-
-    @property
-    def yaw(self):
-        return self.creep_couple + self.spin_moment + self.flange_moment
+    lateral: np.ndarray  # Sigma Y: everything lateral, creep and flange
+    yaw: np.ndarray  # every yaw moment
 
 
 @numba.njit(cache=True)
@@ -190,8 +184,8 @@ def _saturated(law, fx, fy, limit):
 @numba.njit(cache=True)
 def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     """`contact_forces` over flat, contiguous state arrays: the last axis of the original
-    shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the five fields of
-    ContactForces, then the lateral and yaw sums."""
+    shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
+    ContactForces, in order."""
     n = table.shape[1]
     out = np.zeros((7, y.size))
     for k in range(y.size):
@@ -251,7 +245,7 @@ def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float) -
     yaw moment b*(Fx_right - Fx_left). On the flange the rail adds its lateral force,
     applied at the contact's lead (`flange_lead`).
     """
-    return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed)[:5])
+    return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed))
 
 
 def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
