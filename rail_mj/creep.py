@@ -167,18 +167,17 @@ class ContactForces(NamedTuple):
     creep_lateral: np.ndarray  # Fy of both wheels' creep forces
     flange_lateral: np.ndarray  # the flange's lateral force, zero off the flange
     creep_couple: np.ndarray  # b*(Fx_right - Fx_left): the longitudinal creep forces' yaw moment
-    spin_moment: np.ndarray  # 2*(f23*xi_y - f33*xi_sp): Kalker's spin moment, both wheels
+    spin_moment: np.ndarray  # Kalker's f23*xi_y - f33*xi_sp of both wheels, saturated as their forces
     flange_moment: np.ndarray  # the flange force acting at the flange contact's lead
     lateral: np.ndarray  # Sigma Y: everything lateral, creep and flange
     yaw: np.ndarray  # every yaw moment
 
 
 @numba.njit(cache=True)
-def _saturated(law, fx, fy, limit):
-    """A wheel's (Fx, Fy) scaled together so that the resultant follows the creep law."""
+def _saturation_factor(law, fx, fy, limit):
+    """The factor that scales a wheel's linear (Fx, Fy) onto the creep law's resultant."""
     linear = math.hypot(fx, fy)
-    scale = saturation(law, linear, limit) / max(linear, 1e-300)
-    return scale * fx, scale * fy
+    return saturation(law, linear, limit) / max(linear, 1e-300)
 
 
 @numba.njit(cache=True)
@@ -202,9 +201,9 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
         xi_right = turning - rise_right / p[_R0]
         xi_y = y_dot[k] / speed - psi[k]
         xi_sp = psi_dot[k] / speed
-        # Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp.
-        fx_left, fx_right = -p[_F11] * xi_left, -p[_F11] * xi_right
-        fy_left = fy_right = -p[_F22] * xi_y - p[_F23] * xi_sp
+        # Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
+        fx, fy, mz = -p[_F11] * xi_left, -p[_F22] * xi_y - p[_F23] * xi_sp, p[_F23] * xi_y - p[_F33] * xi_sp
+        scale_left = scale_right = 1.0
         if law != LINEAR:
             limit_left = limit_right = p[_LIMIT]
             if falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
@@ -212,11 +211,14 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
                                               speed * math.hypot(xi_left, xi_y))
                 limit_right = falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
                                                speed * math.hypot(xi_right, xi_y))
-            fx_left, fy_left = _saturated(law, fx_left, fy_left, limit_left)
-            fx_right, fy_right = _saturated(law, fx_right, fy_right, limit_right)
-        out[0, k] = fy_left + fy_right
-        out[2, k] = p[_B] * (fx_right - fx_left)  # Fx_left acts at y = +b, Fx_right at -b
-        out[3, k] = 2.0 * (p[_F23] * xi_y - p[_F33] * xi_sp)  # Kalker: Mz = f23*xi_y - f33*xi_sp
+            # Fx, Fy and the spin moment of a wheel all saturate by one factor (a common
+            # simplification: Kalker's full theory saturates the moment its own way).
+            scale_left = _saturation_factor(law, fx, fy, limit_left)
+            scale_right = _saturation_factor(law, -p[_F11] * xi_right, fy, limit_right)
+        out[0, k] = (scale_left + scale_right) * fy
+        # Fx_left acts at y = +b, Fx_right at -b.
+        out[2, k] = p[_B] * (-p[_F11] * xi_right * scale_right - fx * scale_left)
+        out[3, k] = (scale_left + scale_right) * mz
         if flange:
             force = flange_force(y[k], y_dot[k], p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
             if force != 0.0:
@@ -240,8 +242,8 @@ def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float) -
     arrays of one shape whose last axis is the wheelsets.
 
     Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
-    A saturating law scales each wheel's (Fx, Fy) by one factor (the spin moment stays
-    linear). The longitudinal forces, Fx_left at y = +b and Fx_right at y = -b, make the
+    A saturating law scales each wheel's Fx, Fy and Mz by one factor, which brings the
+    resultant of (Fx, Fy) onto the law. The longitudinal forces, Fx_left at y = +b and Fx_right at y = -b, make the
     yaw moment b*(Fx_right - Fx_left). On the flange the rail adds its lateral force,
     applied at the contact's lead (`flange_lead`).
     """

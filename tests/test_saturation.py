@@ -160,3 +160,23 @@ def test_falling_friction_keeps_the_linear_critical_speed(tmp_path):
     linear = Stability(layout_from_dict(tomllib.loads(linear_text("manchester-coach")))).critical_speed()
     falling = Stability(load_layout(path)).critical_speed()
     assert falling.critical_speed == pytest.approx(linear.critical_speed, rel=1e-4)  # as the other laws
+
+
+@pytest.mark.parametrize("law", [SHEN_HEDRICK_ELKINS, POLACH])
+def test_spin_moment_saturates_with_the_forces(law):
+    """Reference case coefficients (section 5): f22 13.1 MN, f23 36.5 kN m, f33 121 N m^2.
+    Near zero creepage the moment is Kalker's; sliding sideways (xi_y alone) the moment
+    f23*xi_y and the force -f22*xi_y saturate together, so the moment stays f23/f22 times
+    the lateral force at every slip, and under 2*mu*N*f23/f22."""
+    coefficients = dict(r0=0.46, b=0.75, conicity=0.15, f11=14.3e6, f22=13.1e6, f23=36.5e3, f33=121.0,
+                        friction_limit=LIMIT, law=law)
+    zero = np.zeros(1)
+    small = contact_forces(ContactParameters.broadcast(1, **coefficients), zero, zero,
+                           np.array([1e-9 * 30.0]), np.array([1e-9 * 30.0 / 0.75]), 30.0)
+    linear = 2 * (36.5e3 * 1e-9 - 121.0 * 1e-9 / 0.75)  # xi_y = 1e-9, xi_sp = psi_dot/V
+    assert small.spin_moment[0] == pytest.approx(linear, rel=1e-6)  # SHE's 1 - u/3, u ~ 1e-6
+    slips = np.geomspace(1e-6, 1.0, 61)
+    zero = np.zeros(61)
+    sideways = contact_forces(ContactParameters.broadcast(61, **coefficients), zero, zero, slips * 30.0, zero, 30.0)
+    np.testing.assert_allclose(sideways.spin_moment, -(36.5e3 / 13.1e6) * sideways.creep_lateral, rtol=1e-12)
+    assert np.all(np.abs(sideways.spin_moment) <= 2 * LIMIT * 36.5e3 / 13.1e6 * (1 + 1e-12))
