@@ -4,7 +4,7 @@ Data flows through one module each:
 
     layout.py   layout file (TOML) -> checked `Layout`
     model.py    `Layout` -> MuJoCo model (MjSpec), generated MJCF (`Vehicle`, `generate`)
-    creep.py    wheel-rail contact and creep law, vectorised over wheelsets
+    creep.py    wheel-rail contact and creep law (compiled with numba), over wheelsets
     forces.py   the creep law bound to MuJoCo's passive-force callback
     runner.py   timestep choice and the headless run (`simulate` -> `Run`)
     analysis.py what a run shows: amplitude, growth rate, wavelength, frequency
