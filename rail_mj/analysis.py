@@ -92,14 +92,21 @@ def band_pass(t: np.ndarray, signal: np.ndarray, f0: float) -> np.ndarray:
     return sosfiltfilt(sos, signal, axis=0)
 
 
+def hunting_rms(run: Run, guiding: np.ndarray | None = None) -> tuple[float, np.ndarray]:
+    """EN 14363's f0 (Hz) and the band-passed sliding rms of each wheelset's Sigma Y (N,
+    shape (n_samples, n_wheelsets), nan before the first full window). `guiding`: the
+    run's guiding forces, if already computed."""
+    guiding = run.guiding_forces() if guiding is None else guiding
+    f0 = dominant_frequency(run.t, guiding)
+    return f0, sliding_rms(run.x, band_pass(run.t, guiding, f0), HUNTING_WINDOW)
+
+
 def hunting(run: Run) -> dict | None:
     """The instability criterion per wheelset; None without a wheel load or a full window."""
     load = run.layout.wheelset.wheel_load
     if load is None or run.x[-1] < HUNTING_WINDOW:
         return None
-    guiding = run.guiding_forces()
-    f0 = dominant_frequency(run.t, guiding)
-    rms = sliding_rms(run.x, band_pass(run.t, guiding, f0), HUNTING_WINDOW)
+    f0, rms = hunting_rms(run)
     worst = np.nanmax(rms, axis=0)
     limit = hunting_limit(2.0 * load)
     return {

@@ -2,9 +2,9 @@
 
 One wheelset at a time, written as plain scalar arithmetic and compiled with numba
 (the per-step force callback calls it four times a step: numpy's per-operation cost
-on arrays of a few wheelsets was most of a step). Apart from MuJoCo (the binding is
-`rail_mj.forces`), over arrays of any shape whose last axis is the wheelsets: one
-call serves every wheelset of a model at one instant, or a whole run's samples.
+on arrays of a few wheelsets was most of a step). Independent of MuJoCo (the binding
+is `rail_mj.forces`), it takes arrays of any shape whose last axis is the wheelsets:
+one call serves every wheelset of a model at one instant, or a whole run's samples.
 
 Frames and signs are those of the reference sheet, section 1: y to the left,
 psi positive nose-left, forces in the track frame.
@@ -38,7 +38,8 @@ LAWS = {"linear": LINEAR, "shen-hedrick-elkins": SHEN_HEDRICK_ELKINS, "polach": 
 @dataclasses.dataclass(frozen=True)
 class ContactParameters:
     """Contact geometry and Kalker coefficients, one entry per wheelset (arrays of shape (n,)),
-    and the creep law with its friction limit mu*N per wheel."""
+    the creep law with its friction limit mu*N per wheel and Polach's falling friction,
+    and the flange contact."""
 
     r0: np.ndarray  # rolling radius, m
     b: np.ndarray  # half the distance between the contact points, m
@@ -53,13 +54,14 @@ class ContactParameters:
     clearance: np.ndarray  # flangeway clearance, m
     flange_stiffness: np.ndarray  # N/m, the rail's lateral stiffness under the flange
     flange_damping: np.ndarray  # N s/m
-    flange_slope: np.ndarray  # tan of the flange angle: the radius rise per metre on the flange
+    flange_slope: np.ndarray  # tan(flange angle), the radius rise per metre on the flange; lam if no flange
     law: int = LINEAR
     flange: bool = False  # flange contact on
 
     @functools.cached_property
     def falling(self) -> bool:
-        """Whether the law is Polach's with falling friction."""
+        """Whether the law is Polach's with falling friction (only a shortcut: with A = 1
+        `falling_friction` returns mu0*N anyway)."""
         return self.law == POLACH and bool(np.any(self.falling_friction_ratio < 1.0))
 
     @functools.cached_property
@@ -162,7 +164,8 @@ def flange_lead(y, psi, radius, flange_slope, b):
 
 
 class ContactForces(NamedTuple):
-    """The rails' forces on each wheelset, by origin (arrays over wheelsets; N and N m)."""
+    """The rails' forces on each wheelset, by origin: arrays shaped like the states, the
+    last axis the wheelsets; N and N m."""
 
     creep_lateral: np.ndarray  # Fy of both wheels' creep forces
     flange_lateral: np.ndarray  # the flange's lateral force, zero off the flange
@@ -175,9 +178,10 @@ class ContactForces(NamedTuple):
 
 @numba.njit(cache=True)
 def _saturation_factor(law, fx, fy, limit):
-    """The factor that scales a wheel's linear (Fx, Fy) onto the creep law's resultant."""
+    """The factor that scales a wheel's linear (Fx, Fy) onto the creep law's resultant:
+    1 at zero, where every law has Kalker's slope."""
     linear = math.hypot(fx, fy)
-    return saturation(law, linear, limit) / max(linear, 1e-300)
+    return 1.0 if linear == 0.0 else saturation(law, linear, limit) / linear
 
 
 @numba.njit(cache=True)
@@ -192,17 +196,18 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
         # Creepages (reference sheet, section 2): on the tread xi_x_left = -(b*psi'/V) -
         # lam*y/r0 and xi_x_right is its negative; the lateral creepage is the same on both
         # wheels, and the spin differs between them only by the constant contact-angle
-        # term, which cancels between the two wheels.
-        slope = p[_SLOPE] if flange else p[_LAM]
-        rise_left = radius_rise(y[k], p[_LAM], slope, p[_CLEARANCE])
-        rise_right = radius_rise(-y[k], p[_LAM], slope, p[_CLEARANCE])
+        # term, which cancels between the two wheels' linear forces and is left out.
+        # Without flange contact flange_slope is the conicity: no rise.
+        rise_left = radius_rise(y[k], p[_LAM], p[_SLOPE], p[_CLEARANCE])
+        rise_right = radius_rise(-y[k], p[_LAM], p[_SLOPE], p[_CLEARANCE])
         turning = p[_B] * psi_dot[k] / speed
         xi_left = -turning - rise_left / p[_R0]
         xi_right = turning - rise_right / p[_R0]
         xi_y = y_dot[k] / speed - psi[k]
         xi_sp = psi_dot[k] / speed
         # Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
-        fx, fy, mz = -p[_F11] * xi_left, -p[_F22] * xi_y - p[_F23] * xi_sp, p[_F23] * xi_y - p[_F33] * xi_sp
+        fx_left, fx_right = -p[_F11] * xi_left, -p[_F11] * xi_right
+        fy, mz = -p[_F22] * xi_y - p[_F23] * xi_sp, p[_F23] * xi_y - p[_F33] * xi_sp
         scale_left = scale_right = 1.0
         if law != LINEAR:
             limit_left = limit_right = p[_LIMIT]
@@ -213,11 +218,10 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
                                                speed * math.hypot(xi_right, xi_y))
             # Fx, Fy and the spin moment of a wheel all saturate by one factor (a common
             # simplification: Kalker's full theory saturates the moment its own way).
-            scale_left = _saturation_factor(law, fx, fy, limit_left)
-            scale_right = _saturation_factor(law, -p[_F11] * xi_right, fy, limit_right)
+            scale_left = _saturation_factor(law, fx_left, fy, limit_left)
+            scale_right = _saturation_factor(law, fx_right, fy, limit_right)
         out[0, k] = (scale_left + scale_right) * fy
-        # Fx_left acts at y = +b, Fx_right at -b.
-        out[2, k] = p[_B] * (-p[_F11] * xi_right * scale_right - fx * scale_left)
+        out[2, k] = p[_B] * (scale_right * fx_right - scale_left * fx_left)  # Fx_left at y = +b
         out[3, k] = (scale_left + scale_right) * mz
         if flange:
             force = flange_force(y[k], y_dot[k], p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])

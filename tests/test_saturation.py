@@ -180,3 +180,18 @@ def test_spin_moment_saturates_with_the_forces(law):
     sideways = contact_forces(ContactParameters.broadcast(61, **coefficients), zero, zero, slips * 30.0, zero, 30.0)
     np.testing.assert_allclose(sideways.spin_moment, -(36.5e3 / 13.1e6) * sideways.creep_lateral, rtol=1e-12)
     assert np.all(np.abs(sideways.spin_moment) <= 2 * LIMIT * 36.5e3 / 13.1e6 * (1 + 1e-12))
+
+
+@pytest.mark.parametrize("law", [SHEN_HEDRICK_ELKINS, POLACH])
+def test_pure_spin_is_kalkers(law):
+    """A yawing wheelset displaced so that its rolling-radius difference exactly feeds its
+    yaw rate (xi_x = 0 on both wheels, lam*y/r0 = -b*psi'/V) has no tangential force, so
+    nothing saturates: the spin moment is Kalker's -2*f33*xi_sp, with no jump at zero force."""
+    p = ContactParameters.broadcast(1, r0=0.5, b=0.75, conicity=0.125, f11=14.3e6, f22=13.1e6,
+                                    f33=121.0, friction_limit=LIMIT, law=law)
+    psi_dot, speed = 0.1, 30.0
+    y = -0.75 * psi_dot * 0.5 / (speed * 0.125)  # exact in binary: the creepages cancel to 0
+    zero = np.zeros(1)
+    forces = contact_forces(p, np.array([y]), zero, zero, np.array([psi_dot]), speed)
+    assert forces.creep_couple[0] == 0.0 and forces.creep_lateral[0] == 0.0
+    assert forces.spin_moment[0] == pytest.approx(-2 * 121.0 * psi_dot / speed, rel=1e-12)

@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rail_mj.analysis import HUNTING_WINDOW, band_pass, dominant_frequency, hunting_limit, sliding_rms
+from rail_mj.analysis import hunting_limit, hunting_rms
 from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
 from rail_mj.runner import simulate
@@ -41,8 +41,7 @@ def main() -> None:
     run = simulate(layout, speed, 1000.0, 0.002)
     clearance = layout.wheelset.flangeway_clearance * 1e3
     guiding = run.guiding_forces()
-    filtered = band_pass(run.t, guiding, dominant_frequency(run.t, guiding))
-    rms = sliding_rms(run.x, filtered, HUNTING_WINDOW)
+    rms = hunting_rms(run, guiding)[1]
     limit = hunting_limit(2.0 * layout.wheelset.wheel_load)
 
     fig, axes = plt.subplots(4, 1, figsize=(10, 10), layout="constrained")
