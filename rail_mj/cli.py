@@ -169,8 +169,9 @@ def _print_summary(result: dict) -> None:
     h = result.get("hunting")
     if h is not None:
         worst = max(h["max_rms_n"])
-        click.echo(f"hunting (EN 14363, rms Sigma Y over 100 m): {'YES' if h['hunting'] else 'no'}, "
-                   f"largest {worst / 1e3:.1f} kN against a limit of {h['limit_n'] / 1e3:.1f} kN")
+        click.echo(f"hunting (EN 14363, rms Sigma Y over 100 m, band-passed at {h['frequency_hz']:.2f} +/- 2 Hz): "
+                   f"{'YES' if h['hunting'] else 'no'}, largest {worst / 1e3:.1f} kN against a limit of "
+                   f"{h['limit_n'] / 1e3:.1f} kN")
     if "csv" in result:
         click.echo(f"samples: {result['csv']}")
     if "rrd" in result:
