@@ -12,9 +12,22 @@ Data flows through one module each:
     cli.py      the `rail-mj` command, a thin layer over the above
 """
 
-from rail_mj.layout import Layout, LayoutError, layout_from_dict, load_layout
-from rail_mj.model import Vehicle, generate
-from rail_mj.runner import Run, SimulationError, simulate
+import importlib
+
+# Where each public name lives. Imported on first use (PEP 562), so that `rail-mj --help`
+# and a layout error do not wait for MuJoCo, numba and scipy to load.
+_EXPORTS = {
+    "Layout": "layout", "LayoutError": "layout", "layout_from_dict": "layout", "load_layout": "layout",
+    "Vehicle": "model", "generate": "model",
+    "Run": "runner", "SimulationError": "runner", "simulate": "runner",
+}
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f"rail_mj.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module 'rail_mj' has no attribute {name!r}")
+
 
 __all__ = [
     "Layout",

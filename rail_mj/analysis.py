@@ -14,10 +14,14 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numpy as np
-from scipy.signal import butter, find_peaks, periodogram, sosfiltfilt
+from typing import TYPE_CHECKING
 
-from rail_mj.runner import Run
+import numpy as np
+
+if TYPE_CHECKING:
+    from rail_mj.runner import Run
+
+# scipy.signal takes most of a second to import: it is imported where it is used.
 
 
 def _crossings(t: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -34,6 +38,8 @@ def oscillation(t: np.ndarray, s: np.ndarray) -> tuple[float, float]:
     rate: slope of log|peak| against time over every positive and negative peak.
     NaN where the signal completes less than one cycle.
     """
+    from scipy.signal import find_peaks
+
     up = _crossings(t, s)
     freq = (len(up) - 1) / (up[-1] - up[0]) if len(up) >= 2 else math.nan
     peaks = np.concatenate([find_peaks(s)[0], find_peaks(-s)[0]])
@@ -75,6 +81,8 @@ def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:
 def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
     """The frequency (Hz) of the highest peak of the signals' summed periodogram (samples
     along axis 0, evenly spaced), leaving out the mean: the instability frequency f0."""
+    from scipy.signal import periodogram
+
     freq, power = periodogram(signal, fs=1.0 / (t[1] - t[0]), axis=0)
     power = power.reshape(len(freq), -1).sum(axis=1)
     return float(freq[1:][np.argmax(power[1:])])
@@ -83,9 +91,13 @@ def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
 def band_pass(t: np.ndarray, signal: np.ndarray, f0: float) -> np.ndarray:
     """EN 14363's filter: f0 +/- 2 Hz (a low-pass at f0 + 2 Hz where f0 <= 2 Hz, for slow
     car-body instabilities), Butterworth, without phase shift. Samples along axis 0."""
+    from scipy.signal import butter, sosfiltfilt
+
     fs = 1.0 / (t[1] - t[0])
     high = min(f0 + HUNTING_BAND, 0.45 * fs)
-    if f0 > HUNTING_BAND:
+    # An f0 past the filter's top (only for samples far sparser than a run's) keeps the
+    # low-pass: the band cannot be resolved there.
+    if HUNTING_BAND < f0 and f0 - HUNTING_BAND < high:
         sos = butter(FILTER_ORDER, [f0 - HUNTING_BAND, high], btype="bandpass", fs=fs, output="sos")
     else:
         sos = butter(FILTER_ORDER, high, btype="lowpass", fs=fs, output="sos")
@@ -101,14 +113,30 @@ def hunting_rms(run: Run, guiding: np.ndarray | None = None) -> tuple[float, np.
     return f0, sliding_rms(run.x, band_pass(run.t, guiding, f0), HUNTING_WINDOW)
 
 
+def hunting_assessable(run: Run) -> str | None:
+    """Why EN 14363's criterion cannot be applied to `run` (None when it can): no wheel
+    load, less than one 100 m window, or samples too sparse or too few for the filter."""
+    if run.layout.wheelset.wheel_load is None:
+        return "no wheel load: give wheelset.wheel_load or a car body with mass"
+    if run.x[-1] < HUNTING_WINDOW:
+        return f"the run is shorter than EN 14363's {HUNTING_WINDOW:g} m window"
+    # The zero-phase filter pads each end by 3 x (2 x sections + 1) samples; a run needs
+    # a few filter lengths beyond that before its rms means anything.
+    if len(run.t) < 10 * 3 * (2 * FILTER_ORDER + 1):
+        return f"the run has only {len(run.t)} samples, too few for the band-pass filter"
+    return None
+
+
 def hunting(run: Run) -> dict | None:
-    """The instability criterion per wheelset; None without a wheel load or a full window."""
-    load = run.layout.wheelset.wheel_load
-    if load is None or run.x[-1] < HUNTING_WINDOW:
+    """The instability criterion per wheelset; None when it cannot be applied
+    (`hunting_assessable` says why)."""
+    if hunting_assessable(run) is not None:
         return None
     f0, rms = hunting_rms(run)
+    if not np.any(np.isfinite(rms)):
+        return None
     worst = np.nanmax(rms, axis=0)
-    limit = hunting_limit(2.0 * load)
+    limit = hunting_limit(2.0 * run.layout.wheelset.wheel_load)
     return {
         "criterion": "EN 14363: rms over 100 m of the sum of guiding forces, band-passed f0 +/- 2 Hz",
         "frequency_hz": f0,
@@ -149,15 +177,43 @@ def late_motion(run: Run) -> tuple[np.ndarray, np.ndarray]:
     return run.t[late], run.y[late, i]
 
 
+# A wheelset whose |y| stays below this fraction of its largest value to the end of the
+# run has decayed: what is left is the slow drift of the bodies above it, not its motion.
+DECAYED_FRACTION = 0.05
+
+
+def decayed_at(t: np.ndarray, y: np.ndarray) -> float | None:
+    """The time from which |y| stays below DECAYED_FRACTION of its largest value to the
+    end, if that covers at least the last quarter of the run; None when it has not decayed."""
+    magnitude = np.abs(y)
+    above = np.nonzero(magnitude > DECAYED_FRACTION * np.max(magnitude))[0]
+    if len(above) == 0:
+        return float(t[0])
+    end = above[-1] + 1
+    if end >= len(t) or t[end] > t[0] + 0.75 * (t[-1] - t[0]):
+        return None
+    return float(t[end])
+
+
 def summary(run: Run) -> dict:
-    """Per wheelset: largest |y|, growth rate, dominant frequency and wavelength."""
+    """Per wheelset: largest |y| and yaw, whether (and by when) the motion decayed, and
+    the growth rate, dominant frequency and wavelength of the motion that matters: of the
+    whole run, or, for a motion that decayed, of the motion while it lasted (not of the
+    leftover drift of the bodies above, a thousandth of it)."""
     wheelsets = []
     for i in range(run.n_wheelsets):
-        freq, sigma = oscillation(run.t, run.y[:, i])
+        y = run.y[:, i]
+        decayed = decayed_at(run.t, y)
+        window = run.t <= (run.t[-1] if decayed is None else decayed)
+        freq, sigma = oscillation(run.t[window], y[window])
         wheelsets.append({
             "wheelset": i + 1,
-            "max_abs_lateral_m": float(np.max(np.abs(run.y[:, i]))),
+            "max_abs_lateral_m": float(np.max(np.abs(y))),
             "max_abs_yaw_rad": float(np.max(np.abs(run.psi[:, i]))),
+            "final_abs_lateral_m": float(np.max(np.abs(y[run.t >= 0.9 * run.t[-1]]))),
+            "decayed": decayed is not None,
+            "decayed_by_s": decayed,
+            "decayed_by_m": None if decayed is None else decayed * run.speed,
             "growth_rate_per_s": None if math.isnan(sigma) else sigma,
             "frequency_hz": None if math.isnan(freq) else freq,
             "wavelength_m": None if math.isnan(freq) else run.speed / freq,
@@ -170,4 +226,5 @@ def summary(run: Run) -> dict:
         "timestep_s": run.timestep,
         "wheelsets": wheelsets,
         "hunting": hunting(run),
+        "hunting_note": hunting_assessable(run),
     }

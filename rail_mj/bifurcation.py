@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Callable
 
 import numpy as np
 
@@ -29,6 +30,10 @@ from rail_mj.layout import Layout
 from rail_mj.runner import simulate
 from rail_mj.stability import CriticalSpeed, Stability
 
+# One procedure and one step for every nonlinear critical speed rail-mj reports (the
+# critical-speed command, the bifurcation diagram, the README's tables): 2 % a step, so
+# the answer is known to within 2 % from above.
+STEP = 0.02
 DWELL = 6.0  # s at each speed: tens of hunting cycles, enough for the limit cycle to settle
 # A motion smaller than this fraction of the flangeway clearance has died away; one
 # whose peaks shrink by more than SHRINKING over a quarter of a step is dying.
@@ -57,9 +62,11 @@ def _amplitude(run) -> tuple[float, float, float]:
 
 
 def follow(layout: Layout, speeds, state=None, initial_lateral: float = 0.0,
-           dwell: float = DWELL, stop_when_dead: bool = False, restart: bool = False) -> Branch:
+           dwell: float = DWELL, stop_when_dead: bool = False, restart: bool = False,
+           progress: Callable[[str], None] | None = None) -> Branch:
     """Step through `speeds`, each run continuing from the previous one's final state
-    (or, with `restart`, each from the initial disturbance afresh)."""
+    (or, with `restart`, each from the initial disturbance afresh). `progress` is told
+    each step's result, one short line."""
     direction = "down" if speeds[-1] < speeds[0] else "small disturbance" if restart else "up"
     branch = Branch(direction, [], [], [], [])
     dead = DEAD_FRACTION * layout.wheelset.flangeway_clearance
@@ -72,18 +79,25 @@ def follow(layout: Layout, speeds, state=None, initial_lateral: float = 0.0,
         branch.amplitudes.append(amplitude)
         branch.frequencies.append(freq)
         branch.alive.append(bool(amplitude >= dead and change >= -SHRINKING * amplitude))
+        if progress is not None:
+            progress(f"{branch.direction}: {v:.2f} m/s, amplitude {amplitude * 1e3:.2f} mm"
+                     f"{'' if branch.alive[-1] else ', dying'}")
         if stop_when_dead and amplitude < dead and change <= 0:
             break
     return branch
 
 
 def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0,
-                             step: float = 0.02, dwell: float = DWELL) -> tuple[CriticalSpeed, Branch]:
+                             step: float = STEP, dwell: float = DWELL,
+                             progress: Callable[[str], None] | None = None,
+                             ) -> tuple[CriticalSpeed, Branch]:
     """Lowest speed at which the hunting limit cycle survives, with the branch it followed.
 
     Starts at 1.1 x the linear (eigen) critical speed on the limit cycle, reached from a
     disturbance of twice the flangeway clearance, and lowers the speed by `step` (a
-    fraction) per `dwell` seconds until the motion dies away.
+    fraction) per `dwell` seconds until the motion dies away. A limit cycle that dies
+    before the speed falls below the linear critical speed gives no nonlinear critical
+    speed (the note says so): it is never reported above the linear one.
     """
     if layout.flange is None or layout.creep.law == "linear":
         raise ValueError(f"{layout.source}: the nonlinear critical speed needs [flange] and a "
@@ -96,33 +110,42 @@ def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 15
     start = min(1.1 * linear.critical_speed, vmax)
     speeds = start * (1.0 - step) ** np.arange(int(math.log(vmin / start) / math.log(1.0 - step)) + 1)
     branch = follow(layout, speeds, initial_lateral=2.0 * layout.wheelset.flangeway_clearance,
-                    dwell=dwell, stop_when_dead=True)
+                    dwell=dwell, stop_when_dead=True, progress=progress)
     alive = [k for k, ok in enumerate(branch.alive) if ok]
     if alive and alive[-1] == len(branch.alive) - 1:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
                              f"the limit cycle survives down to {branch.speeds[-1]:.2f} m/s",
-                             linear_critical_speed=vc), branch
+                             linear_critical_speed=vc, step=step), branch
     if not alive:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
-                             f"no limit cycle at {start:.2f} m/s", linear_critical_speed=vc), branch
+                             f"no limit cycle at {start:.2f} m/s", linear_critical_speed=vc,
+                             step=step), branch
     last = alive[-1]  # the lowest speed that still carried the limit cycle
+    if branch.speeds[last] > vc:
+        return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
+                             f"no limit cycle below the linear critical speed: it dies below "
+                             f"{branch.speeds[last]:.2f} m/s (steps of {step:.0%}), above "
+                             f"{vc:.2f} m/s, so hunting starts at the linear critical speed",
+                             linear_critical_speed=vc, step=step), branch
     return CriticalSpeed("nonlinear", branch.speeds[last], branch.frequencies[last], linear.mode,
                          vmin, vmax, f"the limit cycle dies below this speed (steps of {step:.0%}); "
-                         f"the mode is the linear one at {vc:.2f} m/s", linear_critical_speed=vc), branch
+                         f"the mode is the linear one at {vc:.2f} m/s", linear_critical_speed=vc,
+                         step=step), branch
 
 
-def bifurcation(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, step: float = 0.03,
-                dwell: float = DWELL) -> tuple[CriticalSpeed, Branch, Branch]:
+def bifurcation(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, step: float = STEP,
+                dwell: float = DWELL, progress: Callable[[str], None] | None = None,
+                ) -> tuple[CriticalSpeed, Branch, Branch]:
     """Both branches of the bifurcation diagram around the linear critical speed Vc:
     down from the limit cycle at 1.1*Vc until it dies, and, at the same speeds, runs from
     a small disturbance (5 % of the clearance) for twice as long, which decay below Vc
     and grow onto the limit cycle above it. Between the two critical speeds both the
     centred state and the limit cycle are stable: the hysteresis of hunting."""
-    critical, down = nonlinear_critical_speed(layout, vmin, vmax, step, dwell)
+    critical, down = nonlinear_critical_speed(layout, vmin, vmax, step, dwell, progress)
     if down is None:
         return critical, None, None
     low = down.speeds[-1] * (1.0 - step) ** np.arange(3, 0, -1)  # a little below where it died
     speeds = [float(v) for v in low if v >= vmin] + down.speeds[::-1]
     up = follow(layout, speeds, initial_lateral=DEAD_FRACTION * layout.wheelset.flangeway_clearance,
-                dwell=2 * dwell, restart=True)
+                dwell=2 * dwell, restart=True, progress=progress)
     return critical, down, up

@@ -1,12 +1,16 @@
 """The `rail-mj` command: a thin layer over the Python API.
 
 Exit status: 0 success; 2 bad input (layout, arguments, output path); 3 a run that
-cannot be done or that diverged. Every failure is one line on stderr.
+cannot be done or that diverged. Every failure is one line on stderr, and so is every
+warning (a legal value far outside railway practice: rail_mj.practice).
+
+MuJoCo, numba and scipy take seconds to load: each command imports what it uses, so
+`--help` and a bad layout answer at once.
 """
 
 from __future__ import annotations
 
-import io
+import contextlib
 import json
 import math
 import os
@@ -14,13 +18,10 @@ import sys
 from pathlib import Path
 
 import click
-import numpy as np
 
-from rail_mj.analysis import summary
-from rail_mj.layout import LayoutError, load_layout
-from rail_mj.files import staged
-from rail_mj.model import generate
-from rail_mj.runner import Run, SimulationError, simulate
+from rail_mj.files import STDOUT, is_special, staged
+from rail_mj.layout import Layout, LayoutError, load_layout
+from rail_mj.practice import RANGES, max_initial_yaw
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 3
@@ -32,11 +33,66 @@ class Failure(Exception):
         self.status = status
 
 
-def _layout(path: str):
+def _layout(path: str) -> Layout:
+    """The checked layout; its warnings, one line each, on stderr."""
     try:
-        return load_layout(path)
+        layout = load_layout(path)
     except LayoutError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
+    for warning in layout.warnings:
+        _warn(warning)
+    return layout
+
+
+def _warn(text: str) -> None:
+    click.echo(f"rail-mj: warning: {text}", err=True)
+
+
+def _speed(option: str, value: float) -> float:
+    """A forward speed from the command line: positive, and not beyond any railway."""
+    if not (math.isfinite(value) and value > 0):
+        raise Failure(f"{option} must be a positive number, got {value}", EXIT_BAD_INPUT)
+    error = RANGES["speed"].check(value)
+    if error:
+        raise Failure(f"{option} {error}", EXIT_BAD_INPUT)
+    warning = RANGES["speed"].warning(value)
+    if warning:
+        _warn(f"{option}: {warning}")
+    return value
+
+
+def _speed_range(vmin: float, vmax: float) -> None:
+    if not (math.isfinite(vmin) and math.isfinite(vmax) and 0 < vmin < vmax):
+        raise Failure(f"need 0 < --vmin < --vmax, got {vmin} and {vmax}", EXIT_BAD_INPUT)
+    error = RANGES["speed"].check(vmax)
+    if error:
+        raise Failure(f"--vmax {error}", EXIT_BAD_INPUT)
+
+
+@contextlib.contextmanager
+def _status(label: str):
+    """A one-line progress display on a terminal's stderr (nothing elsewhere): yields the
+    function that shows a new status, or None."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    width = 0
+
+    def show(text: str) -> None:
+        nonlocal width
+        line = f"{label}: {text}"
+        click.echo("\r" + line.ljust(width), err=True, nl=False)
+        width = len(line)
+
+    try:
+        yield show
+    finally:
+        if width:
+            click.echo("\r" + " " * width + "\r", err=True, nl=False)
+
+
+def _uses_stdout(*paths) -> bool:
+    return any(p == STDOUT for p in paths)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -52,6 +108,8 @@ def cli():
               help="Folder for <name>.xml, scene.xml and assets/.")
 def generate_cmd(layout, out_dir):
     """Generate the MJCF model of LAYOUT."""
+    from rail_mj.model import generate
+
     lay = _layout(layout)
     _check_outputs(layout, [("-o", out_dir)], folders=True)
     try:
@@ -64,7 +122,11 @@ def generate_cmd(layout, out_dir):
         click.echo(str(path))
 
 
-def _csv_bytes(run: Run) -> bytes:
+def _csv_bytes(run) -> bytes:
+    import io
+
+    import numpy as np
+
     names, values = run.table()
     buf = io.StringIO()
     np.savetxt(buf, values, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
@@ -73,18 +135,32 @@ def _csv_bytes(run: Run) -> bytes:
 
 def _check_outputs(layout: str, outputs: list[tuple[str, str | None]], folders: bool = False) -> None:
     """Refuse, before any work, outputs that cannot or must not be written: a folder
-    given for a file, the layout itself, two outputs on one path, an unwritable place."""
+    given for a file, the layout itself, two outputs on one path (or on standard output),
+    an unwritable place. `-` is standard output; a FIFO or a device is written through."""
     seen = {Path(layout).resolve(): "the layout file"}
+    on_stdout = None
     for option, path in outputs:
         if path is None:
+            continue
+        if path == STDOUT:
+            if folders:
+                raise Failure(f"{option} -: needs a folder, not standard output", EXIT_BAD_INPUT)
+            if on_stdout:
+                raise Failure(f"{option} -: standard output already takes {on_stdout}", EXIT_BAD_INPUT)
+            on_stdout = option
             continue
         target = Path(path)
         if not folders and target.is_dir():
             raise Failure(f"{option} {path}: is a folder, expected a file name", EXIT_BAD_INPUT)
-        if target.resolve() in seen:
-            raise Failure(f"{option} {path}: would overwrite {seen[target.resolve()]}", EXIT_BAD_INPUT)
-        seen[target.resolve()] = option
-        existing = target.resolve().parent if not folders else target.resolve()
+        real = target.resolve()
+        if real in seen:
+            raise Failure(f"{option} {path}: would overwrite {seen[real]}", EXIT_BAD_INPUT)
+        if is_special(path):  # a FIFO or a device: written through, never replaced
+            if not os.access(path, os.W_OK):
+                raise Failure(f"{option} {path}: cannot write to it", EXIT_BAD_INPUT)
+            continue
+        seen[real] = option
+        existing = real.parent if not folders else real
         while not existing.exists():
             existing = existing.parent
         if not existing.is_dir() or not os.access(existing, os.W_OK):
@@ -103,9 +179,19 @@ def _check_outputs(layout: str, outputs: list[tuple[str, str | None]], folders: 
 @click.option("--out", type=click.Path(dir_okay=False), help="Write the samples as CSV here.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_json):
-    """Run LAYOUT at constant speed on straight track and summarise each wheelset's motion."""
+    """Run LAYOUT at constant speed on straight track and summarise each wheelset's motion.
+
+    Outputs may be `-` (standard output; the summary then goes to stderr), a FIFO or a
+    device: they are written through, never replaced."""
     lay = _layout(layout)
+    _speed("--speed", speed)
+    if not (math.isfinite(distance) and distance > 0):
+        raise Failure(f"--distance must be a positive number, got {distance}", EXIT_BAD_INPUT)
+    _check_disturbance(lay, initial_lateral, initial_yaw)
     _check_outputs(layout, [("--out", out), ("--rrd", rrd)])
+    from rail_mj.analysis import summary
+    from rail_mj.runner import SimulationError
+
     try:
         run = _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw)
     except SimulationError as e:
@@ -129,13 +215,35 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_
         result["csv"] = out
     if rrd:
         result["rrd"] = rrd
+    to_stderr = _uses_stdout(out, rrd)
     if as_json:
-        click.echo(json.dumps(result, indent=2))
+        click.echo(json.dumps(result, indent=2), err=to_stderr)
     else:
-        _print_summary(result)
+        _print_summary(result, to_stderr)
 
 
-def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw) -> Run:
+def _check_disturbance(layout: Layout, lateral: float, yaw: float) -> None:
+    """Refuse a start the wheelsets cannot have on the rails: shifted past the flangeway
+    clearance (the flange would start inside the rail), or yawed so far that the flange
+    fronts cross the rails."""
+    w = layout.wheelset
+    for option, value in (("--initial-lateral", lateral), ("--initial-yaw", yaw)):
+        if not math.isfinite(value):
+            raise Failure(f"{option} must be a finite number, got {value}", EXIT_BAD_INPUT)
+    if abs(lateral) > w.flangeway_clearance:
+        raise Failure(f"--initial-lateral {lateral:g} m: a wheelset shifted past its flangeway "
+                      f"clearance ({w.flangeway_clearance:g} m) would start with its flange inside the "
+                      f"rail; give at most {w.flangeway_clearance:g} m", EXIT_BAD_INPUT)
+    limit = max_initial_yaw(w.rolling_radius, w.flangeway_clearance)
+    if abs(yaw) > limit:
+        raise Failure(f"--initial-yaw {yaw:g} rad: yawed more than {limit:.3g} rad, a wheelset's "
+                      f"flange fronts would cross the rails (clearance {w.flangeway_clearance:g} m); "
+                      f"angles of attack on track are a few mrad", EXIT_BAD_INPUT)
+
+
+def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw):
+    from rail_mj.runner import simulate
+
     if not sys.stderr.isatty():
         return simulate(lay, speed, distance, initial_lateral, initial_yaw)
     with click.progressbar(length=1000, label=f"{lay.name} at {speed:g} m/s", file=sys.stderr) as bar:
@@ -154,35 +262,42 @@ def _fmt(value, spec: str) -> str:
     return "-" if value is None else format(value, spec)
 
 
-def _print_summary(result: dict) -> None:
-    click.echo(
-        f"{result['layout']}: {result['distance_m']:g} m at {result['speed_m_per_s']:g} m/s "
-        f"({result['duration_s']:.3g} s, timestep {result['timestep_s']:.3g} s)"
-    )
-    click.echo("wheelset  max|y| (mm)  growth (1/s)  frequency (Hz)  wavelength (m)")
+def _print_summary(result: dict, err: bool = False) -> None:
+    def say(text: str) -> None:
+        click.echo(text, err=err)
+
+    say(f"{result['layout']}: {result['distance_m']:g} m at {result['speed_m_per_s']:g} m/s "
+        f"({result['duration_s']:.3g} s, timestep {result['timestep_s']:.3g} s)")
+    say("wheelset  max|y| (mm)  end|y| (mm)  growth (1/s)  frequency (Hz)  wavelength (m)")
     for w in result["wheelsets"]:
-        click.echo(
-            f"{w['wheelset']:>8}  {w['max_abs_lateral_m'] * 1e3:>11.3f}  "
-            f"{_fmt(w['growth_rate_per_s'], '>12.4f')}  {_fmt(w['frequency_hz'], '>14.4f')}  "
-            f"{_fmt(w['wavelength_m'], '>14.3f')}"
-        )
+        line = (f"{w['wheelset']:>8}  {w['max_abs_lateral_m'] * 1e3:>11.3f}  "
+                f"{w['final_abs_lateral_m'] * 1e3:>11.3f}  {_fmt(w['growth_rate_per_s'], '>12.4f')}  "
+                f"{_fmt(w['frequency_hz'], '>14.4f')}  {_fmt(w['wavelength_m'], '>14.3f')}")
+        if w["decayed"]:
+            line += f"  decayed by {w['decayed_by_s']:.3g} s ({w['decayed_by_m']:.4g} m)"
+        say(line)
+    if any(w["decayed"] for w in result["wheelsets"]):
+        say("decayed: |y| below 5 % of its largest value from then to the end; growth, frequency and "
+            "wavelength are those of the motion before")
     h = result.get("hunting")
     if h is not None:
         worst = max(h["max_rms_n"])
-        click.echo(f"hunting (EN 14363, rms Sigma Y over 100 m, band-passed at {h['frequency_hz']:.2f} +/- 2 Hz): "
-                   f"{'YES' if h['hunting'] else 'no'}, largest {worst / 1e3:.1f} kN against a limit of "
-                   f"{h['limit_n'] / 1e3:.1f} kN")
+        say(f"hunting (EN 14363, rms Sigma Y over 100 m, band-passed at {h['frequency_hz']:.2f} +/- 2 Hz): "
+            f"{'YES' if h['hunting'] else 'no'}, largest {worst / 1e3:.1f} kN against a limit of "
+            f"{h['limit_n'] / 1e3:.1f} kN")
+    elif result.get("hunting_note"):
+        say(f"hunting (EN 14363): not assessed, {result['hunting_note']}")
     if "csv" in result:
-        click.echo(f"samples: {result['csv']}")
+        say(f"samples: {result['csv']}")
     if "rrd" in result:
-        click.echo(f"recording: {result['rrd']}  (open it with: rerun {result['rrd']})")
+        say(f"recording: {result['rrd']}  (open it with: rerun {result['rrd']})")
 
 
-def _stability(layout_path: str):
+def _stability(layout: Layout):
     from rail_mj.stability import Stability
 
     try:
-        return Stability(_layout(layout_path))
+        return Stability(layout)
     except ValueError as e:  # the model does not compile
         raise Failure(str(e), EXIT_BAD_INPUT) from None
 
@@ -193,9 +308,9 @@ def _stability(layout_path: str):
 @click.option("--json", "as_json", is_flag=True, help="Print the modes as JSON.")
 def eigen_cmd(layout, speed, as_json):
     """Eigenvalues and modes of LAYOUT linearised at SPEED, least damped first."""
-    if not (math.isfinite(speed) and speed > 0):
-        raise Failure(f"--speed must be a positive number, got {speed}", EXIT_BAD_INPUT)
-    modes = _stability(layout).modes(speed)
+    lay = _layout(layout)
+    _speed("--speed", speed)
+    modes = _stability(lay).modes(speed)
     oscillatory = [m for m in modes if m.oscillatory]
     aperiodic = [m.eigenvalue.real for m in modes if not m.oscillatory]
     if as_json:
@@ -218,6 +333,18 @@ def eigen_cmd(layout, speed, as_json):
     click.echo(f"unstable at {speed:g} m/s: {', '.join(unstable)}" if unstable else f"stable at {speed:g} m/s")
 
 
+def _check_step(step: float | None) -> float:
+    """--step, or the one step every nonlinear critical speed uses (not imported before
+    it is needed: it comes with MuJoCo and numba)."""
+    if step is None:
+        from rail_mj.bifurcation import STEP
+
+        return STEP
+    if not (math.isfinite(step) and 0.001 <= step <= 0.2):
+        raise Failure(f"--step must be between 0.001 and 0.2, got {step}", EXIT_BAD_INPUT)
+    return step
+
+
 @cli.command("critical-speed")
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option("--method", type=click.Choice(["eigen", "time", "nonlinear"]), default="eigen", show_default=True,
@@ -226,31 +353,35 @@ def eigen_cmd(layout, speed, as_json):
                    "(needs [flange] and a saturating creep law).")
 @click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed searched, m/s.")
 @click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed searched, m/s.")
+@click.option("--step", type=float,
+              help="nonlinear: the speed step down the limit cycle, a fraction of the speed (the "
+                   "nonlinear critical speed is known to within it)  [default: 0.02, "
+                   "rail_mj.bifurcation.STEP]")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-def critical_speed_cmd(layout, method, vmin, vmax, as_json):
+def critical_speed_cmd(layout, method, vmin, vmax, step, as_json):
     """The lowest speed at which LAYOUT stops being stable, and the mode that sets it."""
-    from rail_mj.stability import time_critical_speed
+    lay = _layout(layout)
+    _speed_range(vmin, vmax)
+    step = _check_step(step)
+    from rail_mj.runner import SimulationError
 
-    if not (math.isfinite(vmin) and math.isfinite(vmax) and 0 < vmin < vmax):
-        raise Failure(f"need 0 < --vmin < --vmax, got {vmin} and {vmax}", EXIT_BAD_INPUT)
-    if method == "eigen":
-        result = _stability(layout).critical_speed(vmin, vmax)
-    elif method == "nonlinear":
-        from rail_mj.bifurcation import nonlinear_critical_speed
+    stability = _stability(lay)  # a model that does not compile fails here, with exit 2
+    try:
+        with _status(f"critical speed ({method})") as progress:
+            if method == "eigen":
+                result = stability.critical_speed(vmin, vmax)
+            elif method == "nonlinear":
+                from rail_mj.bifurcation import nonlinear_critical_speed
 
-        _stability(layout)
-        try:
-            result, _ = nonlinear_critical_speed(_layout(layout), vmin, vmax)
-        except ValueError as e:
-            raise Failure(str(e), EXIT_BAD_INPUT) from None
-        except SimulationError as e:
-            raise Failure(str(e), EXIT_RUN_FAILED) from None
-    else:
-        _stability(layout)  # a model that does not compile fails here, with exit 2
-        try:
-            result = time_critical_speed(_layout(layout), vmin, vmax)
-        except SimulationError as e:
-            raise Failure(str(e), EXIT_RUN_FAILED) from None
+                result, _ = nonlinear_critical_speed(lay, vmin, vmax, step, progress=progress)
+            else:
+                from rail_mj.stability import time_critical_speed
+
+                result = time_critical_speed(lay, vmin, vmax, progress=progress)
+    except SimulationError as e:
+        raise Failure(str(e), EXIT_RUN_FAILED) from None
+    except ValueError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
     if as_json:
         click.echo(json.dumps(result.as_dict(), indent=2))
     elif result.critical_speed is None:
@@ -276,7 +407,10 @@ def _speeds(text: str) -> list[float]:
                       EXIT_BAD_INPUT) from None
     if not (math.isfinite(a) and math.isfinite(b) and 0 < a < b and 2 <= n <= 10_000):
         raise Failure(f"--speeds A:B:N needs 0 < A < B and 2 <= N <= 10000, got {text!r}", EXIT_BAD_INPUT)
-    return list(np.linspace(a, b, n))
+    error = RANGES["speed"].check(b)
+    if error:
+        raise Failure(f"--speeds: B {error}", EXIT_BAD_INPUT)
+    return [a + (b - a) * k / (n - 1) for k in range(n)]
 
 
 @cli.command("root-locus")
@@ -287,25 +421,31 @@ def _speeds(text: str) -> list[float]:
               help="The data as CSV [default: the plot's name with .csv].")
 def root_locus_cmd(layout, speeds, out, csv_path):
     """Frequency and damping of every mode of LAYOUT against speed, critical speed marked."""
+    lay = _layout(layout)
+    vs = _speeds(speeds)
+    csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
+    if csv_path == STDOUT and out == STDOUT:
+        raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output",
+                      EXIT_BAD_INPUT)
+    _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.plots import locus_csv, root_locus, root_locus_png
 
-    vs = _speeds(speeds)
-    csv_path = csv_path or str(Path(out).with_suffix(".csv"))
-    _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
-    stability = _stability(layout)
-    rows = root_locus(stability, vs)
-    critical = stability.critical_speed(vs[0], vs[-1])
+    stability = _stability(lay)
+    with _status("root locus") as progress:
+        rows = root_locus(stability, vs, progress)
+        critical = stability.critical_speed(vs[0], vs[-1])
     try:
         with staged([csv_path, out]) as (csv_tmp, png_tmp):
             csv_tmp.write_bytes(locus_csv(rows))
-            png_tmp.write_bytes(root_locus_png(rows, critical, stability.layout.name))
+            png_tmp.write_bytes(root_locus_png(rows, critical, lay.name))
     except OSError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
-    click.echo(f"plot: {out}\ndata: {csv_path}")
+    err = _uses_stdout(out, csv_path)
+    click.echo(f"plot: {out}\ndata: {csv_path}", err=err)
     if critical.critical_speed is not None:
-        click.echo(f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}")
+        click.echo(f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}", err=err)
     else:
-        click.echo(critical.note)
+        click.echo(critical.note, err=err)
 
 
 @cli.command("bifurcation")
@@ -315,23 +455,28 @@ def root_locus_cmd(layout, speeds, out, csv_path):
               help="The data as CSV [default: the plot's name with .csv].")
 @click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed, m/s.")
 @click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed, m/s.")
-@click.option("--step", type=float, default=0.03, show_default=True,
-              help="Speed step, as a fraction of the speed.")
+@click.option("--step", type=float,
+              help="The speed step along both branches, a fraction of the speed: the same procedure "
+                   "and step as critical-speed --method nonlinear  [default: 0.02, "
+                   "rail_mj.bifurcation.STEP]")
 def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step):
     """Limit-cycle amplitude of LAYOUT against speed: both branches, both critical speeds."""
+    lay = _layout(layout)
+    _speed_range(vmin, vmax)
+    step = _check_step(step)
+    csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
+    if csv_path == STDOUT and out == STDOUT:
+        raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output",
+                      EXIT_BAD_INPUT)
+    _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.bifurcation import bifurcation
     from rail_mj.plots import bifurcation_csv, bifurcation_png
+    from rail_mj.runner import SimulationError
 
-    if not (math.isfinite(vmin) and math.isfinite(vmax) and 0 < vmin < vmax):
-        raise Failure(f"need 0 < --vmin < --vmax, got {vmin} and {vmax}", EXIT_BAD_INPUT)
-    if not 0.001 <= step <= 0.2:
-        raise Failure(f"--step must be between 0.001 and 0.2, got {step}", EXIT_BAD_INPUT)
-    csv_path = csv_path or str(Path(out).with_suffix(".csv"))
-    _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
-    lay = _layout(layout)
-    _stability(layout)
+    _stability(lay)
     try:
-        critical, down, up = bifurcation(lay, vmin, vmax, step)
+        with _status("bifurcation") as progress:
+            critical, down, up = bifurcation(lay, vmin, vmax, step, progress=progress)
     except ValueError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     except SimulationError as e:
@@ -344,9 +489,11 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step):
             png_tmp.write_bytes(bifurcation_png(critical, down, up, lay.wheelset.flangeway_clearance, lay.name))
     except OSError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
-    click.echo(f"plot: {out}\ndata: {csv_path}")
-    click.echo(f"linear critical speed {critical.linear_critical_speed:.2f} m/s; nonlinear "
-               + (f"{critical.critical_speed:.2f} m/s" if critical.critical_speed else f"none: {critical.note}"))
+    err = _uses_stdout(out, csv_path)
+    click.echo(f"plot: {out}\ndata: {csv_path}", err=err)
+    nonlinear = (f"{critical.critical_speed:.2f} m/s (speed lowered in {step:.0%} steps)"
+                 if critical.critical_speed else f"none: {critical.note}")
+    click.echo(f"linear critical speed {critical.linear_critical_speed:.2f} m/s; nonlinear {nonlinear}", err=err)
 
 
 @cli.command("contact")
@@ -385,6 +532,17 @@ def main(argv: list[str] | None = None) -> int:
     except click.ClickException as e:
         click.echo(f"rail-mj: error: {e.format_message()} (see rail-mj --help)", err=True)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:  # the reader of standard output went away (`| head`)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except MemoryError:
+        click.echo("rail-mj: error: out of memory: shorten --distance or use fewer speeds", err=True)
+        return EXIT_RUN_FAILED
+    except Exception as e:  # noqa: BLE001 - the last line of defence: never a traceback
+        why = " ".join(str(e).split()) or "no message"
+        click.echo(f"rail-mj: error: unexpected {type(e).__name__}: {why} (a bug in rail-mj: please "
+                   f"report it with the command line)", err=True)
+        return EXIT_RUN_FAILED
     return 0
 
 

@@ -29,10 +29,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-
-# Creep laws, by the number the model stores (reference sheet, section 6).
-LINEAR, SHEN_HEDRICK_ELKINS, POLACH = 0, 1, 2
-LAWS = {"linear": LINEAR, "shen-hedrick-elkins": SHEN_HEDRICK_ELKINS, "polach": POLACH}
+from rail_mj.layout import LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,13 +86,25 @@ _ROWS = ("r0", "b", "conicity", "f11", "f22", "f23", "f33", "friction_limit", "f
  _C_FLANGE, _SLOPE) = range(len(_ROWS))
 
 
-def _ufunc(signature: str):
-    """Compile a scalar function into a numpy ufunc that compiled code can call too."""
-    return numba.vectorize([signature], cache=True)
+# The scalar laws are compiled functions for the kernel (`_saturation`, ...), each with an
+# element-wise numpy version under the public name. numba.njit caches on disk; numba's
+# vectorize ufuncs were rebuilt at every import, most of a command's start-up.
+_compiled = numba.njit(cache=True)
 
 
-@_ufunc("float64(int64, float64, float64)")
-def saturation(law, resultant, limit):
+def _elementwise(compiled):
+    """The element-wise numpy version of a compiled scalar function."""
+    vectorized = np.vectorize(compiled, otypes=[np.float64])
+
+    @functools.wraps(compiled.py_func)
+    def public(*args):
+        return vectorized(*args)
+
+    return public
+
+
+@_compiled
+def _saturation(law, resultant, limit):
     """The saturated tangential force for a linear (Kalker) resultant, per wheel.
 
     Shen-Hedrick-Elkins: u = F/(mu*N), mu*N*(u - u^2/3 + u^3/27) for u < 3, mu*N beyond.
@@ -114,15 +123,21 @@ def saturation(law, resultant, limit):
     return (2.0 * limit / math.pi) * (eps / (1.0 + eps * eps) + math.atan(eps))
 
 
-@_ufunc("float64(float64, float64, float64, float64)")
-def falling_friction(limit, ratio, rate, slip_velocity):
+saturation = _elementwise(_saturation)
+
+
+@_compiled
+def _falling_friction(limit, ratio, rate, slip_velocity):
     """mu*N at a wheel: Polach's (2005) falling friction mu0*((1 - A)*exp(-B*w) + A) at slip
     velocity w (m/s), with limit = mu0*N, ratio A = mu_infinity/mu0 and rate B (s/m)."""
     return limit * ((1.0 - ratio) * math.exp(-rate * slip_velocity) + ratio)
 
 
-@_ufunc("float64(float64, float64, float64, float64)")
-def radius_rise(y, conicity, flange_slope, clearance):
+falling_friction = _elementwise(_falling_friction)
+
+
+@_compiled
+def _radius_rise(y, conicity, flange_slope, clearance):
     """How much a wheel's rolling radius grows when the wheelset moves y towards its side
     (r_left - r0 = radius_rise(y), r_right - r0 = radius_rise(-y)).
 
@@ -133,8 +148,11 @@ def radius_rise(y, conicity, flange_slope, clearance):
     return conicity * y + (flange_slope - conicity) * max(y - clearance, 0.0)
 
 
-@_ufunc("float64(float64, float64, float64, float64, float64)")
-def flange_force(y, y_dot, clearance, stiffness, damping):
+radius_rise = _elementwise(_radius_rise)
+
+
+@_compiled
+def _flange_force(y, y_dot, clearance, stiffness, damping):
     """Lateral force (N) of the rails on a wheelset's flanges: zero within the flangeway
     clearance, beyond it an elastic rail (stiffness k, damping c) that only pushes:
     -sign(y) * max(0, k*(|y| - clearance) + c*|y|')."""
@@ -145,8 +163,11 @@ def flange_force(y, y_dot, clearance, stiffness, damping):
     return -side * max(stiffness * over + damping * side * y_dot, 0.0)
 
 
-@_ufunc("float64(float64, float64, float64, float64, float64)")
-def flange_lead(y, psi, radius, flange_slope, b):
+flange_force = _elementwise(_flange_force)
+
+
+@_compiled
+def _flange_lead(y, psi, radius, flange_slope, b):
     """Where the flange contact lies along the track ahead of the wheelset centre, m, for
     the flanging wheel's contact radius `radius`.
 
@@ -161,6 +182,9 @@ def flange_lead(y, psi, radius, flange_slope, b):
     """
     side = 1.0 if y > 0.0 else -1.0 if y < 0.0 else 0.0
     return side * psi * (radius * flange_slope - b)
+
+
+flange_lead = _elementwise(_flange_lead)
 
 
 class ContactForces(NamedTuple):
@@ -181,7 +205,7 @@ def _saturation_factor(law, fx, fy, limit):
     """The factor that scales a wheel's linear (Fx, Fy) onto the creep law's resultant:
     1 at zero, where every law has Kalker's slope."""
     linear = math.hypot(fx, fy)
-    return 1.0 if linear == 0.0 else saturation(law, linear, limit) / linear
+    return 1.0 if linear == 0.0 else _saturation(law, linear, limit) / linear
 
 
 @numba.njit(cache=True)
@@ -198,8 +222,8 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
         # wheels, and the spin differs between them only by the constant contact-angle
         # term, which cancels between the two wheels' linear forces and is left out.
         # Without flange contact flange_slope is the conicity: no rise.
-        rise_left = radius_rise(y[k], p[_LAM], p[_SLOPE], p[_CLEARANCE])
-        rise_right = radius_rise(-y[k], p[_LAM], p[_SLOPE], p[_CLEARANCE])
+        rise_left = _radius_rise(y[k], p[_LAM], p[_SLOPE], p[_CLEARANCE])
+        rise_right = _radius_rise(-y[k], p[_LAM], p[_SLOPE], p[_CLEARANCE])
         turning = p[_B] * psi_dot[k] / speed
         xi_left = -turning - rise_left / p[_R0]
         xi_right = turning - rise_right / p[_R0]
@@ -212,9 +236,9 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
         if law != LINEAR:
             limit_left = limit_right = p[_LIMIT]
             if falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
-                limit_left = falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
+                limit_left = _falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
                                               speed * math.hypot(xi_left, xi_y))
-                limit_right = falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
+                limit_right = _falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
                                                speed * math.hypot(xi_right, xi_y))
             # Fx, Fy and the spin moment of a wheel all saturate by one factor (a common
             # simplification: Kalker's full theory saturates the moment its own way).
@@ -224,11 +248,11 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
         out[2, k] = p[_B] * (scale_right * fx_right - scale_left * fx_left)  # Fx_left at y = +b
         out[3, k] = (scale_left + scale_right) * mz
         if flange:
-            force = flange_force(y[k], y_dot[k], p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
+            force = _flange_force(y[k], y_dot[k], p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
             if force != 0.0:
                 radius = p[_R0] + max(rise_left, rise_right)  # the flanging wheel's
                 out[1, k] = force
-                out[4, k] = force * flange_lead(y[k], psi[k], radius, p[_SLOPE], p[_B])
+                out[4, k] = force * _flange_lead(y[k], psi[k], radius, p[_SLOPE], p[_B])
         out[5, k] = out[0, k] + out[1, k]
         out[6, k] = out[2, k] + out[3, k] + out[4, k]
     return out

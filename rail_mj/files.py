@@ -1,12 +1,25 @@
-"""Output files appear whole or not at all: written to temporary names beside their
-final paths, then renamed into place together."""
+"""Output files that appear whole or not at all, and never destroy what is there.
+
+A regular file is written to a temporary name beside it, then renamed into place with
+the rest of its set (a failure leaves none of them). A symbolic link is written through
+to its target, the same way, and stays a link. A special file (a FIFO, a device, a
+socket) cannot be renamed over without destroying it, so it is written through in
+place once the data is complete; `-` is standard output, written the same way.
+Special files and standard output are written before any regular file is renamed into
+place, so a failure there still leaves none of the regular files.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import shutil
+import stat
+import sys
 import tempfile
 from pathlib import Path
+
+STDOUT = "-"
 
 # Read once: os.umask can only be read by setting it, which would race other threads.
 _UMASK = os.umask(0o022)
@@ -17,36 +30,87 @@ class OutputError(OSError):
     """An output that could not be written; the message names the user's path."""
 
 
+def is_special(path) -> bool:
+    """Whether `path` is standard output or an existing file that is not a regular file
+    or a folder (following links): a FIFO, a device or a socket, written through in place."""
+    if str(path) == STDOUT:
+        return True
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return False
+    return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
+
+
+def _destination(path: Path) -> Path:
+    """Where a regular output really goes: a symbolic link's final target (so the link
+    survives and what it points at is replaced), else the path itself."""
+    return Path(os.path.realpath(path)) if path.is_symlink() else path
+
+
+def _stage(final: Path, special: bool) -> Path:
+    """A new, empty temporary file: beside the destination, so that renaming it into place
+    is atomic, or for a special file in the system's temporary folder."""
+    if not special:
+        final.parent.mkdir(parents=True, exist_ok=True)
+    where = None if special else final.parent
+    fd, tmp = tempfile.mkstemp(dir=where, prefix=f".{final.name}.", suffix=".tmp")
+    os.fchmod(fd, 0o666 & ~_UMASK)  # mkstemp makes owner-only files
+    os.close(fd)
+    return Path(tmp)
+
+
+def _write_through(tmp: Path, final: str) -> None:
+    """Copy a finished temporary file into standard output or a special file."""
+    with open(tmp, "rb") as source:
+        if final == STDOUT:
+            sys.stdout.flush()
+            shutil.copyfileobj(source, sys.stdout.buffer)
+            sys.stdout.buffer.flush()
+        else:
+            with open(final, "wb") as sink:  # a FIFO blocks here until a reader opens it
+                shutil.copyfileobj(source, sink)
+
+
 @contextlib.contextmanager
 def staged(paths):
-    """Yield a temporary path for each of `paths`; when the block succeeds, rename every
-    one into place, and otherwise remove them all, so no output is left half-written
-    and none of a set is written without the others."""
-    finals = [Path(p) for p in paths]
+    """Yield a temporary path for each of `paths`; when the block succeeds, put every
+    one in place (see the module docstring), and otherwise remove them all, so no output
+    is left half-written and none of a set is written without the others."""
+    finals = [str(p) for p in paths]
+    special = [is_special(p) for p in finals]
+    destinations = [Path(p) if s else _destination(Path(p)) for p, s in zip(finals, special)]
     temps: list[Path] = []
     try:
-        for final in finals:
+        for final, dest, spec in zip(finals, destinations, special):
             try:
-                final.parent.mkdir(parents=True, exist_ok=True)
-                fd, tmp = tempfile.mkstemp(dir=final.parent, prefix=f".{final.name}.", suffix=".tmp")
-                os.fchmod(fd, 0o666 & ~_UMASK)  # mkstemp makes owner-only files
-                os.close(fd)
+                temps.append(_stage(dest, spec))
             except OSError as e:
                 raise OutputError(f"cannot write {final}: {e.strerror or e}") from None
-            temps.append(Path(tmp))
         yield temps
-        for tmp, final in zip(temps, finals):
+        for tmp, final, spec in zip(temps, finals, special):
+            if spec:
+                try:
+                    _write_through(tmp, final)
+                except OSError as e:
+                    raise OutputError(f"cannot write {final}: {e.strerror or e}") from None
+        for tmp, final, dest, spec in zip(temps, finals, destinations, special):
+            if spec:
+                continue
             with open(tmp, "rb+") as f:
                 os.fsync(f.fileno())  # the data is on disk before the name points at it
             try:
-                os.replace(tmp, final)
+                os.replace(tmp, dest)
             except OSError as e:
                 raise OutputError(f"cannot write {final}: {e.strerror or e}") from None
+        for tmp, spec in zip(temps, special):
+            if spec:
+                tmp.unlink(missing_ok=True)
     except BaseException as error:
         for tmp in temps:
             tmp.unlink(missing_ok=True)
         if isinstance(error, OSError) and not isinstance(error, OutputError):
-            names = {str(t): str(f) for t, f in zip(temps, finals)}
+            names = {str(t): f for t, f in zip(temps, finals)}
             where = names.get(str(error.filename), error.filename or "output")
             raise OutputError(f"cannot write {where}: {error.strerror or error}") from None
         raise

@@ -24,13 +24,17 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from rail_mj.contact import ContactError, contact_patch
-from rail_mj.creep import LAWS
+from rail_mj.practice import RANGES
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 # Beyond these no vehicle is meant, and arithmetic on them overflows.
 MAX_MAGNITUDE = 1e15  # any number in SI units
 MAX_POSITION = 1000.0  # m from the body centre
+
+
+# Creep laws, by the number the model stores for the compiled law (rail_mj.creep).
+LINEAR, SHEN_HEDRICK_ELKINS, POLACH = 0, 1, 2
+LAWS = {"linear": LINEAR, "shen-hedrick-elkins": SHEN_HEDRICK_ELKINS, "polach": POLACH}
 
 
 class LayoutError(ValueError):
@@ -120,6 +124,8 @@ class Layout:
     contact: Contact | None = None  # when given, `creep` was computed from it
     flange: Flange | None = None  # None: no flange contact (the classical linear model)
     source: str = "<layout>"
+    # Legal values far outside railway practice (rail_mj.practice), one line each.
+    warnings: tuple[str, ...] = dataclasses.field(default=(), compare=False)
 
     @property
     def wheelset_x(self) -> tuple[float, ...]:
@@ -253,9 +259,44 @@ def _suspension(table: _Table) -> Suspension:
     return s
 
 
+def _practice(table: _Table, warnings: list[str], **values) -> None:
+    """Refuse values that cannot describe a rail vehicle, and note those outside railway
+    practice (rail_mj.practice.RANGES, keyed by section.key)."""
+    for key, value in values.items():
+        if value is None:
+            continue
+        limits = RANGES[f"{table.section}.{key}"]
+        error = limits.check(value)
+        if error:
+            table.fail(key, error)
+        note = limits.warning(value)
+        if note:
+            warnings.append(f"{table.source}: {table.section}.{key}: {note}")
+
+
+# Inertias a body's own size cannot hold are refused: a body lying within a radius R of
+# its centre of mass has radii of gyration sqrt(I/m) below R. R is taken generously
+# (this factor over the rough envelopes below), so only a wrong mass or unit trips it.
+ENVELOPE_MARGIN = 1.5
+
+
+def _inertia_fits(table: _Table, mass: float, inertia, radius: float, what: str) -> None:
+    """Refuse an inertia that needs more room than the body has (radius: its envelope, m)."""
+    if mass is None or inertia is None:
+        return
+    radius *= ENVELOPE_MARGIN
+    for axis, moment in zip("xyz", inertia):
+        gyration = math.sqrt(moment / mass)
+        if gyration > radius:
+            table.fail("inertia", f"{moment:g} kg m^2 about {axis} needs a radius of gyration of "
+                                  f"{gyration:.3g} m in a {mass:g} kg {what}, which fits within about "
+                                  f"{radius:.3g} m: check the mass and the units (kg, kg m^2)")
+
+
 def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     """Check a parsed layout (as from TOML) and build the `Layout`."""
     top = _Table(source, "", data)
+    warnings: list[str] = []
 
     name = top.get("name")
     if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
@@ -273,8 +314,15 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         wheel_load=t.positive("wheel_load", required=False),
     )
     t.done()
+    _practice(t, warnings, rolling_radius=wheelset.rolling_radius,
+              contact_half_spacing=wheelset.contact_half_spacing,
+              flangeway_clearance=wheelset.flangeway_clearance, mass=wheelset.mass,
+              conicity=wheelset.conicity, wheel_load=wheelset.wheel_load)
     if wheelset.rolling_radius >= wheelset.contact_half_spacing * 2:
         t.fail("rolling_radius", "is not smaller than the track gauge: check the units (m)")
+    r0, b = wheelset.rolling_radius, wheelset.contact_half_spacing
+    # Wheels at +/-b, axle journals and brake discs about a wheel radius further out.
+    _inertia_fits(t, wheelset.mass, wheelset.inertia, math.hypot(b + r0, r0), "wheelset")
 
     has_contact = top.get("contact", None, required=False) is not None
     t = _Table(source, "creep", top.get("creep", {} if has_contact else ...))
@@ -291,6 +339,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if law not in LAWS:
         t.fail("law", f"must be one of {', '.join(LAWS)}, got {law!r}")
     friction = t.number("friction", low=0.0, low_open=True, high=2.0, required=law != "linear")
+    _practice(t, warnings, friction=friction)
     falling = {k: t.get(k, None, required=False) for k in ("falling_friction_ratio", "falling_friction_rate")}
     if any(v is not None for v in falling.values()):
         if law != "polach":
@@ -316,6 +365,10 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
         )
         t.done()
+        _practice(t, warnings, mass=bogie.mass)
+        # Side frames about 0.5 m outside the wheels, ends a wheel radius past the axles.
+        reach = max(abs(x) for x in bogie.wheelset_positions) + r0
+        _inertia_fits(t, bogie.mass, bogie.inertia, math.hypot(reach, b + 0.5), "bogie frame")
         if top.get("secondary", None, required=False) is None:
             top.fail("secondary", "missing: a layout with [bogie] needs [secondary]")
         secondary = _suspension(_Table(source, "secondary", top.get("secondary")))
@@ -346,6 +399,11 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
         )
     t.done()
+    _practice(t, warnings, mass=carbody.mass)
+    # Ends overhang the outermost wheels by a few metres; about 2 m to the side and roof.
+    xs = carbody.bogie_positions or carbody.wheelset_positions
+    reach = max(abs(x) for x in xs) + (max(abs(x) for x in bogie.wheelset_positions) if bogie else 0.0)
+    _inertia_fits(t, carbody.mass, carbody.inertia, math.hypot(reach + r0 + 3.0, 2.0), "car body")
     if wheelset.wheel_load is None and carbody.mass is not None:
         # The static weight, shared equally by every wheel: exact for a symmetric vehicle.
         n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
@@ -382,6 +440,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
         bogie=bogie, secondary=secondary, contact=contact, flange=flange, source=source,
+        warnings=tuple(warnings),
     )
 
 
@@ -397,6 +456,8 @@ def _contact(t: _Table, wheelset: Wheelset):
         wheel_transverse_radius=t.positive("wheel_transverse_radius", required=False),
     )
     t.done()
+    from rail_mj.contact import ContactError, contact_patch  # scipy: only for layouts that need it
+
     try:
         patch = contact_patch(
             wheelset.wheel_load, wheelset.rolling_radius, contact.rail_transverse_radius,
@@ -410,6 +471,8 @@ def _contact(t: _Table, wheelset: Wheelset):
 
 def contact_patch_of(layout: Layout):
     """The Hertz ellipse and Kalker coefficients of a layout with [contact]."""
+    from rail_mj.contact import contact_patch
+
     c = layout.contact
     return contact_patch(layout.wheelset.wheel_load, layout.wheelset.rolling_radius, c.rail_transverse_radius,
                          young_modulus=c.young_modulus, poisson_ratio=c.poisson_ratio,

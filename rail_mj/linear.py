@@ -21,6 +21,15 @@ from rail_mj.forces import CreepForces, installed
 # Shen-Hedrick-Elkins u^2/3 term, u ~ 1e-6 here) is below 1e-6, large enough that
 # round-off in the differences stays near 1e-8 relative.
 FD_STEP = 1e-8
+# Roots smaller than this fraction of the largest are rigid-body or pure-integrator
+# roots (a free coordinate with no stiffness to anything): they are not modes.
+RIGID_TOLERANCE = 1e-9
+
+
+def modal_roots(A: np.ndarray) -> np.ndarray:
+    """The eigenvalues of A that are modes: rigid-body and pure-integrator roots removed."""
+    lam = np.linalg.eigvals(A)
+    return lam[np.abs(lam) > RIGID_TOLERANCE * np.max(np.abs(lam))]
 
 
 def state_matrix(model: mujoco.MjModel, forces: CreepForces,

@@ -32,9 +32,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from rail_mj.creep import LAWS
 from rail_mj.files import staged
-from rail_mj.layout import Layout, Suspension
+from rail_mj.layout import LAWS, Layout, Suspension
 from rail_mj.wheel import wheel_stl
 
 # Heights of the bodies above the rail, m. The model is planar (lateral and yaw), so

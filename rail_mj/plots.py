@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
+from typing import Callable
 
 import matplotlib
 
@@ -32,10 +33,13 @@ from rail_mj.stability import CriticalSpeed, Stability  # noqa: E402
 CSV_COLUMNS = ("speed_m_per_s", "mode", "frequency_hz", "damping_ratio", "real", "imag")
 
 
-def root_locus(stability: Stability, speeds) -> list[dict]:
-    """Every oscillatory mode at every speed, as rows with CSV_COLUMNS."""
+def root_locus(stability: Stability, speeds, progress: Callable[[str], None] | None = None) -> list[dict]:
+    """Every oscillatory mode at every speed, as rows with CSV_COLUMNS. `progress` is told
+    each speed as it is done."""
     rows = []
-    for v in speeds:
+    for k, v in enumerate(speeds):
+        if progress is not None:
+            progress(f"{float(v):.2f} m/s ({k + 1}/{len(speeds)})")
         for m in stability.modes(float(v)):
             if m.oscillatory:
                 rows.append({
@@ -129,7 +133,8 @@ def bifurcation_png(critical: CriticalSpeed, down, up, clearance: float, title: 
                    label=f"linear critical speed {critical.linear_critical_speed:.1f} m/s")
     if critical.critical_speed is not None:
         ax.axvline(critical.critical_speed, color="green", linestyle="--",
-                   label=f"nonlinear critical speed {critical.critical_speed:.1f} m/s")
+                   label=f"nonlinear critical speed {critical.critical_speed:.1f} m/s "
+                         f"(speed lowered in {critical.step:.0%} steps)")
     ax.set(xlabel="speed V (m/s)", ylabel="amplitude: largest wheelset |y| (mm)",
            title=f"Bifurcation diagram: {title}")
     ax.grid(alpha=0.3)

@@ -26,7 +26,8 @@ import numpy as np
 from rail_mj.creep import ContactForces, contact_forces
 from rail_mj.forces import CreepForces, contact_parameters, installed
 from rail_mj.layout import Layout
-from rail_mj.linear import state_matrix
+from rail_mj.practice import DERAILMENT_LATERAL
+from rail_mj.linear import modal_roots, state_matrix
 from rail_mj.model import YAW, Vehicle
 
 # RK4 is stable for |lambda|*dt up to 2.78 on the real axis and 2.83 on the imaginary
@@ -37,9 +38,6 @@ MAX_TIMESTEP = 1e-3  # s; the modes of interest are below 20 Hz
 MAX_STEPS = 50_000_000  # about half an hour of stepping: beyond this, refuse
 SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
 CHECK_EVERY = 200  # samples between divergence checks
-# A wheel further off-centre than the width of the rail head (UIC60: 72 mm) has
-# left the rail: without [flange] nothing stops it getting there.
-DERAILMENT_LATERAL = 0.072
 
 
 class SimulationError(RuntimeError):
@@ -138,6 +136,11 @@ def stable_timestep(vehicle: Vehicle, forces: CreepForces) -> float:
     return min(MAX_TIMESTEP, STEP_FRACTION / rate) if rate > 0 else MAX_TIMESTEP
 
 
+def _linearly_stable(vehicle: Vehicle, forces: CreepForces) -> bool:
+    """Whether every mode of the vehicle linearised about the centred state decays."""
+    return bool(np.max(modal_roots(state_matrix(vehicle.model, forces)).real) < 0)
+
+
 def _warnings(data) -> str | None:
     for i, w in enumerate(data.warning):
         if w.number:
@@ -217,6 +220,7 @@ def simulate(
 
     qpos[0], qvel[0] = data.qpos, data.qvel
     done = 0  # samples converted to wheelset y and psi and checked
+    derailed = None  # (sample, wheelset) where a wheelset left the rails
     with installed(forces):
         for k in range(1, n_samples):
             mujoco.mj_step(model, data, nstep=every)
@@ -238,19 +242,28 @@ def simulate(
             lateral = np.abs(pos[done:k + 1, ws, 1])
             off = np.nonzero(np.max(lateral, axis=1) > derailment_lateral)[0]
             if len(off):
-                j = done + off[0]
-                worst = int(np.argmax(lateral[off[0]]))
-                why = ("the flanges did not hold it at this speed" if layout.flange else
-                       "without [flange] contact nothing bounds the hunting")
-                raise Derailed(
-                    f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
-                    f"x = {speed * t[j]:.4g} m (t = {t[j]:.4g} s). {speed:g} m/s is above "
-                    f"this vehicle's critical speed, and {why}; lower --speed or shorten --distance",
-                    partial(j + 1),
-                )
+                derailed = done + off[0], int(np.argmax(lateral[off[0]]))
+                break
             done = k + 1
             if progress is not None:
                 progress(k / (n_samples - 1))
+    if derailed is not None:
+        j, worst = derailed
+        why = ("the flanges did not hold it" if layout.flange else
+               "without [flange] contact nothing bounds the motion")
+        if _linearly_stable(vehicle, forces):
+            start = (f"the start (shifted {initial_lateral:g} m, yawed {initial_yaw:g} rad)"
+                     if state is None else "the state it started from")
+            cause = (f"At {speed:g} m/s the centred vehicle is stable (every linear mode decays), "
+                     f"so {start} was too large a disturbance and {why}; start nearer the centre")
+        else:
+            cause = (f"{speed:g} m/s is above this vehicle's critical speed (a linear mode grows), "
+                     f"and {why}; lower --speed or shorten --distance")
+        raise Derailed(
+            f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
+            f"x = {speed * t[j]:.4g} m (t = {t[j]:.4g} s). {cause}",
+            partial(j + 1),
+        )
     return Run(vehicle, speed, dt, t, pos, quat, rates, (data.qpos.copy(), data.qvel.copy()))
 
 

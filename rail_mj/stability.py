@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Callable
 
 import mujoco
 import numpy as np
@@ -27,13 +28,10 @@ from scipy.optimize import brentq
 from rail_mj.analysis import late_motion, oscillation
 from rail_mj.forces import CreepForces
 from rail_mj.layout import Layout
-from rail_mj.linear import state_matrix
+from rail_mj.linear import RIGID_TOLERANCE, modal_roots, state_matrix
 from rail_mj.model import LATERAL, YAW, Vehicle
 from rail_mj.runner import Derailed, simulate
 
-# Roots smaller than this fraction of the largest are rigid-body or pure-integrator
-# roots (a free coordinate with no stiffness to anything): they are not modes.
-RIGID_TOLERANCE = 1e-9
 CRITICAL_XTOL = 1e-4  # relative; the issue asks for 0.1 % or better
 
 
@@ -83,6 +81,7 @@ class CriticalSpeed:
     # Speed ranges of the scan where some mode grows, [[from, to], ...] (eigen method).
     unstable_ranges: list[list[float]] = dataclasses.field(default_factory=list)
     linear_critical_speed: float | None = None  # m/s (nonlinear method: where it started from)
+    step: float | None = None  # nonlinear method: the speed step, a fraction of the speed
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -127,8 +126,7 @@ class Stability:
 
     def eigenvalues(self, speed: float) -> np.ndarray:
         """The roots that are modes: rigid-body and pure-integrator roots removed."""
-        lam = np.linalg.eigvals(self.state_matrix(speed))
-        return lam[np.abs(lam) > RIGID_TOLERANCE * np.max(np.abs(lam))]
+        return modal_roots(self.state_matrix(speed))
 
     def modes(self, speed: float) -> list[Mode]:
         """Every mode at `speed`, least damped first (one of each complex pair)."""
@@ -287,12 +285,14 @@ def late_growth(run) -> tuple[float, float]:
 
 
 def time_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, points: int = 12,
-                        duration: float = TIME_DURATION, rtol: float = 2e-3) -> CriticalSpeed:
+                        duration: float = TIME_DURATION, rtol: float = 2e-3,
+                        progress: Callable[[str], None] | None = None) -> CriticalSpeed:
     """Critical speed from simulations: a scan of runs from a small disturbance brackets
     the lowest speed where the motion stops decaying, Brent's method refines it.
 
     A run that leaves the rails counts as growing. The mode is named by matching the
-    measured frequency to the linear modes at the critical speed.
+    measured frequency to the linear modes at the critical speed. `progress` is told each
+    run's result, one short line.
     """
     _check_range(vmin, vmax)
     y0, psi0 = TIME_DISTURBANCE
@@ -315,6 +315,8 @@ def time_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, 
                     grew, freq = late_growth(e.run)
                     sigma = grew if grew > 1e-3 else 1e-3  # NaN or slower: still growing
             measured[speed] = (sigma, freq)
+            if progress is not None:
+                progress(f"run {len(measured)}: {speed:.2f} m/s, growth {sigma:+.3g} 1/s")
         return measured[speed]
 
     def growth(speed: float) -> float:

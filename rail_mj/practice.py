@@ -1,0 +1,104 @@
+"""What is impossible and what is merely unusual: the ranges rail-mj checks inputs against.
+
+A value outside `refuse` cannot describe a rail vehicle on rails (or breaks the model's
+assumptions) and is an error; a value inside `refuse` but outside `usual` is legal and
+far from railway practice, and gets a one-line warning. Each range says where it comes
+from; docs/practice.md explains them. One table serves the layout checks
+(`rail_mj.layout`) and the command line (speeds and initial disturbances).
+
+Example:
+
+    >>> RANGES["wheelset.rolling_radius"].check(0.001)
+    'must be between 0.01 and 1.5 m (wheels of 20 mm to 3 m diameter), got 0.001; check the units (m)'
+    >>> RANGES["wheelset.rolling_radius"].check(0.2) is None
+    True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+# A wheel further off-centre than the width of a UIC60 (60E1) rail head, 72 mm
+# (EN 13674-1), has left the rail: the runner calls that a derailment.
+DERAILMENT_LATERAL = 0.072  # m
+# How far an S1002 flange stands above the tread at the taping line (EN 13715): the
+# flange's front edge is sqrt((r0 + h)^2 - r0^2) ahead of the axle at rail-top level.
+FLANGE_HEIGHT = 0.028  # m
+
+
+@dataclasses.dataclass(frozen=True)
+class Range:
+    """`refuse`: the closed interval a value must lie in; `usual`: railway practice."""
+
+    refuse: tuple[float, float]
+    usual: tuple[float, float]
+    unit: str
+    why: str  # where the refusal bounds come from
+    practice: str  # where the usual range comes from
+
+    def check(self, value: float) -> str | None:
+        """The error for a value outside `refuse` (None when it is inside)."""
+        lo, hi = self.refuse
+        if lo <= value <= hi:
+            return None
+        units = f"; check the units ({self.unit})" if self.unit else ""
+        return f"must be between {lo:g} and {hi:g} {self.unit} ({self.why}), got {value:g}{units}"
+
+    def warning(self, value: float) -> str | None:
+        """The warning for a legal value outside railway practice (None inside it)."""
+        lo, hi = self.usual
+        if lo <= value <= hi:
+            return None
+        return (f"{value:g} {self.unit} is outside railway practice, {lo:g}-{hi:g} {self.unit} "
+                f"({self.practice})")
+
+
+RANGES = {
+    # The wheel-on-rail speed record is 159.7 m/s (574.8 km/h, TGV V150, 2007); twice it
+    # is far beyond any wheel-rail contact the creep laws were measured for.
+    "speed": Range((0.0, 320.0), (0.0, 160.0), "m/s",
+                   "twice the wheel-on-rail record of 160 m/s", "up to the 160 m/s speed record"),
+    # 20 mm wheels are smaller than any roller-rig scale model; 3 m wheels larger than
+    # any built (the largest steam drivers were 2.3 m). Practice: 330 mm (piggyback
+    # wagons) to 1250 mm (locomotives) in diameter.
+    "wheelset.rolling_radius": Range((0.01, 1.5), (0.16, 0.65), "m",
+                                     "wheels of 20 mm to 3 m diameter",
+                                     "wheels of 330-1300 mm diameter"),
+    # Half the distance between the contact points, about half the gauge plus a few cm:
+    # 2b from 0.1 m (scale rigs) to 4 m. Practice: 600 mm to 1676 mm gauges.
+    "wheelset.contact_half_spacing": Range((0.05, 2.0), (0.28, 0.9), "m",
+                                           "contact points 0.1 m to 4 m apart",
+                                           "gauges of 600-1676 mm"),
+    # Practice: light-rail wheelsets of a few hundred kg to locomotive wheelsets with
+    # gears and brake discs.
+    "wheelset.mass": Range((0.0, math.inf), (300.0, 4000.0), "kg", "a mass",
+                           "light-rail to locomotive wheelsets"),
+    # The flange must meet the rail before the wheel leaves it. Practice: new S1002
+    # wheels on nominal standard gauge have (1435 - 1360 - 2*32.5)/2 = 5 mm a side,
+    # worn flanges on widened gauge up to about 25 mm.
+    "wheelset.flangeway_clearance": Range((0.0, DERAILMENT_LATERAL), (0.001, 0.025), "m",
+                                          f"the wheel leaves a rail head {DERAILMENT_LATERAL * 1e3:g} mm wide",
+                                          "new to worn flanges on standard gauge"),
+    # Practice: 2 t to 40 t (heavy-haul) axle loads.
+    "wheelset.wheel_load": Range((0.0, math.inf), (10e3, 200e3), "N", "a load",
+                                 "axle loads of 2-40 t"),
+    # Equivalent conicities of new and worn wheels on real track (EN 15302 practice:
+    # 0.02 to about 0.4; above 0.5 the small-angle contact model does not hold).
+    "wheelset.conicity": Range((0.0, 0.5), (0.01, 0.4), "",
+                               "the small-angle contact model", "new and worn wheel-rail pairs"),
+    # Dry rail 0.3-0.5, wet 0.1-0.2, leaves and grease down to 0.05; sand raises it.
+    "creep.friction": Range((0.0, 2.0), (0.05, 0.6), "", "a friction coefficient",
+                            "contaminated to sanded rail"),
+    "bogie.mass": Range((0.0, math.inf), (500.0, 12000.0), "kg", "a mass",
+                        "light-rail to locomotive bogie frames"),
+    "carbody.mass": Range((0.0, math.inf), (1000.0, 150000.0), "kg", "a mass",
+                          "tram modules to locomotive bodies"),
+}
+
+
+def max_initial_yaw(rolling_radius: float, clearance: float) -> float:
+    """The largest yaw (rad) a wheelset can have in the gauge before its flange fronts
+    reach the rails: clearance / (the flange front's lead ahead of the axle)."""
+    lead = math.sqrt((rolling_radius + FLANGE_HEIGHT) ** 2 - rolling_radius**2)
+    return clearance / lead
