@@ -389,7 +389,7 @@ GRAVITY = 9.81  # m/s^2
 
 
 def _contact(t: _Table, wheelset: Wheelset):
-    """[contact]: Hertz's ellipse and Kalker's coefficients (reference sheet, section 5)."""
+    """[contact]: Hertz's ellipse and Kalker's coefficients (docs/contact.md)."""
     contact = Contact(
         young_modulus=t.positive("young_modulus"),
         poisson_ratio=t.number("poisson_ratio", low=0.0, high=0.5),
