@@ -3,8 +3,8 @@
 With flange contact and saturating creep, hunting above the linear critical speed
 grows into a limit cycle. Lowering the speed step by step, each step continuing from
 the last one's state and long enough to settle, follows that limit cycle down until
-it dies: the nonlinear critical speed, below the linear one (reference sheet,
-section 7). Raising the speed from a small disturbance follows the centred branch
+it dies: the nonlinear critical speed, below the linear one (docs/flange.md).
+Raising the speed from a small disturbance follows the centred branch
 up to the linear critical speed, where the motion jumps onto the limit cycle.
 
 Example (about a minute; the layout needs [flange] and a saturating creep law):

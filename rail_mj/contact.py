@@ -1,6 +1,6 @@
 """Wheel-rail contact from the bodies in contact: Hertz's ellipse and Kalker's coefficients.
 
-Reference sheet, section 5. Pure functions of numbers, no MuJoCo: the layout uses
+See docs/contact.md. Pure functions of numbers, no MuJoCo: the layout uses
 them to turn Young's modulus, Poisson's ratio, the radii and the wheel load into
 the creep coefficients f11, f22, f23, f33.
 
@@ -20,7 +20,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import ellipe, ellipk
 
-# Kalker's creep coefficients, reference sheet section 5 (J. J. Kalker, 1967): rows by
+# Kalker's creep coefficients (J. J. Kalker, 1967; docs/contact.md): rows by
 # semi-axis ratio, columns Poisson's ratio 0, 0.25, 0.5. `a` is the semi-axis along
 # the rolling direction. The rows run a/b = 0.1 ... 1.0, then b/a = 0.9 ... 0.1; they
 # are indexed here by s = a/b for a <= b and s = 2 - b/a for a > b, one axis 0.1-1.9.
@@ -119,7 +119,7 @@ def hertz_ellipse(normal_load: float, curvature_sum_rolling: float, curvature_su
 
 def kalker_coefficients(a_over_b: float, poisson_ratio: float) -> dict:
     """C11, C22, C23, C33 from Kalker's table: linear in the semi-axis ratio between rows,
-    and 1/C quadratic in nu through the three columns (reference sheet, section 5)."""
+    and 1/C quadratic in nu through the three columns (docs/contact.md)."""
     s = a_over_b if a_over_b <= 1.0 else 2.0 - 1.0 / a_over_b
     if not KALKER_S[0] <= s <= KALKER_S[-1]:
         raise ContactError(f"contact ellipse a/b = {a_over_b:.3g} is outside Kalker's table (0.1 to 10)")

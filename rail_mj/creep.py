@@ -6,8 +6,8 @@ on arrays of a few wheelsets was most of a step). Independent of MuJoCo (the bin
 is `rail_mj.forces`), it takes arrays of any shape whose last axis is the wheelsets:
 one call serves every wheelset of a model at one instant, or a whole run's samples.
 
-Frames and signs are those of the reference sheet, section 1: y to the left,
-psi positive nose-left, forces in the track frame.
+Frames and signs are those of docs/frames.md: y to the left, psi positive
+nose-left, forces in the track frame. The physics is in docs/creep.md and docs/flange.md.
 
 Example:
 
@@ -217,7 +217,7 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     out = np.zeros((7, y.size))
     for k in range(y.size):
         p = table[:, k % n]
-        # Creepages (reference sheet, section 2): on the tread xi_x_left = -(b*psi'/V) -
+        # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) -
         # lam*y/r0 and xi_x_right is its negative; the lateral creepage is the same on both
         # wheels, and the spin differs between them only by the constant contact-angle
         # term, which cancels between the two wheels' linear forces and is left out.

@@ -32,7 +32,7 @@ MAX_MAGNITUDE = 1e15  # any number in SI units
 MAX_POSITION = 1000.0  # m from the body centre
 
 
-# Creep laws, by the number the model stores for the compiled law (rail_mj.creep).
+# Creep laws (docs/creep.md, saturation), by the number the model stores for the compiled law.
 LINEAR, SHEN_HEDRICK_ELKINS, POLACH = 0, 1, 2
 LAWS = {"linear": LINEAR, "shen-hedrick-elkins": SHEN_HEDRICK_ELKINS, "polach": POLACH}
 
@@ -448,7 +448,7 @@ GRAVITY = 9.81  # m/s^2
 
 
 def _contact(t: _Table, wheelset: Wheelset):
-    """[contact]: Hertz's ellipse and Kalker's coefficients (reference sheet, section 5)."""
+    """[contact]: Hertz's ellipse and Kalker's coefficients (docs/contact.md)."""
     contact = Contact(
         young_modulus=t.positive("young_modulus"),
         poisson_ratio=t.number("poisson_ratio", low=0.0, high=0.5),

@@ -1,8 +1,8 @@
 """Model generation: a `Layout` built into MuJoCo MJCF with the MjSpec API.
 
 The model lives in a frame that travels along the track with the vehicle at the
-run's speed: x is along the track, y to the left, z up (section 1 of the reference
-sheet). Forward motion is not a degree of freedom; the runner adds x = V*t. Each
+run's speed: x is along the track, y to the left, z up (docs/frames.md).
+Forward motion is not a degree of freedom; the runner adds x = V*t. Each
 body has a lateral slide joint and a yaw hinge, nested as the suspension is:
 
     world -> carbody -> bogieK -> wheelsetN        (with [bogie])
@@ -10,8 +10,8 @@ body has a lateral slide joint and a yaw hinge, nested as the suspension is:
 
 so each suspension is the stiffness and damping of the joints of the body it
 carries. A wheelset joint measures y_w - (y_f + (x_w - x_f)*psi_f) and
-psi_w - psi_f relative to its frame, exactly the deflections of the reference
-sheet's section 4 once linearised. A fixed car body has no joints.
+psi_w - psi_f relative to its frame, exactly the suspension deflections of
+docs/frames.md once linearised. A fixed car body has no joints.
 
 Example:
 
@@ -38,7 +38,7 @@ from rail_mj.wheel import wheel_stl
 
 # Heights of the bodies above the rail, m. The model is planar (lateral and yaw), so
 # these place the bodies for viewing and have no effect on the dynamics. Bogie frame
-# and car body are the Manchester benchmark's centres of mass (reference sheet, 8).
+# and car body are the Manchester benchmark's centres of mass (docs/manchester-coach.md).
 BOGIE_HEIGHT = 0.6
 CARBODY_HEIGHT = 1.8
 AXLE_RADIUS = 0.08

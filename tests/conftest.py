@@ -12,7 +12,7 @@ ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"
 SHIPPED = sorted(p for p in MODELS.glob("*/*.toml") if p.stem == p.parent.name)
 
-# Manchester benchmark wheelset (reference sheet, section 8).
+# Manchester benchmark wheelset (docs/manchester-coach.md).
 WHEELSET = {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0], "rolling_radius": 0.46,
             "contact_half_spacing": 0.75, "conicity": 0.15}
 BOGIE_FRAME = {"mass": 2615.0, "inertia": [1722.0, 1476.0, 3067.0]}

@@ -1,12 +1,13 @@
 """An independent planar (lateral + yaw) state-space model of a railway vehicle.
 
-Written from the reference sheet `/work/shared/reference/rail-dynamics.md` only,
+Written from the physics notes `docs/creep.md` and `docs/frames.md` only (section
+numbers below are those of docs/creep.md),
 so that it can check the eigenvalues of the MuJoCo-based model in `rail_mj`. It
 imports nothing from `rail_mj` except `rail_mj.layout` (the `Layout` it reads
 the numbers from); no MuJoCo, no creep code and no model code is shared.
 
-Coordinates (reference sheet section 1)
----------------------------------------
+Coordinates (docs/frames.md)
+----------------------------
 Every movable body has two coordinates, both absolute in the track frame:
 the lateral displacement `y` (positive to the left) and the yaw `psi` (about z,
 positive nose-left). The movable bodies are, in this order:
@@ -36,7 +37,7 @@ part cancels between the wheels), the rails put on each wheelset
 With `f23 = f33 = 0` these are exactly the section-2 forces. No gravitational
 stiffness, gyroscopic coupling or flange contact: this is the classical case.
 
-*Suspension* (section 4). A spring-damper set (ky, kpsi, cy, cpsi) between a
+*Suspension* (docs/frames.md). A spring-damper set (ky, kpsi, cy, cpsi) between a
 child body centred at `x_c` and its parent centred at `x_p` (x measured from
 the car-body centre) acts on the lateral deflection and the yaw deflection
 
@@ -98,7 +99,7 @@ def planar_matrices(layout: Layout, speed: float):
     "wheelset3_lateral", ...). Order: car body (if free), bogies from the
     front, wheelsets from the front; lateral then yaw for each body. The
     equations are `M q'' + C q' + K q = 0`; see the module docstring for the
-    derivation (creep: reference section 2; suspension: section 4).
+    derivation (creep: docs/creep.md, section 2; suspension: docs/frames.md).
     """
     V = float(speed)
     if not V > 0.0:
@@ -118,7 +119,7 @@ def planar_matrices(layout: Layout, speed: float):
     C = np.zeros((n, n))
     K = np.zeros((n, n))
 
-    # Suspension (section 4): energy ky*d^2/2 + kpsi*e^2/2 -> K += k g g^T; same for C.
+    # Suspension (docs/frames.md): energy ky*d^2/2 + kpsi*e^2/2 -> K += k g g^T; same for C.
     x_of = {name: x for name, x, *_ in bodies}
     for name, x_c, _m, _i, parent, susp in bodies:
         if parent is None:
@@ -159,7 +160,7 @@ def planar_matrices(layout: Layout, speed: float):
 def planar_state_matrix(layout: Layout, speed: float) -> np.ndarray:
     """State matrix `A` (2n x 2n) of `x = [q, q']`: `A = [[0, I], [-M^-1 K, -M^-1 C]]`.
 
-    Built from `planar_matrices` (reference sections 2 and 4).
+    Built from `planar_matrices` (docs/creep.md, section 2; docs/frames.md).
     """
     M, C, K, _names = planar_matrices(layout, speed)
     n = M.shape[0]
@@ -177,7 +178,7 @@ def planar_eigenvalues(layout: Layout, speed: float) -> np.ndarray:
 
 
 def closed_form_critical_speed(m, Iz, ky, kpsi, f11, f22, lam, r0, b):
-    """Linear critical speed of one wheelset sprung to a fixed body (reference section 4).
+    """Linear critical speed of one wheelset sprung to a fixed body (docs/creep.md, section 4).
 
     For the section-2 equations (no spin creep, no suspension damping), with
     `P = m*f11*b^2 + Iz*f22` and `Q = f22*kpsi + f11*b^2*ky`:

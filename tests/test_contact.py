@@ -1,4 +1,4 @@
-"""Hertz contact and Kalker's coefficients against the reference sheet, section 5."""
+"""Hertz contact and Kalker's coefficients against docs/contact.md (its reference case, section 3)."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ def test_reference_case():
     f11 14.3 MN, f22 13.1 MN, f23 36.5 kN m, f33 121 N m^2."""
     c = contact_patch(98.1e3, 0.46, 0.30, young_modulus=E, poisson_ratio=NU)
     # The issue's tolerances: semi-axes within 1 %, creep coefficients within 3 %; the
-    # sheet quotes 3 significant figures, and we land within its rounding on most.
+    # reference values have 3 significant figures, and we land within their rounding on most.
     assert c.a == pytest.approx(7.15e-3, rel=1e-2) and c.b == pytest.approx(5.38e-3, rel=1e-2)
     assert c.a / c.b == pytest.approx(1.329, rel=1e-3)
     assert c.p0 == pytest.approx(1219e6, rel=1e-2)

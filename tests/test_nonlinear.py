@@ -1,4 +1,4 @@
-"""Flange contact, limit cycles and the nonlinear critical speed (reference sheet, section 7)."""
+"""Flange contact, limit cycles and the nonlinear critical speed (docs/flange.md)."""
 
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def test_rolling_radius_rises_up_the_flange():
     np.testing.assert_allclose(right, -0.1 * y)  # the other wheel stays on its cone
     np.testing.assert_allclose(left[:2], 0.1 * y[:2])
     assert left[2] == pytest.approx(0.1 * 0.008 + slope * 0.002)
-    # With the linear law the creep couple is -f11*b*(r_left - r_right)/r0 (section 2).
+    # With the linear law the creep couple is -f11*b*(r_left - r_right)/r0 (docs/creep.md, section 2).
     linear = ContactParameters.broadcast(3, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=10e6,
                                          clearance=0.008, flange_slope=slope)
     zero = np.zeros(3)
@@ -142,12 +142,12 @@ def test_flange_contact_lead_is_where_the_yawed_flange_meets_the_rail(degrees, p
 
 
 def test_flange_strikes_begin_yawed_into_the_rail_and_turn_away(hunting_run):
-    """The seed and the reference sheet (section 7): at a flange strike the colliding wheel
+    """The seed article (docs/flange.md, section 3): at a flange strike the colliding wheel
     is behind its partner, the wheelset yawed towards the struck rail. Every strike of the
     limit cycle begins so, because the hunting wheelset arrives heading for the rail. On the
     flange, though, contact mechanics turns it away: the rolling radius rising up the flange
     makes the colliding wheel's longitudinal creep force push it forward (the creep couple,
-    reference section 2, with the radius difference), and the flange force, acting ahead of
+    docs/creep.md, section 2, with the radius difference), and the flange force, acting ahead of
     the axle while the wheelset is yawed into the rail (`flange_lead`, for a 70 degree
     flange), is a yaw stiffness |Q|*(r*tan(gamma) - b) against any yaw."""
     run = hunting_run

@@ -1,4 +1,4 @@
-"""The physics against closed forms of the reference sheet (shared/reference/rail-dynamics.md)."""
+"""The physics against closed forms of docs/creep.md (the section numbers below are its own)."""
 
 from __future__ import annotations
 

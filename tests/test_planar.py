@@ -1,7 +1,7 @@
 """Checks of the independent planar model (tests/planar.py) against closed forms.
 
-Every formula is from the reference sheet /work/shared/reference/rail-dynamics.md
-(section numbers given next to each check), never from rail_mj's own model.
+Every formula is from the physics notes docs/creep.md (its section numbers given next to each
+check) and docs/frames.md, never from rail_mj's own model.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ def rigid_truck(a, f11, f22, lam, r0, b, m=1813.0, Iz=1120.0, k=1e10):
 
 
 def coach(f11=10e6, f22=9e6, lam=0.15):
-    """Manchester coach numbers (section 8), free car body and two bogies."""
+    """Manchester coach numbers (docs/manchester-coach.md), free car body and two bogies."""
     return layout_from_dict({
         "name": "coach",
         "wheelset": {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0], "rolling_radius": 0.46,
@@ -155,7 +155,7 @@ CASES = [
 def test_critical_speed_matches_closed_form(m, Iz, ky, kpsi, f11, f22, lam, r0, b, vc_ref, f_ref):
     vc, f_hz = closed_form_critical_speed(m, Iz, ky, kpsi, f11, f22, lam, r0, b)
     assert math.isfinite(vc)
-    if vc_ref is not None:  # the sheet's numbers, to 4 significant figures
+    if vc_ref is not None:  # the worked numbers of section 4, to 4 significant figures
         assert vc == pytest.approx(vc_ref, abs=0.005)
         assert f_hz == pytest.approx(f_ref, abs=0.0005)
 
@@ -222,14 +222,14 @@ def test_rigid_truck_klingel_wavelength(a, r0, b, lam, f11, f22):
     assert wavelength == pytest.approx(expected, rel=5e-3)
 
 
-# --- section 4: suspension geometry ------------------------------------------
+# --- docs/frames.md: suspension geometry ------------------------------------
 
 
 def test_coach_size_names_and_symmetry():
     """Free car body, two bogies, four wheelsets: 14 coordinates, A is 28 x 28.
 
     With the creep made negligible (f11 = f22 = 1e-9 N) only the suspension is left, whose
-    K and C come from an energy and a dissipation function (section 4): both symmetric, and
+    K and C come from an energy and a dissipation function (docs/frames.md): both symmetric, and
     both annihilate the two rigid-body motions of the whole vehicle (all y equal; all psi
     equal with y = x*psi), which deflect no spring.
     """
@@ -259,7 +259,7 @@ def test_coach_size_names_and_symmetry():
 
 @pytest.mark.parametrize("make", [coach, wagon])
 def test_suspension_forces_match_the_written_out_forces(make):
-    """K q and C q' equal minus the section-4 forces summed over every suspension.
+    """K q and C q' equal minus the suspension forces of docs/frames.md summed over every suspension.
 
     Per suspension, d = y_c - (y_p + (x_c - x_p) psi_p), e = psi_c - psi_p:
     child lateral -ky d; parent lateral +ky d; parent yaw (x_c - x_p) ky d + kpsi e;

@@ -30,7 +30,7 @@ def test_runs_are_deterministic():
 def test_timestep_is_chosen_from_layout_and_speed(speed):
     """Slow runs need small steps, fast ones do not; both run with no flags. The step
     resolves the fastest rates that the layout alone predicts: the wheelset's lateral
-    creep damping 2*f22/(m*V) and yaw creep damping 2*f11*b^2/(Iz*V) (section 2), and
+    creep damping 2*f22/(m*V) and yaw creep damping 2*f11*b^2/(Iz*V) (docs/creep.md, section 2), and
     the primary yaw spring's natural frequency sqrt(kpsi/Iz)."""
     layout = load_layout(COACH)
     vehicle = Vehicle(layout)
@@ -69,7 +69,7 @@ def test_impossibly_slow_run_is_refused_naming_the_limit():
 
 
 def test_hunting_without_flange_contact_stops_with_a_reason():
-    # The restrained wheelset's closed-form critical speed is 57.5 m/s (reference sheet, 4).
+    # The restrained wheelset's closed-form critical speed is 57.5 m/s (docs/creep.md, section 4).
     with pytest.raises(SimulationError, match="above this vehicle's critical speed") as e:
         simulate(load_layout(WHEELSET), speed=75.0, distance=3000.0, initial_lateral=0.002)
     partial = e.value.run

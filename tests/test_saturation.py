@@ -1,4 +1,4 @@
-"""Creep saturation laws (reference sheet, section 6): Kalker's slope at zero, never
+"""Creep saturation laws (docs/creep.md, section 5): Kalker's slope at zero, never
 above mu*N, continuous; and a saturating vehicle keeps every linear result."""
 
 from __future__ import annotations
@@ -164,7 +164,7 @@ def test_falling_friction_keeps_the_linear_critical_speed(tmp_path):
 
 @pytest.mark.parametrize("law", [SHEN_HEDRICK_ELKINS, POLACH])
 def test_spin_moment_saturates_with_the_forces(law):
-    """Reference case coefficients (section 5): f22 13.1 MN, f23 36.5 kN m, f33 121 N m^2.
+    """Reference case coefficients (docs/contact.md, section 3): f22 13.1 MN, f23 36.5 kN m, f33 121 N m^2.
     Near zero creepage the moment is Kalker's; sliding sideways (xi_y alone) the moment
     f23*xi_y and the force -f22*xi_y saturate together, so the moment stays f23/f22 times
     the lateral force at every slip, and under 2*mu*N*f23/f22."""

@@ -1,4 +1,4 @@
-"""Stability analysis against the closed forms (reference sheet, section 4) and an
+"""Stability analysis against the closed forms of docs/creep.md (section numbers below are its own) and an
 independent planar state-space model (tests/planar.py)."""
 
 from __future__ import annotations
