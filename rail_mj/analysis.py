@@ -53,8 +53,9 @@ def oscillation(t: np.ndarray, s: np.ndarray) -> tuple[float, float]:
 
 # EN 14363's running-instability criterion (after Prud'homme): the rms of each wheelset's
 # sum of guiding forces, band-pass filtered around the instability frequency f0 (f0 +/- 2 Hz),
-# over a sliding 100 m of track, against (10 + 2*P0/3)/2 kN with P0 the static axle load
-# in kN. The filter keeps the hunting and drops its flange-contact harmonics (and, on real
+# over a sliding 100 m of track, against half Prud'homme's track-shift limit,
+# (10 + 2*Q0/3)/2 kN = (10 + P0/3)/2 kN with Q0 the static wheel load and P0 = 2*Q0 the
+# static axle load, in kN (alpha = 1: passenger vehicles and locomotives). The filter keeps the hunting and drops its flange-contact harmonics (and, on real
 # track, the irregularities' broad band).
 HUNTING_WINDOW = 100.0  # m
 HUNTING_BAND = 2.0  # Hz either side of f0
@@ -62,8 +63,8 @@ FILTER_ORDER = 4  # Butterworth, run forwards and backwards (no phase shift)
 
 
 def hunting_limit(axle_load: float) -> float:
-    """The rms limit of Sigma Y, N, for a static axle load in N."""
-    return (10e3 + 2.0 * axle_load / 3.0) / 2.0
+    """The rms limit of Sigma Y, N, for a static axle load in N: (10 kN + P0/3)/2."""
+    return (10e3 + axle_load / 3.0) / 2.0
 
 
 def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:

@@ -259,7 +259,10 @@ def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw):
 
 
 def _fmt(value, spec: str) -> str:
-    return "-" if value is None else format(value, spec)
+    """`value` formatted by `spec`, or a dash as wide for a value there is not."""
+    if value is None:
+        return format("-", spec.rstrip("efgEFG").split(".")[0])
+    return format(value, spec)
 
 
 def _print_summary(result: dict, err: bool = False) -> None:
@@ -529,6 +532,9 @@ def main(argv: list[str] | None = None) -> int:
     except click.exceptions.Abort:
         click.echo("rail-mj: interrupted", err=True)
         return 130
+    except click.exceptions.NoArgsIsHelpError as e:  # `rail-mj` alone: the help, as --help
+        click.echo(e.ctx.get_help())
+        return 0
     except click.ClickException as e:
         click.echo(f"rail-mj: error: {e.format_message()} (see rail-mj --help)", err=True)
         return EXIT_BAD_INPUT
