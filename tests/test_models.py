@@ -109,3 +109,39 @@ def test_wheelset_bodies_sit_where_the_layout_puts_them():
     mujoco.mj_kinematics(vehicle.model, data)
     np.testing.assert_allclose(data.xpos[vehicle.wheelset_ids, 0], [9.2, 8.0, 6.8, -6.8, -8.0, -9.2])
     np.testing.assert_allclose(data.xpos[vehicle.wheelset_ids, 2], 0.45)
+
+
+def _world_box(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest and highest corner of a geom's bounding box in the world."""
+    g = model.geom(name).id
+    centre, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+    signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)])
+    corners = data.geom_xpos[g] + (centre + signs * half) @ data.geom_xmat[g].reshape(3, 3).T
+    return corners.min(axis=0), corners.max(axis=0)
+
+
+def test_the_coach_is_drawn_as_a_coach_on_outside_frame_bogies():
+    """Side frames outside the wheels, the body over everything under it, a coach's outline,
+    and no drawn part that collides or weighs anything."""
+    layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
+    model = Vehicle(layout).model
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    wheel_low, wheel_high = _world_box(model, data, "wheelset1_left_wheel")
+    frame_low, frame_high = _world_box(model, data, "bogie1_side_left")
+    assert frame_low[1] > wheel_high[1]  # the frame's inner face clears the wheel
+    # ... and reaches over both wheelsets, end to end.
+    assert frame_high[0] >= wheel_high[0] - 1e-3
+    assert frame_low[0] <= _world_box(model, data, "wheelset2_left_wheel")[0][0] + 1e-3
+    carbody = model.body("carbody").id
+    boxes = {model.geom(g).name: _world_box(model, data, model.geom(g).name) for g in range(model.ngeom)}
+    body = [boxes[model.geom(g).name] for g in range(model.ngeom) if model.geom_bodyid[g] == carbody]
+    low, high = np.min([lo for lo, _ in body], axis=0), np.max([hi for _, hi in body], axis=0)
+    under = max(boxes[model.geom(g).name][1][2] for g in range(model.ngeom)
+                if model.geom_bodyid[g] != carbody)
+    assert low[2] == pytest.approx(under)  # the secondary springs reach up to the underframe
+    np.testing.assert_allclose(high - low, [19.0 + 2 * 2.75 + 0.04, 2.8 + 0.04, 3.9 - low[2]])
+    assert 1.0 < low[2] < 1.3 and high[2] == pytest.approx(3.9)
+    assert not model.geom_contype.any() and not model.geom_conaffinity.any()
+    np.testing.assert_array_equal(model.body_mass[1:], [layout.carbody.mass] + (
+        [layout.bogie.mass] + [layout.wheelset.mass] * 2) * 2)
