@@ -13,7 +13,7 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from rail_mj.bifurcation import bifurcation
+from rail_mj.bifurcation import STEP, bifurcation
 from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
 from rail_mj.plots import bifurcation_png
@@ -25,6 +25,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "figures"))
     args = parser.parse_args()
+    print(f"speed lowered in steps of {STEP:.0%}")
     print("| vehicle | linear critical speed | nonlinear critical speed | limit cycle at 1.1 x linear |")
     print("|---|---|---|---|")
     bogie = load_layout(MODELS / "bogie" / "bogie.toml")
@@ -34,7 +35,7 @@ def main() -> None:
     cases = [("bogie", bogie), ("manchester-coach", load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")),
              ("bogie, falling friction A 0.4, B 0.6 s/m", falling)]
     for name, layout in cases:
-        critical, down, up = bifurcation(layout, step=0.03)
+        critical, down, up = bifurcation(layout)  # the one procedure and step (bifurcation.STEP)
         if layout is not falling:
             atomic_write(Path(args.out) / f"bifurcation_{name}.png",
                          bifurcation_png(critical, down, up, layout.wheelset.flangeway_clearance, name))
