@@ -257,3 +257,36 @@ def test_hunting_filter_keeps_the_hunting_and_drops_its_harmonics():
     np.testing.assert_allclose(rms, [20e3 / np.sqrt(2), 10e3 / np.sqrt(2)], rtol=1e-4)
     half = band_pass(t, np.sin(2 * np.pi * 7.0 * t), 5.0)[inner]
     assert np.sqrt(2 * np.mean(half**2)) == pytest.approx(0.5, rel=1e-3)  # the band edge
+
+
+def test_one_nonlinear_critical_speed_from_both_commands(tmp_path, capsys):
+    """critical-speed --method nonlinear and bifurcation follow one procedure with one step:
+    the same nonlinear critical speed, below the linear one, each printing the step."""
+    path = str(flanged_wheelset(tmp_path))
+    assert main(["critical-speed", path, "--method", "nonlinear", "--step", "0.08", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["step"] == 0.08
+    assert 0 < result["critical_speed"] < result["linear_critical_speed"]
+    assert main(["bifurcation", path, "-o", str(tmp_path / "b.png"), "--step", "0.08"]) == 0
+    out = capsys.readouterr().out
+    assert f"nonlinear {result['critical_speed']:.2f} m/s (speed lowered in 8% steps)" in out
+
+
+def test_a_limit_cycle_dying_above_the_linear_critical_speed_gives_no_nonlinear_one(tmp_path, monkeypatch):
+    """Where the staircase loses the limit cycle before reaching the linear critical speed
+    (a supercritical bifurcation, within the step), nothing above it is reported."""
+    import rail_mj.bifurcation as bifurcation_module
+
+    layout = load_layout(flanged_wheelset(tmp_path))
+
+    def dies_early(layout, speeds, **kwargs):
+        alive = [v > 60.0 for v in speeds[:3]]  # the linear critical speed is 57.50 m/s
+        return bifurcation_module.Branch("down", list(speeds[:3]), [0.01 if a else 0.0 for a in alive],
+                                         [5.0] * 3, alive)
+
+    monkeypatch.setattr(bifurcation_module, "follow", dies_early)
+    critical, branch = bifurcation_module.nonlinear_critical_speed(layout, step=0.04)
+    assert branch.alive[0] and branch.speeds[0] > 60.0
+    assert critical.critical_speed is None
+    assert "no limit cycle below the linear critical speed" in critical.note
+    assert critical.linear_critical_speed == pytest.approx(57.50, abs=0.01)
