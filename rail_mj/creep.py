@@ -209,6 +209,51 @@ def _saturation_factor(law, fx, fy, limit):
 
 
 @numba.njit(cache=True)
+def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
+    """The rails' forces on one wheelset, by origin: (creep lateral, flange lateral, creep
+    couple, spin moment, flange moment), N and N m (see `ContactForces`). `p`: its column
+    of `ContactParameters.table`. The one implementation of the contact law: the array
+    kernel below and the native passive-force callback (rail_mj.native) both call it."""
+    # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and
+    # xi_x_right is its negative; the lateral creepage is the same on both wheels, and the
+    # spin differs between them only by the constant contact-angle term, which cancels
+    # between the two wheels' linear forces and is left out. Without flange contact
+    # flange_slope is the conicity: no rise.
+    rise_left = _radius_rise(y, p[_LAM], p[_SLOPE], p[_CLEARANCE])
+    rise_right = _radius_rise(-y, p[_LAM], p[_SLOPE], p[_CLEARANCE])
+    turning = p[_B] * psi_dot / speed
+    xi_left = -turning - rise_left / p[_R0]
+    xi_right = turning - rise_right / p[_R0]
+    xi_y = y_dot / speed - psi
+    xi_sp = psi_dot / speed
+    # Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
+    fx_left, fx_right = -p[_F11] * xi_left, -p[_F11] * xi_right
+    fy, mz = -p[_F22] * xi_y - p[_F23] * xi_sp, p[_F23] * xi_y - p[_F33] * xi_sp
+    scale_left = scale_right = 1.0
+    if law != LINEAR:
+        limit_left = limit_right = p[_LIMIT]
+        if falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
+            limit_left = _falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
+                                           speed * math.hypot(xi_left, xi_y))
+            limit_right = _falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
+                                            speed * math.hypot(xi_right, xi_y))
+        # Fx, Fy and the spin moment of a wheel all saturate by one factor (a common
+        # simplification: Kalker's full theory saturates the moment its own way).
+        scale_left = _saturation_factor(law, fx_left, fy, limit_left)
+        scale_right = _saturation_factor(law, fx_right, fy, limit_right)
+    creep_lateral = (scale_left + scale_right) * fy
+    couple = p[_B] * (scale_right * fx_right - scale_left * fx_left)  # Fx_left at y = +b
+    spin = (scale_left + scale_right) * mz
+    flange_lateral = flange_moment = 0.0
+    if flange:
+        flange_lateral = _flange_force(y, y_dot, p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
+        if flange_lateral != 0.0:
+            radius = p[_R0] + max(rise_left, rise_right)  # the flanging wheel's
+            flange_moment = flange_lateral * _flange_lead(y, psi, radius, p[_SLOPE], p[_B])
+    return creep_lateral, flange_lateral, couple, spin, flange_moment
+
+
+@numba.njit(cache=True)
 def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     """`contact_forces` over flat, contiguous state arrays: the last axis of the original
     shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
@@ -216,43 +261,10 @@ def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     n = table.shape[1]
     out = np.zeros((7, y.size))
     for k in range(y.size):
-        p = table[:, k % n]
-        # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) -
-        # lam*y/r0 and xi_x_right is its negative; the lateral creepage is the same on both
-        # wheels, and the spin differs between them only by the constant contact-angle
-        # term, which cancels between the two wheels' linear forces and is left out.
-        # Without flange contact flange_slope is the conicity: no rise.
-        rise_left = _radius_rise(y[k], p[_LAM], p[_SLOPE], p[_CLEARANCE])
-        rise_right = _radius_rise(-y[k], p[_LAM], p[_SLOPE], p[_CLEARANCE])
-        turning = p[_B] * psi_dot[k] / speed
-        xi_left = -turning - rise_left / p[_R0]
-        xi_right = turning - rise_right / p[_R0]
-        xi_y = y_dot[k] / speed - psi[k]
-        xi_sp = psi_dot[k] / speed
-        # Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
-        fx_left, fx_right = -p[_F11] * xi_left, -p[_F11] * xi_right
-        fy, mz = -p[_F22] * xi_y - p[_F23] * xi_sp, p[_F23] * xi_y - p[_F33] * xi_sp
-        scale_left = scale_right = 1.0
-        if law != LINEAR:
-            limit_left = limit_right = p[_LIMIT]
-            if falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
-                limit_left = _falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
-                                              speed * math.hypot(xi_left, xi_y))
-                limit_right = _falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
-                                               speed * math.hypot(xi_right, xi_y))
-            # Fx, Fy and the spin moment of a wheel all saturate by one factor (a common
-            # simplification: Kalker's full theory saturates the moment its own way).
-            scale_left = _saturation_factor(law, fx_left, fy, limit_left)
-            scale_right = _saturation_factor(law, fx_right, fy, limit_right)
-        out[0, k] = (scale_left + scale_right) * fy
-        out[2, k] = p[_B] * (scale_right * fx_right - scale_left * fx_left)  # Fx_left at y = +b
-        out[3, k] = (scale_left + scale_right) * mz
-        if flange:
-            force = _flange_force(y[k], y_dot[k], p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
-            if force != 0.0:
-                radius = p[_R0] + max(rise_left, rise_right)  # the flanging wheel's
-                out[1, k] = force
-                out[4, k] = force * _flange_lead(y[k], psi[k], radius, p[_SLOPE], p[_B])
+        forces = wheelset_contact(table[:, k % n], law, flange, falling, y[k], psi[k], y_dot[k],
+                                  psi_dot[k], speed)
+        for row in range(5):
+            out[row, k] = forces[row]
         out[5, k] = out[0, k] + out[1, k]
         out[6, k] = out[2, k] + out[3, k] + out[4, k]
     return out

@@ -89,7 +89,8 @@ class CreepForces:
 
 @contextlib.contextmanager
 def installed(callback):
-    """Install `callback` as MuJoCo's passive-force callback, and always remove it.
+    """Install `callback` (a Python callable, or a C function: `rail_mj.native.callback()`)
+    as MuJoCo's passive-force callback, and always remove it.
 
     MuJoCo refuses to compile any model while a Python callback is installed, and
     the callback is global to the process: compile first, step inside this block.

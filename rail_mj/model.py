@@ -81,6 +81,9 @@ DEFAULT_TIMESTEP = 1e-3
 
 # Names of the custom numerics that carry the contact data for the creep forces,
 # so that a generated MJCF alone is enough to simulate the vehicle.
+# The first numeric: everything the native creep callback needs, per vehicle (its speed,
+# contact table, wheelset bodies and their joints), written by rail_mj.native.
+NUMERIC_NATIVE = "rail_mj/native"
 NUMERIC_WHEEL = "rail_mj/wheel"  # r0, b, conicity, flangeway clearance
 NUMERIC_CREEP = "rail_mj/creep"  # f11, f22, f23, f33
 NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAWS), mu*N per wheel,
@@ -316,6 +319,7 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
     spec.option.disableflags = int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
 
+    spec.add_numeric(name=NUMERIC_NATIVE, data=[0.0])  # first; filled in by `compiled`
     w = layout.wheelset
     stl = wheel_stl(w.rolling_radius, w.conicity)
     spec.add_mesh(name="wheel", file=mesh_file(layout))
@@ -344,6 +348,59 @@ def compile_spec(spec: mujoco.MjSpec, layout: Layout) -> mujoco.MjModel:
         raise ValueError(f"{layout.source}: MuJoCo could not compile the model: {why}") from None
 
 
+def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    """The vehicle's spec and compiled model, its native block filled in: the block lists
+    bodies, joints and dofs by the ids the compiler gave them, so it is written after a
+    first compile (a millisecond or two) and the model compiled again."""
+    from rail_mj import native  # numba: only once a model is built
+
+    spec = build_spec(layout)
+    model = compile_spec(spec, layout)
+    spec.numerics[0].data = native.block_for(model, layout.n_wheelsets).tolist()
+    add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
+    return spec, compile_spec(spec, layout)
+
+
+def add_sensors(spec: mujoco.MjSpec, bodies: list[str]) -> None:
+    """What a run records, measured by MuJoCo at every step: each body's pose (frame
+    position and orientation) and each wheelset's velocity, in the track frame."""
+    frame = mujoco.mjtObj.mjOBJ_XBODY
+    for body in bodies:
+        spec.add_sensor(name=f"{body}_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=frame, objname=body)
+        spec.add_sensor(name=f"{body}_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT, objtype=frame, objname=body)
+    for body in bodies:
+        if body.startswith("wheelset"):
+            spec.add_sensor(name=f"{body}_linvel", type=mujoco.mjtSensor.mjSENS_FRAMELINVEL, objtype=frame,
+                            objname=body)
+            spec.add_sensor(name=f"{body}_angvel", type=mujoco.mjtSensor.mjSENS_FRAMEANGVEL, objtype=frame,
+                            objname=body)
+
+
+class Sensors:
+    """Where `add_sensors`' readings sit in MuJoCo's sensordata, and what they mean."""
+
+    def __init__(self, model: mujoco.MjModel, wheelset_names):
+        bodies = range(1, model.nbody)
+        address = lambda name: model.sensor(name).adr[0]  # noqa: E731
+        self.bodies = np.array(list(bodies), dtype=np.int64)
+        self.pos = np.array([np.arange(3) + address(f"{model.body(b).name}_pos") for b in bodies])
+        self.quat = np.array([np.arange(4) + address(f"{model.body(b).name}_quat") for b in bodies])
+        # The lateral velocity and yaw rate of each wheelset, in the world (track) frame.
+        self.lateral_rate = np.array([address(f"{w}_linvel") + 1 for w in wheelset_names])
+        self.yaw_rate = np.array([address(f"{w}_angvel") + 2 for w in wheelset_names])
+
+    def poses(self, readings: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Fill every moving body's position and quaternion (w, x, y, z) from sensor readings
+        (samples along axis 0); the world's stay as they are."""
+        pos[:, self.bodies] = readings[:, self.pos]
+        quat[:, self.bodies] = readings[:, self.quat]
+
+    def rates(self, readings: np.ndarray, rates: np.ndarray) -> None:
+        """Fill each wheelset's (y_dot, psi_dot) from sensor readings."""
+        rates[..., 0] = readings[:, self.lateral_rate]
+        rates[..., 1] = readings[:, self.yaw_rate]
+
+
 class Vehicle:
     """A compiled vehicle: the MuJoCo model of a layout, its parts read by name.
 
@@ -357,12 +414,19 @@ class Vehicle:
 
     def __init__(self, layout: Layout):
         self.layout = layout
-        self.spec = build_spec(layout)
-        self.model = compile_spec(self.spec, layout)
+        self.spec, self.model = compiled(layout)
         self.wheelset_names = tuple(f"wheelset{i + 1}" for i in range(layout.n_wheelsets))
         self.wheelset_ids = np.array(
             [self.model.body(n).id for n in self.wheelset_names], dtype=np.int64
         )
+
+    @property
+    def n_wheelsets(self) -> int:
+        return len(self.wheelset_names)
+
+    @functools.cached_property
+    def sensors(self) -> "Sensors":
+        return Sensors(self.model, self.wheelset_names)
 
     @functools.cached_property
     def root_lateral_dofs(self) -> np.ndarray:
@@ -426,8 +490,7 @@ def scene_xml(layout: Layout) -> str:
 
 def generated_files(layout: Layout) -> dict[str, bytes]:
     """Every file `generate` writes, relative to the output folder."""
-    spec = build_spec(layout)
-    compile_spec(spec, layout)  # to_xml needs a compiled spec; also proves the model is valid
+    spec, _ = compiled(layout)  # to_xml needs a compiled spec; also proves the model is valid
     files = {f"{layout.name}.xml": spec.to_xml().encode(), "scene.xml": scene_xml(layout).encode()}
     for name, data in spec.assets.items():
         files[f"assets/{name}"] = bytes(data)

@@ -22,6 +22,7 @@ from typing import Callable
 
 import mujoco
 import numpy as np
+from mujoco import rollout
 
 from rail_mj.creep import ContactForces, contact_forces
 from rail_mj.forces import CreepForces, contact_parameters, installed
@@ -29,6 +30,7 @@ from rail_mj.layout import Layout
 from rail_mj.practice import DERAILMENT_LATERAL
 from rail_mj.linear import modal_roots, state_matrix
 from rail_mj.model import YAW, Vehicle
+from rail_mj.native import callback as native_callback, set_speed
 
 # RK4 is stable for |lambda|*dt up to 2.78 on the real axis and 2.83 on the imaginary
 # axis; 1.0 for the fastest mode lambda of the linearised vehicle leaves margin, and the
@@ -119,24 +121,25 @@ class Run:
         return names, np.column_stack(cols)
 
 
-def stable_timestep(vehicle: Vehicle, forces: CreepForces) -> float:
+def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> float:
     """Timestep for RK4 with explicit creep forces: STEP_FRACTION / (fastest linear rate).
 
     The creep damping 2*f22/V grows without bound as V falls, so the slowest runs
-    need the smallest steps.
+    need the smallest steps. `forces`: the Python callback, or None for the native one at
+    the model's speed.
     """
     rate = np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, forces))))
-    if forces.params.flange:
+    if vehicle.layout.flange is not None:
         # In flange contact the rail's stiffness and the steep radius rise add faster
         # rates: linearise there too, the whole vehicle pressed 2 mm into the flanges.
         qpos0 = np.zeros(vehicle.model.nq)
-        qpos0[vehicle.root_lateral_dofs] = forces.params.clearance[0] + 0.002
+        qpos0[vehicle.root_lateral_dofs] = vehicle.layout.wheelset.flangeway_clearance + 0.002
         engaged = state_matrix(vehicle.model, forces, qpos0=qpos0)
         rate = max(rate, np.max(np.abs(np.linalg.eigvals(engaged))))
     return min(MAX_TIMESTEP, STEP_FRACTION / rate) if rate > 0 else MAX_TIMESTEP
 
 
-def _linearly_stable(vehicle: Vehicle, forces: CreepForces) -> bool:
+def _linearly_stable(vehicle: Vehicle, forces: CreepForces | None) -> bool:
     """Whether every mode of the vehicle linearised about the centred state decays."""
     return bool(np.max(modal_roots(state_matrix(vehicle.model, forces)).real) < 0)
 
@@ -157,6 +160,7 @@ def simulate(
     progress: Callable[[float], None] | None = None,
     derailment_lateral: float = DERAILMENT_LATERAL,
     state: tuple[np.ndarray, np.ndarray] | None = None,
+    python_callback: bool = False,
 ) -> Run:
     """Run `layout` at `speed` (m/s) for `distance` (m) from a disturbed start.
 
@@ -164,7 +168,8 @@ def simulate(
     wheelset yawed by `initial_yaw` (rad) about its centre; or, to continue a run at a
     new speed, `state` = (qpos, qvel), for example a previous run's `final_state`.
     Raises ValueError for an impossible request and `SimulationError` for a run that
-    cannot be done or diverges.
+    cannot be done or diverges. The creep forces come from the native callback
+    (rail_mj.native); `python_callback` uses the Python one (rail_mj.forces) instead.
     """
     for name, value in (("speed", speed), ("distance", distance)):
         if not (math.isfinite(value) and value > 0):
@@ -180,7 +185,9 @@ def simulate(
 
     vehicle = Vehicle(layout)
     model = vehicle.model
-    forces = CreepForces(model, vehicle.wheelset_names, speed)
+    set_speed(model, speed)
+    # The native callback unless the Python one is asked for (the tests compare them).
+    forces = CreepForces(model, vehicle.wheelset_names, speed) if python_callback else None
     dt = stable_timestep(vehicle, forces)
     steps = distance / speed / float(dt)
     if not steps <= MAX_STEPS:  # also catches inf from an absurdly slow run
@@ -206,47 +213,52 @@ def simulate(
     every = max(1, round(SAMPLE_INTERVAL / dt))
     n_samples = -(-n_steps // every) + 1  # the last sample at or past `distance`
     t = np.arange(n_samples) * (every * dt)  # exact, where data.time accumulates round-off
-    qpos = np.empty((n_samples, model.nq))
-    qvel = np.empty((n_samples, model.nv))
-    pos = np.empty((n_samples, model.nbody, 3))
-    quat = np.empty((n_samples, model.nbody, 4))
-    kinematics = mujoco.MjData(model)
-    ws = vehicle.wheelset_ids
-
-    rates = np.empty((n_samples, len(ws), 2))
+    pos = np.zeros((n_samples, model.nbody, 3))
+    quat = np.zeros((n_samples, model.nbody, 4))
+    quat[:, 0, 0] = 1.0  # the world
+    rates = np.empty((n_samples, vehicle.n_wheelsets, 2))
+    sensors = vehicle.sensors
 
     def partial(k: int) -> Run:
         return Run(vehicle, speed, dt, t[:k].copy(), pos[:k].copy(), quat[:k].copy(), rates[:k].copy())
 
-    qpos[0], qvel[0] = data.qpos, data.qvel
-    done = 0  # samples converted to wheelset y and psi and checked
+    # MuJoCo steps in chunks (`mujoco.rollout`) and measures every body with its sensors;
+    # a step's sensor values are those of the state it started from (sensors are computed
+    # in the forward pass before integration), so step j's record is sample j/every's.
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    current = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, current, spec)
+    chunk = CHECK_EVERY * every
+    done = 0  # samples recorded and checked
     derailed = None  # (sample, wheelset) where a wheelset left the rails
-    with installed(forces):
-        for k in range(1, n_samples):
-            mujoco.mj_step(model, data, nstep=every)
-            qpos[k], qvel[k] = data.qpos, data.qvel
-            if k % CHECK_EVERY and k < n_samples - 1:
-                continue
-            # Checked in batches: per-sample Python work would cost more than the steps.
-            batch = slice(done, k + 1)
-            _sample_kinematics(model, kinematics, ws, qpos[batch], qvel[batch], pos[batch],
-                               quat[batch], rates[batch])
+    with installed(forces or native_callback()):
+        while done < n_samples:
+            count = min(CHECK_EVERY, n_samples - done)
+            start = current
+            states, readings = rollout.rollout(model, data, current, nstep=count * every)
+            readings = readings[0, ::every]
+            batch = slice(done, done + count)
+            sensors.poses(readings, pos[batch], quat[batch])
+            sensors.rates(readings, rates[batch])
+            current = states[0, -1]
             warning = _warnings(data)
-            if warning or not np.all(np.isfinite(qpos[done:k + 1])):
+            if warning or not np.all(np.isfinite(readings)):
                 raise SimulationError(
-                    f"diverged by t = {t[k]:.4g} s (x = {speed * t[k]:.4g} m): MuJoCo reported "
-                    f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at {speed:g} m/s; "
-                    f"the suspension or creep stiffness is too high for this step",
+                    f"diverged by t = {t[done + count - 1]:.4g} s (x = {speed * t[done + count - 1]:.4g} m): "
+                    f"MuJoCo reported {warning or 'non-finite positions'} with timestep {dt:.3g} s at "
+                    f"{speed:g} m/s; the suspension or creep stiffness is too high for this step",
                     partial(done),
                 )
-            lateral = np.abs(pos[done:k + 1, ws, 1])
+            lateral = np.abs(pos[batch][:, vehicle.wheelset_ids, 1])
             off = np.nonzero(np.max(lateral, axis=1) > derailment_lateral)[0]
             if len(off):
                 derailed = done + off[0], int(np.argmax(lateral[off[0]]))
                 break
-            done = k + 1
+            done += count
             if progress is not None:
-                progress(k / (n_samples - 1))
+                progress(min(done, n_samples - 1) / (n_samples - 1))
+    # The last sample's state: the run ends there (the chunk ran `every` steps past it).
+    final = states[0, (count - 1) * every - 1] if count > 1 else start
     if derailed is not None:
         j, worst = derailed
         why = ("the flanges did not hold it" if layout.flange else
@@ -264,20 +276,11 @@ def simulate(
             f"x = {speed * t[j]:.4g} m (t = {t[j]:.4g} s). {cause}",
             partial(j + 1),
         )
-    return Run(vehicle, speed, dt, t, pos, quat, rates, (data.qpos.copy(), data.qvel.copy()))
+    return Run(vehicle, speed, dt, t, pos, quat, rates, _qpos_qvel(model, final))
 
 
-def _sample_kinematics(model, data, wheelsets, qpos, qvel, pos, quat, rates) -> None:
-    """For each sample (row of qpos, qvel): every body's position and orientation, and each
-    wheelset's lateral and yaw rates in the track frame (all filled in place)."""
-    velocity = np.empty(6)
-    for k in range(len(qpos)):
-        data.qpos[:], data.qvel[:] = qpos[k], qvel[k]
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        mujoco.mj_comVel(model, data)
-        pos[k], quat[k] = data.xpos, data.xquat
-        for i, body in enumerate(wheelsets):
-            # [angular, linear] velocity of the body origin, in the world (track) frame.
-            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, velocity, 0)
-            rates[k, i] = velocity[4], velocity[2]
+def _qpos_qvel(model: mujoco.MjModel, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(qpos, qvel) of a full-physics state vector: time, then qpos, then qvel."""
+    return state[1:1 + model.nq].copy(), state[1 + model.nq:1 + model.nq + model.nv].copy()
+
+

@@ -44,7 +44,9 @@ def test_timestep_is_chosen_from_layout_and_speed(speed):
     assert dt * max(rates) <= 1.1 * STEP_FRACTION
     assert dt == MAX_TIMESTEP or dt * max(rates) >= 0.5 * STEP_FRACTION
     run = simulate(layout, speed=speed, distance=min(4.0, speed), initial_lateral=0.002)
-    assert run.timestep == dt and np.all(np.isfinite(run.y))
+    # The run linearises with the native callback, the same forces to round-off (1e-16):
+    # the fastest eigenvalue, and so the step, agree to far better than 1e-9.
+    assert run.timestep == pytest.approx(dt, rel=1e-9) and np.all(np.isfinite(run.y))
     # A short, sub-critical run does not grow: 2 mm start, any overshoot well under 25 %.
     assert np.max(np.abs(run.y)) < 0.0025
 

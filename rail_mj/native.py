@@ -1,0 +1,294 @@
+"""The creep law as MuJoCo's passive-force callback in native code: no Python in a step.
+
+`rail_mj.forces.CreepForces` is the same physics in Python: readable, and what the tests
+compare this with. This module compiles a C callback with numba that reads each
+wheelset's state from mjData, calls the one contact law (`rail_mj.creep.wheelset_contact`)
+and adds the forces to `qfrc_passive`. It holds the GIL never and shares no buffer, so
+MuJoCo may call it from many threads at once (`mujoco.rollout`, `mujoco.batch`).
+
+Everything it needs comes from the model, so a batch may mix vehicles and speeds:
+the custom numeric `rail_mj/native` (the model's first numeric) lists, per vehicle, its
+speed, its creep law and contact parameters, and per wheelset its body and the joints
+between it and the world (for the Jacobian). `Vehicle` writes it; `set_speed` changes
+the speed of a compiled model.
+
+The callback reads mjModel and mjData through byte offsets taken from MuJoCo's own struct
+declarations (`mujoco.introspect`, generated from the installed version's headers) and
+checked at import against the arrays the Python bindings expose: on a MuJoCo whose structs
+differ, importing this module fails with a message, never a wrong force.
+
+Example:
+
+    >>> import mujoco
+    >>> from rail_mj.layout import load_layout
+    >>> from rail_mj.model import Vehicle
+    >>> vehicle = Vehicle(load_layout("models/wheelset/wheelset.toml"))
+    >>> set_speed(vehicle.model, 20.0)
+    >>> data = mujoco.MjData(vehicle.model)
+    >>> data.qpos[0] = 0.003
+    >>> with installed():
+    ...     mujoco.mj_forward(vehicle.model, data)
+    >>> round(float(data.qfrc_passive[1]))   # -2*f11*b*lam*y/r0, yawing it back
+    -9783
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+
+import mujoco
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+from rail_mj.creep import wheelset_contact
+from rail_mj.forces import contact_parameters, installed as forces_installed
+from rail_mj.model import NUMERIC_NATIVE
+
+# --- the layout of MuJoCo's structs, from the installed version's declarations ----------
+
+_VALUE_TYPES = {
+    "mjtNum": ctypes.c_double, "double": ctypes.c_double, "float": ctypes.c_float,
+    "mjtSize": ctypes.c_int64, "int": ctypes.c_int, "unsigned int": ctypes.c_uint,
+    "size_t": ctypes.c_size_t, "uintptr_t": ctypes.c_size_t, "uint64_t": ctypes.c_uint64,
+    "mjtBool": ctypes.c_ubyte, "mjtByte": ctypes.c_ubyte, "char": ctypes.c_char,
+}
+
+
+class NativeError(RuntimeError):
+    """The native callback cannot run on this MuJoCo, or on this model."""
+
+
+def _ctype(declared, structs):
+    kind = type(declared).__name__
+    if kind == "PointerType":
+        return ctypes.c_void_p
+    if kind == "ArrayType":
+        inner = _ctype(declared.inner_type, structs)
+        for extent in reversed(declared.extents):
+            inner = inner * extent
+        return inner
+    if kind == "ValueType":
+        if declared.name in _VALUE_TYPES:
+            return _VALUE_TYPES[declared.name]
+        if declared.name in structs:
+            return _struct(declared.name, structs)
+        if declared.name.startswith("mjt"):  # an enum
+            return ctypes.c_int
+    if kind == "AnonymousStructDecl":
+        return type("anonymous", (ctypes.Structure,),
+                    {"_fields_": [(f.name, _ctype(f.type, structs)) for f in declared.fields]})
+    raise NativeError(f"MuJoCo {mujoco.__version__}: cannot lay out a field of type {declared}")
+
+
+_LAYOUTS: dict[str, type] = {}
+
+
+def _struct(name: str, structs) -> type:
+    if name not in _LAYOUTS:
+        fields = [(f.name, _ctype(f.type, structs)) for f in structs[name].fields]
+        _LAYOUTS[name] = type(name, (ctypes.Structure,), {"_fields_": fields})
+    return _LAYOUTS[name]
+
+
+# What the callback reads: model sizes and the numeric data; data arrays it reads and writes.
+MODEL_FIELDS = ("numeric_data",)
+DATA_FIELDS = ("qvel", "xpos", "xmat", "xanchor", "xaxis", "qfrc_passive")
+
+
+def _offsets() -> tuple[int, ...]:
+    """Byte offsets of MODEL_FIELDS in mjModel and DATA_FIELDS in mjData, checked on a live
+    model against the arrays the bindings expose."""
+    from mujoco.introspect import structs
+
+    try:
+        model_layout = _struct("mjModel", structs.STRUCTS)
+        data_layout = _struct("mjData", structs.STRUCTS)
+    except (KeyError, AttributeError) as e:
+        raise NativeError(f"MuJoCo {mujoco.__version__}: its struct declarations are not as expected "
+                          f"({e}); use the Python callback (rail_mj.forces)") from None
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><custom><numeric name="probe" data="1 2 3"/></custom><worldbody><body>'
+        '<joint type="hinge"/><geom size="0.1"/></body></worldbody></mujoco>')
+    data = mujoco.MjData(model)
+    offsets = []
+    for layout, obj, names in ((model_layout, model, MODEL_FIELDS), (data_layout, data, DATA_FIELDS)):
+        live = layout.from_address(obj._address)
+        for name in names:
+            if getattr(live, name) != getattr(obj, name).ctypes.data:
+                raise NativeError(f"MuJoCo {mujoco.__version__}: {layout.__name__}.{name} is not where its "
+                                  f"declaration puts it; use the Python callback (rail_mj.forces)")
+            offsets.append(getattr(layout, name).offset)
+    return tuple(offsets)
+
+
+# --- the numeric block that carries a model's vehicles -----------------------------------
+
+# The block's first number, "this is rail-mj's native block, version 1": six significant
+# figures, as MuJoCo's MJCF writer keeps them.
+MAGIC = 7043.01
+# Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), then the
+# contact table (ContactParameters.table, row-major), then per wheelset its body and the
+# joints from it to the world: count, then (joint, dof, 1 for a hinge / 0 for a slide).
+VEHICLE_HEADER = 5
+_SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE)
+SPEED = 0  # offset of the speed within a vehicle's entries
+
+
+def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0) -> np.ndarray:
+    """One vehicle's entries of the block: see VEHICLE_HEADER."""
+    table = params.table
+    entries = [speed, len(wheelset_bodies), params.law, float(params.flange), float(params.falling)]
+    entries += list(table.reshape(-1))
+    for body in wheelset_bodies:
+        chain = []
+        b = int(body)
+        while b:
+            for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
+                kind = int(model.jnt_type[j])
+                if kind not in (_SLIDE, _HINGE):
+                    raise NativeError(f"joint {model.joint(j).name}: the native callback handles slide "
+                                      f"and hinge joints only")
+                chain += [j, model.jnt_dofadr[j], float(kind == _HINGE)]
+            b = model.body_parentid[b]
+        entries += [body, len(chain) // 3] + chain
+    return np.asarray(entries, dtype=np.float64)
+
+
+def block(vehicles: list[np.ndarray]) -> np.ndarray:
+    """The whole numeric: MAGIC, the number of vehicles, then each vehicle's entries."""
+    return np.concatenate([[MAGIC, float(len(vehicles))], *vehicles])
+
+
+def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
+    """The block of a model built by rail_mj.model: one vehicle, wheelset1..N, its contact
+    parameters read from the model's named numerics, no speed yet."""
+    bodies = [model.body(f"wheelset{i + 1}").id for i in range(n_wheelsets)]
+    return block([vehicle_block(model, bodies, contact_parameters(model, n_wheelsets))])
+
+
+def _block_of(model: mujoco.MjModel) -> np.ndarray:
+    if model.nnumeric == 0 or model.numeric(0).name != NUMERIC_NATIVE or model.numeric_data[0] != MAGIC:
+        raise NativeError(f"model {model.names[:40]!r}...: its first numeric is not {NUMERIC_NATIVE}; "
+                          f"build it with rail_mj.model.Vehicle")
+    return model.numeric_data
+
+
+def vehicle_starts(model: mujoco.MjModel) -> list[int]:
+    """Where each vehicle's entries start in the block."""
+    data = _block_of(model)
+    starts, k = [], 2
+    for _ in range(int(data[1])):
+        starts.append(k)
+        n = int(data[k + 1])
+        k += VEHICLE_HEADER + 14 * n
+        for _ in range(n):
+            k += 2 + 3 * int(data[k + 1])
+    return starts
+
+
+def set_speed(model: mujoco.MjModel, speed: float, vehicle: int | None = None) -> None:
+    """Set the forward speed (m/s) of one vehicle of `model` (all of them by default)."""
+    if not (math.isfinite(speed) and speed > 0):
+        raise ValueError(f"speed must be a positive number, got {speed}")
+    starts = vehicle_starts(model)
+    for k in starts if vehicle is None else [starts[vehicle]]:
+        model.numeric_data[k + SPEED] = speed
+
+
+# --- the callback -------------------------------------------------------------------------
+
+@intrinsic
+def _pointer_at(typingctx, base, offset):
+    """The pointer stored `offset` bytes into the struct at `base`, as doubles."""
+    signature = types.CPointer(types.float64)(types.voidptr, types.intp)
+
+    def codegen(context, builder, sig, args):
+        field = builder.gep(builder.bitcast(args[0], ir.IntType(8).as_pointer()), [args[1]])
+        return builder.load(builder.bitcast(field, ir.DoubleType().as_pointer().as_pointer()))
+
+    return signature, codegen
+
+
+@numba.njit(cache=True)
+def _wheelset_rates(chain, n, qvel, xpos, xanchor, xaxis, body):
+    """Lateral velocity and yaw rate of a body's origin from the joints between it and the
+    world: v = sum of slide axes and of hinge axes x (point - anchor), times the joint rate."""
+    vy = 0.0
+    wz = 0.0
+    px, py = xpos[3 * body], xpos[3 * body + 1]
+    for c in range(n):
+        j, dof, hinge = int(chain[3 * c]), int(chain[3 * c + 1]), chain[3 * c + 2]
+        ax, ay, az = xaxis[3 * j], xaxis[3 * j + 1], xaxis[3 * j + 2]
+        rate = qvel[dof]
+        if hinge:
+            rx, rz = px - xanchor[3 * j], xpos[3 * body + 2] - xanchor[3 * j + 2]
+            vy += (az * rx - ax * rz) * rate
+            wz += az * rate
+        else:
+            vy += ay * rate
+    return vy, wz
+
+
+@numba.njit(cache=True)
+def _apply(model, data, off_numeric, off_qvel, off_xpos, off_xmat, off_xanchor, off_xaxis, off_force):
+    """Add every vehicle's contact forces to qfrc_passive: J^T [Fy, Mz] at each wheelset's
+    origin, over the slide and hinge joints between it and the world."""
+    block = _pointer_at(model, off_numeric)
+    qvel = _pointer_at(data, off_qvel)
+    xpos = _pointer_at(data, off_xpos)
+    xmat = _pointer_at(data, off_xmat)
+    xanchor = _pointer_at(data, off_xanchor)
+    xaxis = _pointer_at(data, off_xaxis)
+    force = _pointer_at(data, off_force)
+    k = 2
+    for _ in range(int(block[1])):
+        speed, n = block[k], int(block[k + 1])
+        law, flange, falling = int(block[k + 2]), block[k + 3] != 0.0, block[k + 4] != 0.0
+        table = numba.carray(block, (k + VEHICLE_HEADER + 14 * n,))[k + VEHICLE_HEADER:].reshape((14, n))
+        k += VEHICLE_HEADER + 14 * n
+        for i in range(n):
+            body, count = int(block[k]), int(block[k + 1])
+            chain = numba.carray(block, (k + 2 + 3 * count,))[k + 2:]
+            k += 2 + 3 * count
+            if speed <= 0.0:
+                continue  # no speed set: no rolling, no creep
+            y = xpos[3 * body + 1]
+            psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
+            y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
+            f = wheelset_contact(table[:, i], law, flange, falling, y, psi, y_dot, psi_dot, speed)
+            fy, mz = f[0] + f[1], f[2] + f[3] + f[4]
+            px, pz = xpos[3 * body], xpos[3 * body + 2]
+            for c in range(count):
+                j, dof, hinge = int(chain[3 * c]), int(chain[3 * c + 1]), chain[3 * c + 2]
+                ax, ay, az = xaxis[3 * j], xaxis[3 * j + 1], xaxis[3 * j + 2]
+                if hinge:  # axis . (M + r x F), F = (0, fy, 0), M = (0, 0, mz)
+                    rx, rz = px - xanchor[3 * j], pz - xanchor[3 * j + 2]
+                    force[dof] += ax * (-rz * fy) + az * (mz + rx * fy)
+                else:
+                    force[dof] += ay * fy
+
+
+_CALLBACK = None
+
+
+def callback():
+    """The C function pointer MuJoCo's passive callback takes (compiled once a process)."""
+    global _CALLBACK
+    if _CALLBACK is None:
+        offsets = _offsets()
+
+        @numba.cfunc(types.void(types.voidptr, types.voidptr), nopython=True)
+        def passive(model, data):
+            _apply(model, data, *offsets)
+
+        _CALLBACK = (passive, ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(passive.address))
+    return _CALLBACK[1]
+
+
+def installed():
+    """Install the native callback (see `rail_mj.forces.installed`), and always remove it."""
+    return forces_installed(callback())
