@@ -1,0 +1,113 @@
+"""The native creep callback against the Python one, across threads and from an MJCF alone."""
+
+from __future__ import annotations
+
+import ctypes
+
+import mujoco
+import numpy as np
+import pytest
+from mujoco import rollout
+
+from rail_mj import native
+from rail_mj.forces import CreepForces, installed
+from rail_mj.layout import load_layout
+from rail_mj.model import Vehicle, generate
+from rail_mj.runner import simulate
+
+from conftest import SHIPPED
+
+
+@pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
+def test_native_and_python_callbacks_give_the_same_forces(layout_path):
+    """Random states, on and off the flanges: qfrc_passive agrees to 1e-9 relative (both
+    call one compiled law; only the kinematics and J^T are written twice)."""
+    vehicle = Vehicle(load_layout(layout_path))
+    model = vehicle.model
+    native.set_speed(model, 47.0)
+    python = CreepForces(model, vehicle.wheelset_names, 47.0)
+    rng = np.random.default_rng(7)
+    for _ in range(25):
+        qpos, qvel = rng.normal(scale=0.012, size=model.nq), rng.normal(scale=0.3, size=model.nv)
+        forces = []
+        for callback in (python, native.callback()):
+            data = mujoco.MjData(model)
+            data.qpos[:], data.qvel[:] = qpos, qvel
+            with installed(callback):
+                mujoco.mj_forward(model, data)
+            forces.append(data.qfrc_passive.copy())
+        scale = np.max(np.abs(forces[0]))
+        assert scale > 0
+        np.testing.assert_allclose(forces[1], forces[0], rtol=0, atol=1e-9 * scale)
+
+
+def test_native_and_python_runs_follow_the_same_trajectory():
+    """The shipped bogie hunting onto its flanges (Polach, flange contact): 1e-9 m apart."""
+    layout = load_layout(SHIPPED[0].parent.parent / "bogie" / "bogie.toml")
+    a = simulate(layout, 90.0, 60.0, 0.002)
+    b = simulate(layout, 90.0, 60.0, 0.002, python_callback=True)
+    assert np.max(np.abs(a.y)) > 0.008  # on the flanges
+    np.testing.assert_allclose(a.y, b.y, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a.psi, b.psi, rtol=0, atol=1e-9)
+
+
+def test_threads_give_bit_identical_results():
+    """Many speeds stepped at once on two threads, each vehicle's speed in its own model:
+    every trajectory equals the one-thread result bit for bit."""
+    vehicle = Vehicle(load_layout(SHIPPED[0].parent.parent / "manchester-coach" / "manchester-coach.toml"))
+    models = []
+    for speed in np.linspace(40.0, 100.0, 6):
+        model = mujoco.MjModel.from_xml_string(vehicle.spec.to_xml(), vehicle.spec.assets)
+        native.set_speed(model, float(speed))
+        model.opt.timestep = 5e-4
+        models.append(model)
+    data = mujoco.MjData(models[0])
+    data.qpos[vehicle.root_lateral_dofs] = 0.004
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    start = np.empty(mujoco.mj_stateSize(models[0], spec))
+    mujoco.mj_getState(models[0], data, start, spec)
+    with native.installed():
+        one, _ = rollout.rollout(models, [mujoco.MjData(models[0])], np.tile(start, (6, 1)), nstep=2000)
+        two, _ = rollout.rollout(models, [mujoco.MjData(m) for m in models[:2]], np.tile(start, (6, 1)),
+                                 nstep=2000)
+    assert np.array_equal(one, two)
+    lateral = one[:, -1, 1 + vehicle.root_lateral_dofs[0]]
+    assert len(set(lateral.tolist())) == 6  # the speeds really differ
+
+
+def test_a_generated_mjcf_alone_runs_natively(tmp_path):
+    """The block travels in the MJCF (six significant figures, like every number in it):
+    the model read back from the written files gives the same forces."""
+    layout = load_layout(SHIPPED[0].parent.parent / "bogie" / "bogie.toml")
+    generate(layout, tmp_path)
+    loaded = mujoco.MjModel.from_xml_path(str(tmp_path / "bogie.xml"))
+    built = Vehicle(layout).model
+    np.testing.assert_array_equal(loaded.numeric_data, built.numeric_data)
+    for model in (loaded, built):
+        native.set_speed(model, 30.0)
+    forces = []
+    for model in (loaded, built):
+        data = mujoco.MjData(model)
+        data.qpos[:] = 0.009
+        with native.installed():
+            mujoco.mj_forward(model, data)
+        forces.append(data.qfrc_passive.copy())
+    assert np.any(forces[0]) and np.array_equal(forces[0], forces[1])
+
+
+def test_a_model_without_the_block_is_refused():
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
+    with pytest.raises(native.NativeError, match="rail_mj/native"):
+        native.set_speed(model, 30.0)
+
+
+def test_struct_offsets_are_checked_against_the_live_arrays(monkeypatch):
+    """Declarations that do not match the installed MuJoCo (here one shifted by a field)
+    stop the native callback with a message, before it could read the wrong memory."""
+    from mujoco.introspect import structs
+
+    real = native._struct("mjData", structs.STRUCTS)
+    shifted = type("mjData", (ctypes.Structure,), {"_fields_": [("extra", ctypes.c_double)] + real._fields_})
+    monkeypatch.setitem(native._LAYOUTS, "mjData", shifted)
+    with pytest.raises(native.NativeError, match="mjData.qvel is not where"):
+        native._offsets()
