@@ -44,8 +44,10 @@ def state_matrix(model: mujoco.MjModel, forces: CreepForces | None = None,
     if forces is None:
         from rail_mj import native
 
-        forces = native.callback()
-    with installed(forces):
+        context = native.installed()
+    else:
+        context = installed(forces)
+    with context:
         for j in range(2 * nv):
             acc = []
             for sign in (1.0, -1.0):

@@ -34,8 +34,10 @@ Example:
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import math
+import threading
 
 import mujoco
 import numba
@@ -45,7 +47,7 @@ from numba import types
 from numba.extending import intrinsic
 
 from rail_mj.creep import wheelset_contact
-from rail_mj.forces import contact_parameters, installed as forces_installed
+from rail_mj.forces import contact_parameters
 from rail_mj.model import NUMERIC_NATIVE
 
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
@@ -95,7 +97,7 @@ def _struct(name: str, structs) -> type:
 
 
 # What the callback reads: model sizes and the numeric data; data arrays it reads and writes.
-MODEL_FIELDS = ("numeric_data",)
+MODEL_FIELDS = ("nnumeric", "numeric_data")
 DATA_FIELDS = ("qvel", "xpos", "xmat", "xanchor", "xaxis", "qfrc_passive")
 
 
@@ -118,7 +120,9 @@ def _offsets() -> tuple[int, ...]:
     for layout, obj, names in ((model_layout, model, MODEL_FIELDS), (data_layout, data, DATA_FIELDS)):
         live = layout.from_address(obj._address)
         for name in names:
-            if getattr(live, name) != getattr(obj, name).ctypes.data:
+            value = getattr(obj, name)
+            expected = value.ctypes.data if isinstance(value, np.ndarray) else value
+            if getattr(live, name) != expected:
                 raise NativeError(f"MuJoCo {mujoco.__version__}: {layout.__name__}.{name} is not where its "
                                   f"declaration puts it; use the Python callback (rail_mj.forces)")
             offsets.append(getattr(layout, name).offset)
@@ -202,6 +206,18 @@ def set_speed(model: mujoco.MjModel, speed: float, vehicle: int | None = None) -
 # --- the callback -------------------------------------------------------------------------
 
 @intrinsic
+def _size_at(typingctx, base, offset):
+    """The mjtSize (int64) stored `offset` bytes into the struct at `base`."""
+    signature = types.int64(types.voidptr, types.intp)
+
+    def codegen(context, builder, sig, args):
+        field = builder.gep(builder.bitcast(args[0], ir.IntType(8).as_pointer()), [args[1]])
+        return builder.load(builder.bitcast(field, ir.IntType(64).as_pointer()))
+
+    return signature, codegen
+
+
+@intrinsic
 def _pointer_at(typingctx, base, offset):
     """The pointer stored `offset` bytes into the struct at `base`, as doubles."""
     signature = types.CPointer(types.float64)(types.voidptr, types.intp)
@@ -234,10 +250,16 @@ def _wheelset_rates(chain, n, qvel, xpos, xanchor, xaxis, body):
 
 
 @numba.njit(cache=True)
-def _apply(model, data, off_numeric, off_qvel, off_xpos, off_xmat, off_xanchor, off_xaxis, off_force):
+def _apply(model, data, off_nnumeric, off_numeric, off_qvel, off_xpos, off_xmat, off_xanchor, off_xaxis,
+           off_force):
     """Add every vehicle's contact forces to qfrc_passive: J^T [Fy, Mz] at each wheelset's
-    origin, over the slide and hinge joints between it and the world."""
+    origin, over the slide and hinge joints between it and the world. A model without the
+    block (not rail-mj's) is left alone."""
+    if _size_at(model, off_nnumeric) == 0:
+        return
     block = _pointer_at(model, off_numeric)
+    if block[0] != MAGIC:
+        return
     qvel = _pointer_at(data, off_qvel)
     xpos = _pointer_at(data, off_xpos)
     xmat = _pointer_at(data, off_xmat)
@@ -289,6 +311,30 @@ def callback():
     return _CALLBACK[1]
 
 
+_users = 0  # blocks inside `installed`, in every thread
+_users_lock = threading.Lock()
+
+
+@contextlib.contextmanager
 def installed():
-    """Install the native callback (see `rail_mj.forces.installed`), and always remove it."""
-    return forces_installed(callback())
+    """Install the native callback while any thread needs it, and remove it after the last.
+
+    One callback serves every model (each carries its own block; a model without one is
+    left alone), so threads that step different vehicles at different speeds share it.
+    The Python callback (rail_mj.forces) cannot be installed meanwhile.
+    """
+    global _users
+    pointer = callback()
+    with _users_lock:
+        if _users == 0:
+            if mujoco.get_mjcb_passive() is not None:
+                raise RuntimeError("another MuJoCo passive callback is already installed")
+            mujoco.set_mjcb_passive(pointer)
+        _users += 1
+    try:
+        yield
+    finally:
+        with _users_lock:
+            _users -= 1
+            if _users == 0:
+                mujoco.set_mjcb_passive(None)

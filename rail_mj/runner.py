@@ -30,7 +30,8 @@ from rail_mj.layout import Layout
 from rail_mj.practice import DERAILMENT_LATERAL
 from rail_mj.linear import modal_roots, state_matrix
 from rail_mj.model import YAW, Vehicle
-from rail_mj.native import callback as native_callback, set_speed
+from rail_mj import native
+from rail_mj.native import set_speed
 
 # RK4 is stable for |lambda|*dt up to 2.78 on the real axis and 2.83 on the imaginary
 # axis; 1.0 for the fastest mode lambda of the linearised vehicle leaves margin, and the
@@ -231,7 +232,7 @@ def simulate(
     chunk = CHECK_EVERY * every
     done = 0  # samples recorded and checked
     derailed = None  # (sample, wheelset) where a wheelset left the rails
-    with installed(forces or native_callback()):
+    with installed(forces) if forces else native.installed():
         while done < n_samples:
             count = min(CHECK_EVERY, n_samples - done)
             start = current
