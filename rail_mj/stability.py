@@ -26,13 +26,16 @@ import numpy as np
 from scipy.optimize import brentq
 
 from rail_mj.analysis import late_motion, oscillation
-from rail_mj.forces import CreepForces
 from rail_mj.layout import Layout
 from rail_mj.linear import RIGID_TOLERANCE, modal_roots, state_matrix
 from rail_mj.model import LATERAL, YAW, Vehicle
+from rail_mj.native import set_speed
 from rail_mj.runner import Derailed, simulate
 
 CRITICAL_XTOL = 1e-4  # relative; the issue asks for 0.1 % or better
+# Speeds (m/s) at which A(V) = A0 + D/V + G*V is sampled: spread by factors of 4, so that
+# the 3x3 fit is well conditioned and round-off stays that of the finite differences.
+SPEED_FIT = (10.0, 40.0, 160.0)
 
 
 @dataclasses.dataclass
@@ -101,6 +104,7 @@ class Stability:
     def __init__(self, layout: Layout):
         self.layout = layout
         self.vehicle = Vehicle(layout)
+        self._speed_terms = None  # A0, D, G of state_matrix, once fitted
         model = self.vehicle.model
         self.model, self.data = model, mujoco.MjData(model)
         mujoco.mj_kinematics(model, self.data)
@@ -120,9 +124,27 @@ class Stability:
     # --- linearisation ------------------------------------------------------
 
     def state_matrix(self, speed: float) -> np.ndarray:
-        """Continuous-time A (2nv x 2nv) at the centred state, x = [qpos, qvel]."""
-        forces = CreepForces(self.model, self.vehicle.wheelset_names, speed)
-        return state_matrix(self.model, forces, self.data)
+        """Continuous-time A (2nv x 2nv) at the centred state, x = [qpos, qvel].
+
+        About the centred state the creep forces are Kalker's linear ones (every law has
+        his slope there, and the flanges are clear): terms in the displacements, which do
+        not depend on V, and terms in the rates over V (the creep damping). So A(V) =
+        A0 + D/V + G*V exactly (G, terms growing with V such as gyroscopic ones, is zero
+        in the planar model), and three linearisations of MuJoCo give A at every speed:
+        a critical speed or a map costs eigenvalues, not simulation.
+        """
+        if self._speed_terms is None:
+            speeds = SPEED_FIT
+            fits = np.array([[1.0, 1.0 / v, v] for v in speeds])
+            samples = np.array([self.state_matrix_at(v) for v in speeds])
+            self._speed_terms = np.tensordot(np.linalg.inv(fits), samples, axes=1)
+        a0, d, g = self._speed_terms
+        return a0 + d / speed + g * speed
+
+    def state_matrix_at(self, speed: float) -> np.ndarray:
+        """A at `speed` from MuJoCo directly (finite differences with the native callback)."""
+        set_speed(self.model, speed)
+        return state_matrix(self.model, None, self.data)
 
     def eigenvalues(self, speed: float) -> np.ndarray:
         """The roots that are modes: rigid-body and pure-integrator roots removed."""

@@ -252,3 +252,13 @@ def test_cli_stability_failures_are_one_line(argv, status, fragment, tmp_path, c
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and fragment in err and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["broken.toml"]
+
+
+@pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
+def test_state_matrix_in_speed_is_the_linearisation_at_that_speed(layout_path):
+    """A(V) = A0 + D/V + G*V from three linearisations equals MuJoCo linearised at V itself
+    (finite differences: round-off near 1e-8 of the largest entry, so 1e-6)."""
+    stability = Stability(load_layout(layout_path))
+    for speed in (3.0, 27.0, 81.0, 240.0):
+        fitted, direct = stability.state_matrix(speed), stability.state_matrix_at(speed)
+        np.testing.assert_allclose(fitted, direct, rtol=0, atol=1e-6 * np.max(np.abs(direct)))
