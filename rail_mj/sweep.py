@@ -1,0 +1,453 @@
+"""Parameter studies: one layout, many variants and speeds, a table of results.
+
+A sweep is a list of cases: every combination of the `grid` values (layout keys such as
+`primary.yaw_stiffness`), with the `sets` applied to all, and for `method="run"` every
+speed as well. Each case is computed on its own (a run and its summary, or a critical
+speed) by `run_case`, a pure function of the case, so any executor gives the same rows:
+threads on every local core by default (the native creep callback holds no GIL), or a
+Dask cluster. Finished rows are appended to a journal beside the output as they come;
+the same sweep started again keeps them and runs only the rest, and the output is written
+whole at the end, sorted by case.
+
+Example:
+
+    >>> table = sweep("models/wheelset/wheelset.toml", speeds=(40.0, 80.0, 3), method="run",
+    ...               distance=200.0)
+    >>> table.column("speed_m_per_s").to_pylist(), table.column("status").to_pylist()
+    ([40.0, 60.0, 80.0], ['ok', 'ok', 'diverged'])
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import time
+import tomllib
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+import numpy as np
+
+from rail_mj.files import staged
+from rail_mj.layout import LayoutError, layout_from_dict
+
+METHODS = ("run", "eigen", "time", "nonlinear")
+DEFAULT_DISTANCE = 1000.0  # m a run
+DEFAULT_INITIAL_LATERAL = 0.002  # m, as `rail-mj run`
+STATUSES = ("ok", "diverged", "refused", "failed")
+
+# The result columns of each method, after the case's parameters and speed.
+RESULTS = {
+    "run": ("max_abs_lateral_m", "final_abs_lateral_m", "growth_rate_per_s", "frequency_hz",
+            "wavelength_m", "decayed", "flange_contact", "hunting", "hunting_rms_n", "hunting_limit_n"),
+    "critical": ("critical_speed_m_per_s", "frequency_hz", "mode", "linear_critical_speed_m_per_s", "note"),
+}
+TAIL = ("status", "message", "wall_time_s", "case_key")
+
+
+class SweepError(ValueError):
+    """A sweep that cannot be planned (bad key, range or output); one line."""
+
+
+# --- planning --------------------------------------------------------------------------
+
+
+def values_of(text: str, what: str) -> list[float]:
+    """`A:B:N` (N values from A to B, evenly) or `A:B:N:log` (geometrically)."""
+    parts = text.split(":")
+    try:
+        if len(parts) not in (3, 4) or (len(parts) == 4 and parts[3] != "log"):
+            raise ValueError
+        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+    except ValueError:
+        raise SweepError(f"{what} must be A:B:N or A:B:N:log, got {text!r}") from None
+    log = len(parts) == 4
+    if not (math.isfinite(a) and math.isfinite(b) and 1 <= n <= 100_000) or (n > 1 and a == b):
+        raise SweepError(f"{what} {text!r}: need finite A != B and 1 <= N <= 100000")
+    if log and not (a > 0 and b > 0):
+        raise SweepError(f"{what} {text!r}: a log range needs A > 0 and B > 0")
+    if n == 1:
+        return [a]
+    values = np.geomspace(a, b, n) if log else np.linspace(a, b, n)
+    return [float(v) for v in values]
+
+
+def parse_assignment(text: str, what: str) -> tuple[str, str]:
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip() or not value.strip():
+        raise SweepError(f"{what} must be key=value with a layout key such as primary.yaw_stiffness, got {text!r}")
+    return key.strip(), value.strip()
+
+
+def toml_value(text: str) -> Any:
+    """A value as TOML reads it (a number, a quoted string, true/false, a list), or the bare
+    text as a string (`law=polach`)."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def with_value(data: dict, key: str, value: Any) -> dict:
+    """A copy of a parsed layout with `key` (dotted: `primary.yaw_stiffness`) set; tables
+    on the way are made (`flange.stiffness` on a layout without [flange])."""
+    data = copy.deepcopy(data)
+    *tables, name = key.split(".")
+    node = data
+    for table in tables:
+        node = node.setdefault(table, {})
+        if not isinstance(node, dict):
+            raise SweepError(f"{key}: {table} is not a table in the layout")
+    node[name] = value
+    return data
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One computation of a sweep: a variant of the layout, at one speed (runs) or over the
+    speed range (critical speeds)."""
+
+    index: int
+    method: str
+    layout: dict  # the parsed layout with the sets and this case's grid values
+    source: str  # the layout file, for messages
+    params: dict  # grid key -> value
+    speed: float | None  # m/s (run)
+    speeds: tuple[float, float, int]  # the range: A, B, N
+    distance: float  # m (run)
+    recording: str | None = None  # .rrd path (run), or None
+
+    @property
+    def key(self) -> str:
+        """What determines the result: changes if the layout, method or case does."""
+        text = json.dumps([self.method, self.layout, self.params, self.speed, self.speeds, self.distance],
+                          sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def plan(layout_path: str | Path, speeds: tuple[float, float, int], sets: Iterable[str] = (),
+         grids: Iterable[str] = (), method: str = "run", distance: float = DEFAULT_DISTANCE,
+         recordings: str | Path | None = None) -> list[Case]:
+    """Every case of a sweep, in order: grid points (first key slowest), then speeds."""
+    if method not in METHODS:
+        raise SweepError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    a, b, n = speeds
+    if not (math.isfinite(a) and math.isfinite(b) and 0 < a <= b and 1 <= n <= 100_000):
+        raise SweepError(f"speeds need 0 < A <= B and 1 <= N, got {a}:{b}:{n}")
+    if method != "run" and not (a < b and n >= 2):
+        raise SweepError(f"a critical speed needs a speed range A < B with N >= 2 points, got {a}:{b}:{n}")
+    if not (math.isfinite(distance) and distance > 0):
+        raise SweepError(f"distance must be a positive number, got {distance}")
+    path = Path(layout_path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as e:
+        raise SweepError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SweepError(f"{path}: not valid TOML: {e}") from None
+    for text in sets:
+        key, value = parse_assignment(text, "--set")
+        data = with_value(data, key, toml_value(value))
+    axes = []
+    for text in grids:
+        key, value = parse_assignment(text, "--grid")
+        if key in (k for k, _ in axes):
+            raise SweepError(f"--grid {key} is given twice")
+        axes.append((key, values_of(value, f"--grid {key}")))
+    try:  # the base layout (sets applied) must hold before any case runs
+        layout_from_dict(data, source=str(path))
+    except LayoutError as e:
+        raise SweepError(str(e)) from None
+    points = [dict(zip([k for k, _ in axes], combo)) for combo in _product([v for _, v in axes])]
+    run_speeds = values_of(f"{a!r}:{b!r}:{n}", "--speeds") if method == "run" else [None]
+    cases = []
+    for point in points:
+        variant = data
+        for key, value in point.items():
+            variant = with_value(variant, key, value)
+        for speed in run_speeds:
+            index = len(cases)
+            recording = (str(Path(recordings) / f"case-{index:05d}.rrd")
+                         if recordings is not None and method == "run" else None)
+            cases.append(Case(index, method, variant, str(path), point, speed, (a, b, n), distance, recording))
+    return cases
+
+
+def _product(lists: list[list[float]]) -> list[tuple]:
+    combos: list[tuple] = [()]
+    for values in lists:
+        combos = [c + (v,) for c in combos for v in values]
+    return combos
+
+
+# --- one case ----------------------------------------------------------------------------
+
+
+def run_case(case: Case) -> dict:
+    """The row of one case. Never raises: a case that cannot be computed is a row whose
+    status says why (refused: bad input; diverged: the run left the rails or blew up;
+    failed: anything else, a bug to report)."""
+    from rail_mj.runner import RunRefused, SimulationError
+
+    started = time.perf_counter()
+    row = {"case": case.index, **case.params, "speed_m_per_s": case.speed}
+    columns = RESULTS["run" if case.method == "run" else "critical"]
+    row.update(dict.fromkeys(columns))
+    try:
+        layout = layout_from_dict(case.layout, source=case.source)
+        row.update(_run(case, layout) if case.method == "run" else _critical(case, layout))
+        status, message = "ok", ""
+    except RunRefused as e:
+        status, message = "refused", str(e)
+    except SimulationError as e:
+        status, message = "diverged", str(e)
+    except (LayoutError, ValueError) as e:
+        status, message = "refused", str(e)
+    except Exception as e:  # noqa: BLE001 - one case must never stop a sweep
+        status, message = "failed", f"{type(e).__name__}: {' '.join(str(e).split())}"
+    row.update(status=status, message=message, wall_time_s=time.perf_counter() - started,
+               case_key=case.key)
+    return row
+
+
+def _run(case: Case, layout) -> dict:
+    from rail_mj.analysis import summary
+    from rail_mj.runner import simulate
+
+    run = simulate(layout, case.speed, case.distance, DEFAULT_INITIAL_LATERAL)
+    result = summary(run)
+    wheelsets = result["wheelsets"]
+    # The motion that outlives the rest names the growth rate and frequency.
+    lasting = max(wheelsets, key=lambda w: w["final_abs_lateral_m"])
+    hunting = result["hunting"]
+    if case.recording is not None:
+        from rail_mj.recording import write_recording
+
+        write_recording(run, case.recording)
+    return {
+        "max_abs_lateral_m": max(w["max_abs_lateral_m"] for w in wheelsets),
+        "final_abs_lateral_m": lasting["final_abs_lateral_m"],
+        "growth_rate_per_s": lasting["growth_rate_per_s"],
+        "frequency_hz": lasting["frequency_hz"],
+        "wavelength_m": lasting["wavelength_m"],
+        "decayed": all(w["decayed"] for w in wheelsets),
+        "flange_contact": bool(np.any(np.abs(run.y) > layout.wheelset.flangeway_clearance)),
+        "hunting": None if hunting is None else hunting["hunting"],
+        "hunting_rms_n": None if hunting is None else max(hunting["max_rms_n"]),
+        "hunting_limit_n": None if hunting is None else hunting["limit_n"],
+    }
+
+
+def _critical(case: Case, layout) -> dict:
+    vmin, vmax, points = case.speeds
+    if case.method == "eigen":
+        from rail_mj.stability import Stability
+
+        result = Stability(layout).critical_speed(vmin, vmax, points)
+    elif case.method == "time":
+        from rail_mj.stability import time_critical_speed
+
+        result = time_critical_speed(layout, vmin, vmax, points)
+    else:
+        from rail_mj.bifurcation import nonlinear_critical_speed
+
+        result, _ = nonlinear_critical_speed(layout, vmin, vmax)
+    return {
+        "critical_speed_m_per_s": result.critical_speed,
+        "frequency_hz": result.frequency,
+        "mode": result.mode,
+        "linear_critical_speed_m_per_s": result.linear_critical_speed,
+        "note": result.note,
+    }
+
+
+# --- executing and keeping the rows ------------------------------------------------------
+
+
+def columns_of(cases: list[Case]) -> list[str]:
+    method = cases[0].method if cases else "run"
+    return (["case", *cases[0].params.keys() if cases else [], "speed_m_per_s"]
+            + list(RESULTS["run" if method == "run" else "critical"]) + list(TAIL))
+
+
+class Journal:
+    """Rows as they finish, one JSON line each, flushed and synced: a sweep killed at any
+    moment loses only the cases in flight. Beside the output: `<output>.journal`."""
+
+    def __init__(self, output: Path):
+        self.path = output.with_name(output.name + ".journal")
+
+    def read(self) -> list[dict]:
+        if not self.path.exists():
+            return []
+        rows = []
+        lines = self.path.read_text(encoding="utf-8").split("\n")
+        for k, line in enumerate(lines):
+            if not line.strip():
+                continue
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError:
+                if k == len(lines) - 1:  # cut short by a kill mid-write: that case runs again
+                    continue
+                raise SweepError(f"{self.path}: line {k + 1} is damaged; delete the journal to start again") from None
+        return rows
+
+    def __enter__(self):
+        self.file = open(self.path, "a", encoding="utf-8")
+        if self.file.tell() and not self.path.read_text(encoding="utf-8").endswith("\n"):
+            self.file.write("\n")  # after a line cut short
+        return self
+
+    def append(self, row: dict) -> None:
+        self.file.write(json.dumps(row) + "\n")
+        self.file.flush()
+        os.fsync(self.file.fileno())
+
+    def __exit__(self, *exc):
+        self.file.close()
+
+    def remove(self) -> None:
+        self.path.unlink(missing_ok=True)
+
+
+def read_table(path: Path) -> list[dict]:
+    """The rows of a written sweep output (CSV or Parquet)."""
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    if path.suffix == ".parquet":
+        return pq.read_table(path).to_pylist()
+    return pacsv.read_csv(path, convert_options=pacsv.ConvertOptions(strings_can_be_null=True)).to_pylist()
+
+
+def to_table(rows: list[dict], columns: list[str]):
+    """A pyarrow table of the rows, sorted by case, in `columns` order."""
+    import pyarrow as pa
+
+    rows = sorted(rows, key=lambda r: r["case"])
+    return pa.table({c: [r.get(c) for r in rows] for c in columns})
+
+
+def write_table(table, path: Path) -> None:
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    with staged([path]) as (tmp,):
+        if path.suffix == ".parquet":
+            pq.write_table(table, tmp)
+        else:
+            pacsv.write_csv(table, tmp)
+
+
+def sweep(layout_path: str | Path, speeds: tuple[float, float, int], *, sets: Iterable[str] = (),
+          grids: Iterable[str] = (), method: str = "run", distance: float = DEFAULT_DISTANCE,
+          workers: int | None = None, scheduler: str | None = None, out: str | Path | None = None,
+          recordings: str | Path | None = None, progress: Callable[[int, int, dict], None] | None = None):
+    """Run a sweep (see `plan`) and return its table (pyarrow), one row per case.
+
+    `workers` threads (default: every core), or the Dask scheduler at `scheduler`. With
+    `out` (.csv or .parquet) rows already there or in its journal are kept and not run
+    again; the table is written there at the end. `progress(done, total, row)` is told
+    each finished row.
+    """
+    cases = plan(layout_path, speeds, sets, grids, method, distance, recordings)
+    columns = columns_of(cases)
+    output = Path(out) if out is not None else None
+    if output is not None and output.suffix not in (".csv", ".parquet"):
+        raise SweepError(f"-o {output}: the output must end in .csv or .parquet")
+    kept: dict[str, dict] = {}
+    journal = Journal(output) if output is not None else None
+    if output is not None:
+        previous = (read_table(output) if output.exists() else []) + journal.read()
+        wanted = {c.key: c for c in cases}
+        for row in previous:
+            if row.get("case_key") not in wanted:
+                raise SweepError(f"{output} holds results of another sweep (case {row.get('case')}); "
+                                 f"write to a new file or delete it")
+            kept[row["case_key"]] = {**row, "case": wanted[row["case_key"]].index}
+    todo = [c for c in cases if c.key not in kept]
+    if recordings is not None and todo and method == "run":
+        Path(recordings).mkdir(parents=True, exist_ok=True)
+    rows = list(kept.values())
+    done = len(rows)
+    with journal if journal is not None else _nothing():
+        for row in _execute(todo, workers, scheduler):
+            rows.append(row)
+            if journal is not None:
+                journal.append(row)
+            done += 1
+            if progress is not None:
+                progress(done, len(cases), row)
+    table = to_table(rows, columns)
+    if output is not None:
+        write_table(table, output)
+        journal.remove()
+    return table
+
+
+class _nothing:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
+    """Rows as cases finish, in any order: on local threads, or on a Dask cluster."""
+    if not cases:
+        return
+    if scheduler is not None:
+        try:
+            from distributed import Client, as_completed as dask_completed
+        except ImportError:
+            raise SweepError("--scheduler needs Dask: pip install 'rail-mj[cluster]'") from None
+        try:
+            client = Client(scheduler, timeout=10)
+        except (OSError, TimeoutError) as e:
+            raise SweepError(f"--scheduler {scheduler}: cannot reach it ({e})") from None
+        try:
+            futures = client.map(run_case, cases, pure=False)
+            for future in dask_completed(futures):
+                yield future.result()
+        finally:
+            client.close()
+        return
+    threads = workers or os.cpu_count() or 1
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        futures = [pool.submit(run_case, case) for case in cases]
+        for future in as_completed(futures):
+            yield future.result()
+
+
+def summarise(table) -> dict:
+    """What a sweep found: cases by status, and for runs, per variant, the bracket of speeds
+    where the motion stops decaying (the last speed with negative growth and the first
+    with growth or a run that left the rails)."""
+    rows = table.to_pylist()
+    result = {"cases": len(rows), "by_status": {s: sum(r["status"] == s for r in rows) for s in STATUSES},
+              "wall_time_s": float(sum(r["wall_time_s"] for r in rows))}
+    if rows and "growth_rate_per_s" in rows[0]:
+        params = [c for c in table.column_names if c not in ("case", "speed_m_per_s")
+                  and c not in RESULTS["run"] and c not in TAIL]
+        groups: dict[tuple, list[dict]] = {}
+        for r in rows:
+            groups.setdefault(tuple(r[p] for p in params), []).append(r)
+        brackets = []
+        for key, group in groups.items():
+            group.sort(key=lambda r: r["speed_m_per_s"])
+            unstable = [(r["status"] == "diverged" or (r["status"] == "ok" and (r["growth_rate_per_s"] or 0) > 0))
+                        for r in group]
+            first = next((k for k, u in enumerate(unstable) if u), None)
+            bracket = None
+            if first is not None and first > 0 and not unstable[first - 1]:
+                bracket = [group[first - 1]["speed_m_per_s"], group[first]["speed_m_per_s"]]
+            brackets.append({**dict(zip(params, key)), "critical_speed_bracket_m_per_s": bracket})
+        result["brackets"] = brackets
+    return result
