@@ -1,19 +1,32 @@
 """Rerun recordings of runs, for review in the Rerun viewer (`rerun FILE.rrd`).
 
-Entity paths (stable; later tools read them back):
+Entity paths (stable; later tools read them back), in review units: mm, mrad, kN:
 
-    /lateral/wheelset<i>   lateral displacement y of wheelset i, m (Scalars)
-    /yaw/wheelset<i>       yaw psi of wheelset i, rad (Scalars)
-    /guiding/wheelset<i>   the sum of guiding forces Sigma Y on wheelset i, N (Scalars):
+    /lateral/wheelset<i>   lateral displacement y of wheelset i, mm (Scalars)
+    /yaw/wheelset<i>       yaw psi of wheelset i, mrad (Scalars)
+    /guiding/wheelset<i>   the sum of guiding forces Sigma Y on wheelset i, kN (Scalars):
                            the lateral force of the rails, creep and flange
+    /flange/wheelset<i>    (with [flange] contact) the flange's part of it, kN: the rail's
+                           lateral force on the flange, positive to the left, 0 off the flange
+    /lateral/<frame>       lateral displacement of each moving frame, mm: bogie1, bogie2, ...
+    /yaw/<frame>           and its yaw, mrad; then carbody, unless it is fixed
+    /events/flange         (with [flange] contact) a log line for each flange strike
     /layout                the layout file and the run's settings, logged once
-    /world/rails           the track, logged once
-    /world/vehicle/<body>  each body's pose (car body, bogieK, wheelsetN) moving along
-                           the track, its MJCF geoms (boxes, axle, wheel meshes) under it
+    /world/rails           the track, logged once, and /world/sleepers, one every 0.6 m
+    /world/vehicle/<body>  each body's pose (carbody, bogieK, wheelsetN) moving along the
+                           track (x = V*t + the body's place, m), its MJCF geoms (boxes, axle,
+                           wheel meshes) under it; /world/vehicle/<root>/extent marks the
+                           vehicle's extent (invisible) for the 3D view's camera to follow
 
 each on two timelines, TIME (seconds) and DISTANCE (millimetres travelled: Rerun
-timelines are integer sequences or times, so distance is a sequence in mm). The
-blueprint opens on the two plots.
+timelines are integer sequences or times, so distance is a sequence in mm).
+
+The run samples every millisecond; the recording keeps one sample in every n, at a
+rate chosen from the run's motion (`recording_rate`), or as asked: `rate` in samples
+per second, `math.inf` for every sample. Flange strikes are found in the full run.
+
+The blueprint opens on a grid of plots over the whole run (wheelsets above, the bogies
+and car body below; lateral, yaw, forces) and a 3D view whose camera follows the vehicle.
 
 Example:
 
@@ -28,7 +41,9 @@ Example:
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -43,9 +58,49 @@ from rail_mj.runner import Run
 APP_ID = "rail-mj"
 TIME = "time"
 DISTANCE = "distance_mm"
-
-
 FLANGE_EVENTS = "/events/flange"
+
+MM = 1e3  # per m
+MRAD = 1e3  # per rad
+N_PER_KN = 1e3
+
+# The recording rate. The plots and the 3D view need each motion drawn smoothly, not
+# every millisecond: every sample costs about 0.75 MB per simulated second. The motion's
+# highest frequency of interest, f_motion, is the frequency below which MOTION_POWER
+# of the power of the wheelsets' lateral velocity lies. The velocity, not the
+# displacement: the displacement's spectrum is swamped by its slow drift and by the
+# jump from its start to its end (the initial offset), while the velocity starts at
+# rest and weights the faster motion (flange strikes, the harmonics of hunting) up.
+# SAMPLES_PER_CYCLE samples per cycle of f_motion draw a sinusoid at f_motion within
+# 1 - cos(pi/10) = 5 % of its peaks, and the bulk of the motion, well below f_motion,
+# closer still. The Manchester coach hunting on its flanges at 85 m/s (5.1 Hz) has
+# f_motion 25.5 Hz (the 5th harmonic, from the flange strikes) and is recorded at
+# 333 samples/s, 65 a cycle; at 40 m/s, stable, its transient (8 Hz: 99 % of the
+# velocity's power, though most of the motion is the 2.6 Hz kinematic oscillation)
+# gives 83 samples/s. FLOOR_RATE keeps slow runs smooth on screen. Never above the
+# run's own sampling rate.
+MOTION_POWER = 0.99
+SAMPLES_PER_CYCLE = 10
+FLOOR_RATE = 50.0  # samples/s
+
+SLEEPER_SPACING = 0.6  # m
+TRACK_MARGIN = 30.0  # m of track drawn before the start and past the end
+
+# The 3D view's camera: direction from the vehicle's centre (x ahead, y left, z up) and
+# distance, per metre of vehicle length.
+CAMERA_DIRECTION = (0.3, -1.0, 0.4)
+CAMERA_DISTANCE = 1.25
+CAMERA_MIN_DISTANCE = 6.0  # m
+
+AXIS_EDGES = (1, 1.5, 2, 3, 4, 5, 6, 10)  # times a power of ten: see axis_range
+
+# Series colours by wheelset (and by bogie), the same in every plot; the car body white.
+PALETTE = [
+    (86, 156, 255), (255, 110, 90), (90, 210, 110), (255, 200, 60), (200, 130, 255),
+    (60, 220, 210), (255, 140, 200), (180, 230, 80), (255, 160, 60), (140, 150, 255),
+    (200, 200, 200), (190, 140, 100),
+]
+CARBODY_COLOUR = (235, 235, 235)
 
 
 def flange_path(i: int) -> str:
@@ -64,78 +119,209 @@ def guiding_path(i: int) -> str:
     return f"/guiding/wheelset{i + 1}"
 
 
-def blueprint(flange: bool = False) -> rrb.Blueprint:
-    plots = [rrb.TimeSeriesView(origin="/lateral", name="Lateral displacement y (m)"),
-             rrb.TimeSeriesView(origin="/yaw", name="Yaw psi (rad)"),
-             rrb.TimeSeriesView(origin="/guiding", name="Sum of guiding forces ΣY (N)")]
-    if flange:
-        plots += [rrb.TimeSeriesView(origin="/flange", name="Flange contact: rail deflection (m)"),
-                  rrb.TextLogView(origin=FLANGE_EVENTS, name="Flange contacts")]
+def frame_lateral_path(name: str) -> str:
+    """`name` one of `Run.frame_names`: bogie1, ..., carbody."""
+    return f"/lateral/{name}"
+
+
+def frame_yaw_path(name: str) -> str:
+    return f"/yaw/{name}"
+
+
+def sample_rate(run: Run) -> float:
+    """The run's own sampling rate, samples/s."""
+    return 1.0 / (run.t[1] - run.t[0]) if len(run.t) > 1 else math.inf
+
+
+def recording_rate(run: Run) -> float:
+    """The automatic recording rate of `run`, samples/s: SAMPLES_PER_CYCLE times the
+    frequency below which MOTION_POWER of the power of the wheelsets' lateral velocity
+    lies, at least FLOOR_RATE (see the comment above MOTION_POWER); raised to the run's
+    own rate divided by a whole number, at most the run's own rate."""
+    fs = sample_rate(run)
+    if not math.isfinite(fs):
+        return fs
+    velocity = run.wheelset_rates[..., 0]
+    power = np.sum(np.abs(np.fft.rfft(velocity, axis=0)) ** 2, axis=1)
+    cumulative = np.cumsum(power)
+    f_motion = 0.0  # no motion at all
+    if cumulative[-1] > 0:
+        frequencies = np.fft.rfftfreq(len(velocity), 1.0 / fs)
+        f_motion = float(frequencies[np.searchsorted(cumulative, MOTION_POWER * cumulative[-1])])
+    return fs / _stride(fs, max(FLOOR_RATE, SAMPLES_PER_CYCLE * f_motion))
+
+
+def _stride(fs: float, rate: float) -> int:
+    """Keep one sample in this many for at least `rate` samples/s out of `fs`."""
+    return max(1, math.floor(fs / rate * (1 + 1e-9)))  # 1e-9: 1000/(1000/3) is 3, not 2.99..
+
+
+def recorded_samples(run: Run, rate: float | None = None) -> np.ndarray:
+    """Indices of the samples of `run` a recording at `rate` keeps: one in every
+    `stride`, the most that gives at least `rate` samples/s, and the last sample.
+    `rate`: samples/s, None for `recording_rate(run)`, math.inf for every sample."""
+    if rate is not None and not rate > 0:  # also NaN
+        raise ValueError(f"recording rate must be a positive number of samples per second, got {rate}")
+    fs = sample_rate(run)
+    if rate is None:
+        rate = recording_rate(run)
+    stride = _stride(fs, rate) if math.isfinite(fs) else 1
+    keep = np.arange(0, len(run.t), stride)
+    if keep[-1] != len(run.t) - 1:
+        keep = np.append(keep, len(run.t) - 1)
+    return keep
+
+
+class Series(NamedTuple):
+    """One plotted series: entity path, legend label, colour and its values at every
+    sample of the run, in review units."""
+
+    path: str
+    label: str
+    colour: tuple[int, int, int]
+    values: np.ndarray
+
+
+class Plot(NamedTuple):
+    title: str
+    series: list[Series]
+
+
+def plots(run: Run) -> list[Plot]:
+    """What the plots show, in the order of the blueprint's grid (row by row, three
+    columns: lateral, yaw, forces; wheelsets above, bogies and car body below)."""
+    forces = run.contact_forces()
+    y, psi = run.y, run.psi
+    wheelsets = [(f"wheelset {i + 1}", PALETTE[i % len(PALETTE)]) for i in range(run.n_wheelsets)]
+    frames = [("car body", CARBODY_COLOUR) if name == "carbody"
+              else (name.replace("bogie", "bogie "), PALETTE[k % len(PALETTE)])
+              for k, name in enumerate(run.frame_names)]
+
+    def wheelset_series(path, unit, values):
+        return [Series(path(i), f"{label} ({unit})", colour, values[:, i])
+                for i, (label, colour) in enumerate(wheelsets)]
+
+    def frame_series(path, unit, values):
+        return [Series(path(name), f"{label} ({unit})", colour, values[:, k])
+                for k, (name, (label, colour)) in enumerate(zip(run.frame_names, frames))]
+
+    out = [Plot("Wheelsets: lateral y (mm)", wheelset_series(lateral_path, "mm", y * MM)),
+           Plot("Wheelsets: yaw ψ (mrad)", wheelset_series(yaw_path, "mrad", psi * MRAD)),
+           Plot("Wheelsets: ΣY guiding force (kN)",
+                wheelset_series(guiding_path, "kN", forces.lateral / N_PER_KN))]
+    if run.frame_names:
+        out += [Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM)),
+                Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD))]
+    if run.layout.flange is not None:
+        out.append(Plot("Wheelsets: flange force (kN)",
+                        wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)))
+    return out
+
+
+def axis_range(values) -> list[float]:
+    """A y range symmetric about 0 (the track's centre line, no force), its edge a round
+    number just past the largest |value|. egui's plots label only multiples of powers of
+    ten, at least 20 points apart: a range like +-8 in a short plot gets a lone "0" label,
+    and +-10 gets three. Edges of 1, 1.5, 2, 3, 4, 5 or 6 times a power of ten give 3 to
+    13 labels."""
+    peak = 1.05 * max((float(np.max(np.abs(v))) for v in values if len(v)), default=0.0)
+    if not (peak > 0 and math.isfinite(peak)):
+        return [-1.0, 1.0]
+    decade = 10.0 ** math.floor(math.log10(peak))
+    edge = next(m * decade for m in AXIS_EDGES if m * decade >= peak)
+    return [-edge, edge]
+
+
+def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
+    """The default layout: the plots (`plots(run)`, or `shown`) in a grid on the left;
+    on the right the 3D view, its camera following the vehicle, above the layout and
+    the flange strikes."""
+    shown = plots(run) if shown is None else shown
+    whole_run = rr.TimeRange(start=rr.TimeRangeBoundary.infinite(), end=rr.TimeRangeBoundary.infinite())
+    views = [rrb.TimeSeriesView(origin="/", contents=[s.path for s in p.series], name=p.title,
+                                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),
+                                axis_x=rrb.TimeAxis(view_range=whole_run),
+                                axis_y=rrb.ScalarAxis(range=axis_range([s.values for s in p.series])))
+             for p in shown]
+    notes = [rrb.TextDocumentView(origin="/layout", name="Layout and run")]
+    if run.layout.flange is not None:
+        notes.append(rrb.TextLogView(origin=FLANGE_EVENTS, name="Flange strikes"))
+    extent = _extent(run)
+    centre = extent.mean(axis=0) + [float(run.x[0]), 0.0, 0.0]
+    # The camera follows the vehicle (tracking its extent, see log_vehicle), from its right,
+    # ahead of it and a little above, far enough to take in its length.
+    distance = max(CAMERA_DISTANCE * float(np.ptp(extent[:, 0])), CAMERA_MIN_DISTANCE)
+    direction = np.array(CAMERA_DIRECTION) / np.linalg.norm(CAMERA_DIRECTION)
+    eye = rrb.EyeControls3D(kind=rrb.Eye3DKind.Orbital, position=centre + distance * direction,
+                            look_target=centre, eye_up=[0.0, 0.0, 1.0], tracking_entity=_extent_path(run))
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(*plots),
+            rrb.Grid(*views, grid_columns=3 if len(views) > 4 else 2),
             rrb.Vertical(
-                rrb.Spatial3DView(origin="/world", name="Vehicle on the track"),
-                rrb.TextDocumentView(origin="/layout", name="Layout and run"),
+                rrb.Spatial3DView(origin="/world", name="Vehicle on the track (the camera follows it)",
+                                  eye_controls=eye),
+                rrb.Tabs(*notes),
+                row_shares=[3, 2],
             ),
-            column_shares=[3, 2],
+            column_shares=[2, 1],
         ),
         collapse_panels=True,
     )
 
 
-def _layout_text(run: Run) -> str:
+def _layout_text(run: Run, keep: np.ndarray) -> str:
     try:
         source = Path(run.layout.source).read_text(encoding="utf-8")
     except OSError:
         source = repr(run.layout)
+    every = int(keep[1] - keep[0]) if len(keep) > 1 else 1
+    rate = sample_rate(run) / every
     return (
         f"# {run.layout.name}\n\n"
         f"speed {run.speed:g} m/s, distance {run.x[-1]:g} m, timestep {run.timestep:.4g} s\n\n"
+        f"recorded at {rate:.4g} samples/s, one in {every} of the run's samples (the CSV of "
+        f"`rail-mj run --out` has them all)\n\n"
         f"```toml\n{source}\n```\n"
     )
 
 
-def log_run(rec: rr.RecordingStream, run: Run) -> None:
-    """Log a run into an open recording: static data once, series in column batches."""
-    rec.log("/layout", rr.TextDocument(_layout_text(run), media_type=rr.MediaType.MARKDOWN), static=True)
+def log_run(rec: rr.RecordingStream, run: Run, rate: float | None = None) -> None:
+    """Log a run into an open recording, at `rate` (see `recorded_samples`): static data
+    once, the series in column batches."""
+    _log_samples(rec, run, recorded_samples(run, rate), plots(run))
+
+
+def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: list[Plot]) -> None:
+    rec.log("/layout", rr.TextDocument(_layout_text(run, keep), media_type=rr.MediaType.MARKDOWN),
+            static=True)
     indexes = [
-        rr.TimeColumn(TIME, duration=run.t),
-        rr.TimeColumn(DISTANCE, sequence=np.round(run.x * 1000.0).astype(np.int64)),
+        rr.TimeColumn(TIME, duration=run.t[keep]),
+        rr.TimeColumn(DISTANCE, sequence=np.round(run.x[keep] * 1000.0).astype(np.int64)),
     ]
-    log_vehicle(rec, run, indexes)
+    for series in (s for p in shown for s in p.series):
+        # MinMax: zoomed out, a pixel spans cycles of hunting; the default average flattens them.
+        rec.log(series.path, rr.SeriesLines(names=series.label, colors=[series.colour],
+                                            aggregation_policy="MinMax"), static=True)
+        rec.send_columns(series.path, indexes=indexes, columns=rr.Scalars.columns(scalars=series.values[keep]))
     if run.layout.flange is not None:
-        log_flange_contacts(rec, run, indexes)
-    guiding = run.guiding_forces()
-    for i in range(run.n_wheelsets):
-        for path, values, unit in (
-            (lateral_path(i), run.y[:, i], "m"),
-            (yaw_path(i), run.psi[:, i], "rad"),
-            (guiding_path(i), guiding[:, i], "N"),
-        ):
-            rec.log(path, rr.SeriesLines(names=f"wheelset {i + 1} ({unit})"), static=True)
-            rec.send_columns(path, indexes=indexes, columns=rr.Scalars.columns(scalars=values))
+        log_flange_strikes(rec, run)
+    log_vehicle(rec, run, keep, indexes)
 
 
-def log_flange_contacts(rec: rr.RecordingStream, run: Run, indexes) -> None:
-    """Per wheelset, how far past the flangeway clearance it presses into the rail (signed:
-    positive into the left rail), and a log line each time a flange strikes a rail."""
-    clearance = run.layout.wheelset.flangeway_clearance
-    into = np.sign(run.y) * np.maximum(np.abs(run.y) - clearance, 0.0)
-    for i in range(run.n_wheelsets):
-        rec.log(flange_path(i), rr.SeriesLines(names=f"wheelset {i + 1} (m)"), static=True)
-        rec.send_columns(flange_path(i), indexes=indexes, columns=rr.Scalars.columns(scalars=into[:, i]))
+def log_flange_strikes(rec: rr.RecordingStream, run: Run) -> None:
+    """A log line each time a flange strikes a rail, found in the full run."""
     strikes = flange_strikes(run)
-    times = [run.t[s.start] for s in strikes]
-    distances = [int(round(run.x[s.start] * 1000.0)) for s in strikes]
+    if not strikes:
+        return
+    order = np.argsort([s.start for s in strikes], kind="stable")
+    strikes = [strikes[k] for k in order]
+    starts = np.array([s.start for s in strikes])
     lines = [f"wheelset {s.wheelset + 1} flange strikes the {'left' if s.side > 0 else 'right'} rail "
              f"at x = {run.x[s.start]:.2f} m" for s in strikes]
-    if lines:
-        order = np.argsort(times, kind="stable")
-        rec.send_columns(FLANGE_EVENTS, indexes=[
-            rr.TimeColumn(TIME, duration=np.asarray(times)[order]),
-            rr.TimeColumn(DISTANCE, sequence=np.asarray(distances, dtype=np.int64)[order]),
-        ], columns=rr.TextLog.columns(text=[lines[k] for k in order], level=["WARN"] * len(lines)))
+    rec.send_columns(FLANGE_EVENTS, indexes=[
+        rr.TimeColumn(TIME, duration=run.t[starts]),
+        rr.TimeColumn(DISTANCE, sequence=np.round(run.x[starts] * 1000.0).astype(np.int64)),
+    ], columns=rr.TextLog.columns(text=lines, level=["WARN"] * len(lines)))
 
 
 def _xyzw(wxyz: np.ndarray) -> np.ndarray:
@@ -160,12 +346,39 @@ def _geom_archetype(model: mujoco.MjModel, g: int):
     return None
 
 
-def log_vehicle(rec: rr.RecordingStream, run: Run, indexes) -> None:
+def _root(run: Run) -> str:
+    """The body the others hang from (the car body), which the camera follows."""
+    return run.vehicle.model.body(1).name
+
+
+def _extent_path(run: Run) -> str:
+    return f"/world/vehicle/{_root(run)}/extent"
+
+
+def _extent(run: Run) -> np.ndarray:
+    """(2, 3): the corners of the box around all the vehicle's geoms, in the moving frame,
+    in the model's reference pose."""
+    model = run.vehicle.model
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    corners = []
+    for g in range(model.ngeom):
+        centre, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+        local = centre + half * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        corners.append(data.geom_xpos[g] + local @ data.geom_xmat[g].reshape(3, 3).T)
+    corners = np.vstack(corners)
+    return np.array([corners.min(axis=0), corners.max(axis=0)])
+
+
+def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes) -> None:
     """The vehicle's bodies moving along the track in 3D: geometry once, poses in columns.
 
     The model travels with the vehicle, so each pose gets the distance x = V*t added.
+    The 3D view's camera tracks the vehicle's extent, two invisible points fixed to the
+    root body (`_extent_path`): Rerun's camera follows an entity's own bounding box.
     """
     model = run.vehicle.model
+    rec.log("/world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     for g in range(model.ngeom):
         shape = _geom_archetype(model, g)
         body = model.body(model.geom_bodyid[g]).name
@@ -174,31 +387,51 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, indexes) -> None:
             rec.log(path, rr.Transform3D(translation=model.geom_pos[g],
                                          quaternion=_xyzw(model.geom_quat[g])), static=True)
             rec.log(path, shape, static=True)
-    pos = run.body_pos.copy()
-    pos[:, :, 0] += run.x[:, None]
+    root = model.body(_root(run)).id
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    rec.log(_extent_path(run), rr.Points3D(_extent(run) - data.xpos[root], radii=0.0,
+                                           colors=[(0, 0, 0, 0)]), static=True)
+    pos = run.body_pos[keep].copy()
+    pos[:, :, 0] += run.x[keep, None]
+    quat = _xyzw(run.body_quat[keep])
     for b in range(1, model.nbody):
         rec.send_columns(f"/world/vehicle/{model.body(b).name}", indexes=indexes,
-                         columns=rr.Transform3D.columns(translation=pos[:, b],
-                                                        quaternion=_xyzw(run.body_quat[:, b])))
+                         columns=rr.Transform3D.columns(translation=pos[:, b], quaternion=quat[:, b]))
+    log_track(rec, run)
+
+
+def log_track(rec: rr.RecordingStream, run: Run) -> None:
+    """The rails and the sleepers under them, along the whole run, logged once."""
     b = run.layout.wheelset.contact_half_spacing
-    length = float(run.x[-1]) + 40.0
+    start, end = float(run.x[0]) - TRACK_MARGIN, float(run.x[-1]) + TRACK_MARGIN
+    length = end - start
     rec.log("/world/rails", rr.Boxes3D(
-        centers=[[length / 2 - 20.0, side * b, -0.08] for side in (1, -1)],
+        centers=[[start + length / 2, side * b, -0.08] for side in (1, -1)],
         half_sizes=[[length / 2, RAIL_HEAD_WIDTH / 2, 0.08]] * 2,
         colors=[[190, 190, 200]] * 2, fill_mode="solid"), static=True)
+    x = np.arange(math.ceil(start / SLEEPER_SPACING), math.floor(end / SLEEPER_SPACING) + 1) * SLEEPER_SPACING
+    rec.log("/world/sleepers", rr.Boxes3D(
+        centers=np.column_stack([x, np.zeros_like(x), np.full_like(x, -0.16 - 0.11)]),
+        half_sizes=np.tile([0.13, b + 0.5, 0.11], (len(x), 1)),
+        colors=[[110, 100, 90]], fill_mode="solid"), static=True)
 
 
-def save_recording(run: Run, path: str | Path) -> None:
-    """Write `run` to an .rrd file at `path` (use `write_recording` for a safe write)."""
+def save_recording(run: Run, path: str | Path, rate: float | None = None) -> None:
+    """Write `run` to an .rrd file at `path` (use `write_recording` for a safe write), at
+    `rate` samples/s: None for `recording_rate(run)`, math.inf for every sample."""
+    keep = recorded_samples(run, rate)  # refuse a bad rate before the file is opened
+    shown = plots(run)
     rec = rr.RecordingStream(APP_ID, recording_id=f"{run.layout.name}-{run.speed:g}")
-    rec.save(str(path), default_blueprint=blueprint(run.layout.flange is not None))
-    log_run(rec, run)
+    rec.save(str(path), default_blueprint=blueprint(run, shown))
+    _log_samples(rec, run, keep, shown)
     rec.flush()
     rec.disconnect()
 
 
-def write_recording(run: Run, path: str | Path) -> Path:
-    """Write `run` to an .rrd file; the file appears only once it is complete."""
+def write_recording(run: Run, path: str | Path, rate: float | None = None) -> Path:
+    """Write `run` to an .rrd file; the file appears only once it is complete. `rate` as
+    for `save_recording`."""
     with staged([path]) as (tmp,):
-        save_recording(run, tmp)
+        save_recording(run, tmp, rate)
     return Path(path)

@@ -99,9 +99,7 @@ class Run:
 
     @property
     def psi(self) -> np.ndarray:
-        # A rotation about z alone: quaternion (cos psi/2, 0, 0, sin psi/2).
-        q = self.body_quat[:, self.vehicle.wheelset_ids]
-        return 2.0 * np.arctan2(q[..., 3], q[..., 0])
+        return _yaw(self.body_quat[:, self.vehicle.wheelset_ids])
 
     @property
     def x(self) -> np.ndarray:
@@ -112,14 +110,61 @@ class Run:
     def n_wheelsets(self) -> int:
         return self.y.shape[1]
 
+    @property
+    def frame_names(self) -> tuple[str, ...]:
+        """The moving bodies other than the wheelsets: the bogie frames (bogie1, ...), then the
+        car body unless it is fixed. A fixed car body (no joints) has no motion to show."""
+        return tuple(self.vehicle.model.body(b).name for b in self._frame_ids)
+
+    @property
+    def _frame_ids(self) -> list[int]:
+        model = self.vehicle.model
+        wheelsets = set(self.vehicle.wheelset_ids.tolist())
+        moving = [b for b in range(1, model.nbody) if b not in wheelsets and model.body_dofnum[b] > 0]
+        return sorted(moving, key=lambda b: (model.body(b).name == "carbody", b))
+
+    @property
+    def frame_y(self) -> np.ndarray:
+        """(n_samples, n_frames): lateral displacement of each of `frame_names`, m (absolute,
+        track frame, like `y`)."""
+        return self.body_pos[:, self._frame_ids, 1]
+
+    @property
+    def frame_psi(self) -> np.ndarray:
+        """(n_samples, n_frames): yaw of each of `frame_names`, rad (absolute, like `psi`)."""
+        return _yaw(self.body_quat[:, self._frame_ids])
+
     def table(self) -> tuple[list[str], np.ndarray]:
-        """Columns t, x, y1, psi1, y2, psi2, ... and their values."""
+        """Columns and their values, SI units (s, m, rad, N), one row per sample:
+
+        t, x, y1, psi1, y2, psi2, ...   time, distance, each wheelset's lateral displacement and yaw
+        sum_y1, flange1, sum_y2, ...    each wheelset's sum of guiding forces Sigma Y and the
+                                        flange's part of it (the rail's lateral force on the
+                                        wheelset, positive to the left; 0 off the flange)
+        y_bogie1, psi_bogie1, ...       each moving frame's lateral displacement and yaw
+        (y_carbody, psi_carbody)        (bogies, then the car body unless it is fixed)
+        """
         names = ["t", "x"]
         cols = [self.t, self.x]
+        y, psi = self.y, self.psi
         for i in range(self.n_wheelsets):
             names += [f"y{i + 1}", f"psi{i + 1}"]
-            cols += [self.y[:, i], self.psi[:, i]]
+            cols += [y[:, i], psi[:, i]]
+        forces = self.contact_forces()
+        for i in range(self.n_wheelsets):
+            names += [f"sum_y{i + 1}", f"flange{i + 1}"]
+            cols += [forces.lateral[:, i], forces.flange_lateral[:, i]]
+        frame_y, frame_psi = self.frame_y, self.frame_psi
+        for k, name in enumerate(self.frame_names):
+            names += [f"y_{name}", f"psi_{name}"]
+            cols += [frame_y[:, k], frame_psi[:, k]]
         return names, np.column_stack(cols)
+
+
+def _yaw(quat: np.ndarray) -> np.ndarray:
+    """Yaw of MuJoCo quaternions (w, x, y, z) over the last axis. The bodies turn about z
+    alone (lateral and yaw joints): quaternion (cos psi/2, 0, 0, sin psi/2)."""
+    return 2.0 * np.arctan2(quat[..., 3], quat[..., 0])
 
 
 def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> float:

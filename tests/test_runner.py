@@ -95,13 +95,14 @@ def test_cli_run_writes_csv_and_json_summary(layout_path, tmp_path, capsys):
     layout = load_layout(layout_path)
     n = layout.n_wheelsets
     header = out.read_text().splitlines()[0].split(",")
-    assert header == ["t", "x"] + [f"{k}{i}" for i in range(1, n + 1) for k in ("y", "psi")]
+    # t, x, y1, psi1, ... first; the forces and the frames' motion after them (test_recording).
+    assert header[:2 + 2 * n] == ["t", "x"] + [f"{k}{i}" for i in range(1, n + 1) for k in ("y", "psi")]
     data = np.loadtxt(out, delimiter=",", skiprows=1)
     run = simulate(layout, speed=30.0, distance=25.0, initial_lateral=0.003)
     # %.10g in the CSV: 10 significant figures.
     np.testing.assert_allclose(data[:, 0], run.t, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(data[:, 2::2], run.y, rtol=1e-9, atol=1e-15)
-    np.testing.assert_allclose(data[:, 3::2], run.psi, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(data[:, 2:2 + 2 * n:2], run.y, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(data[:, 3:3 + 2 * n:2], run.psi, rtol=1e-9, atol=1e-15)
     assert data[0, 2] == 0.003
     assert len(result["wheelsets"]) == n
     for w in result["wheelsets"]:
