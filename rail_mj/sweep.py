@@ -271,8 +271,8 @@ def _critical(case: Case, layout) -> dict:
 
 def columns_of(cases: list[Case]) -> list[str]:
     method = cases[0].method if cases else "run"
-    return (["case", *cases[0].params.keys() if cases else [], "speed_m_per_s"]
-            + list(RESULTS["run" if method == "run" else "critical"]) + list(TAIL))
+    params = list(cases[0].params) if cases else []
+    return ["case", *params, "speed_m_per_s", *RESULTS["run" if method == "run" else "critical"], *TAIL]
 
 
 class Journal:

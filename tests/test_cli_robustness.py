@@ -82,7 +82,7 @@ def test_output_into_a_fifo_is_written_through_and_the_fifo_stays(tmp_path, caps
 def test_dash_is_standard_output_and_the_summary_moves_to_stderr(capsys):
     status, out, err = run(["run", WHEELSET, *SHORT_RUN, "--out", "-"], capsys)
     assert status == 0, err
-    assert out.startswith("t,x,y1,psi1\n")
+    assert out.startswith("t,x,y1,psi1,")
     data = np.loadtxt(out.splitlines(), delimiter=",", skiprows=1)
     assert data.shape[0] > 10 and data[-1, 1] >= 3.0
     assert "wheelset" in err and "samples: -" in err
