@@ -176,9 +176,12 @@ def _check_outputs(layout: str, outputs: list[tuple[str, str | None]], folders: 
 @click.option("--initial-yaw", type=float, default=0.0, show_default=True,
               help="Start with every wheelset yawed nose-left by this much, rad.")
 @click.option("--rrd", type=click.Path(dir_okay=False), help="Write a Rerun recording here.")
+@click.option("--rrd-rate", default="auto", show_default=True,
+              help="Samples per second in the recording: auto (chosen from the motion), a number, "
+                   "or full (every sample).")
 @click.option("--out", type=click.Path(dir_okay=False), help="Write the samples as CSV here.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_json):
+def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate, out, as_json):
     """Run LAYOUT at constant speed on straight track and summarise each wheelset's motion.
 
     Outputs may be `-` (standard output; the summary then goes to stderr), a FIFO or a
@@ -188,6 +191,7 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_
     if not (math.isfinite(distance) and distance > 0):
         raise Failure(f"--distance must be a positive number, got {distance}", EXIT_BAD_INPUT)
     _check_disturbance(lay, initial_lateral, initial_yaw)
+    rate = _recording_rate(rrd_rate)
     _check_outputs(layout, [("--out", out), ("--rrd", rrd)])
     from rail_mj.analysis import summary
     from rail_mj.runner import SimulationError
@@ -206,9 +210,12 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_
                 if path == out:
                     tmp.write_bytes(_csv_bytes(run))
                 else:
-                    from rail_mj.recording import save_recording  # rerun is slow to import
+                    from rail_mj.recording import recorded_samples, sample_rate, save_recording
 
-                    save_recording(run, tmp)
+                    save_recording(run, tmp, rate)
+                    keep = recorded_samples(run, rate)
+                    result["rrd_rate_per_s"] = (sample_rate(run) / (keep[1] - keep[0])
+                                                if len(keep) > 1 else None)
     except OSError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     if out:
@@ -220,6 +227,22 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, out, as_
         click.echo(json.dumps(result, indent=2), err=to_stderr)
     else:
         _print_summary(result, to_stderr)
+
+
+def _recording_rate(text: str) -> float | None:
+    """--rrd-rate: None (auto), math.inf (full) or a positive number of samples/s."""
+    if text == "auto":
+        return None
+    if text == "full":
+        return math.inf
+    try:
+        rate = float(text)
+    except ValueError:
+        rate = math.nan
+    if not (math.isfinite(rate) and rate > 0):
+        raise Failure(f"--rrd-rate must be auto, full or a positive number of samples per second, "
+                      f"got {text!r}", EXIT_BAD_INPUT)
+    return rate
 
 
 def _check_disturbance(layout: Layout, lateral: float, yaw: float) -> None:
@@ -293,7 +316,9 @@ def _print_summary(result: dict, err: bool = False) -> None:
     if "csv" in result:
         say(f"samples: {result['csv']}")
     if "rrd" in result:
-        say(f"recording: {result['rrd']}  (open it with: rerun {result['rrd']})")
+        rate = result.get("rrd_rate_per_s")
+        at = f", {rate:.4g} samples/s" if rate else ""
+        say(f"recording: {result['rrd']}{at}  (open it with: rerun {result['rrd']})")
 
 
 def _stability(layout: Layout):

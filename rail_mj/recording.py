@@ -73,13 +73,14 @@ N_PER_KN = 1e3
 # rest and weights the faster motion (flange strikes, the harmonics of hunting) up.
 # SAMPLES_PER_CYCLE samples per cycle of f_motion draw a sinusoid at f_motion within
 # 1 - cos(pi/10) = 5 % of its peaks, and the bulk of the motion, well below f_motion,
-# closer still. The Manchester coach hunting on its flanges at 85 m/s (5.1 Hz) has
-# f_motion 25.5 Hz (the 5th harmonic, from the flange strikes) and is recorded at
-# 333 samples/s, 65 a cycle; at 40 m/s, stable, its transient (8 Hz: 99 % of the
-# velocity's power, though most of the motion is the 2.6 Hz kinematic oscillation)
-# gives 83 samples/s. FLOOR_RATE keeps slow runs smooth on screen. Never above the
-# run's own sampling rate.
-MOTION_POWER = 0.99
+# closer still. 98 % of the power: the last 2 % are the sharp corners of flange strikes,
+# which the full-rate flange events (/events/flange) mark anyway. The Manchester coach
+# hunting on its flanges at 85 m/s (5.1 Hz) is recorded at 167 samples/s, 33 a cycle
+# (its EN 14363 band, f0 +/- 2 Hz, at 24 or more); at 40 m/s, stable, at 50 samples/s.
+# A 10 km run then stays under 25 MB either way (17 MB hunting). FLOOR_RATE keeps slow
+# runs smooth on screen. Never above the run's own sampling rate; `rate=math.inf` (or
+# `--rrd-rate full`) records every sample.
+MOTION_POWER = 0.98
 SAMPLES_PER_CYCLE = 10
 FLOOR_RATE = 50.0  # samples/s
 
