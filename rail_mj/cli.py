@@ -524,6 +524,153 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step):
     click.echo(f"linear critical speed {critical.linear_critical_speed:.2f} m/s; nonlinear {nonlinear}", err=err)
 
 
+@cli.command("sweep")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("--speeds", required=True,
+              help="A:B:N. run: every one of N speeds from A to B m/s is a case; eigen, time, nonlinear: "
+                   "the range the critical speed is searched in, N scan points.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="A layout key set for every case, e.g. creep.friction=0.2 (repeatable).")
+@click.option("--grid", "grids", multiple=True, metavar="KEY=A:B:N[:log]",
+              help="A layout key varied over N values, e.g. wheelset.conicity=0.05:0.3:6 (repeatable: "
+                   "every combination is a case).")
+@click.option("--method", type=click.Choice(["run", "eigen", "time", "nonlinear"]), default="run",
+              show_default=True, help="run: a simulation and its summary per case; eigen, time, nonlinear: "
+                                      "a critical speed per case (as critical-speed --method).")
+@click.option("--distance", type=float, default=1000.0, show_default=True, help="run: distance of each run, m.")
+@click.option("--workers", type=int, help="Threads on this machine [default: every core].")
+@click.option("--scheduler", help="Address of a Dask distributed scheduler to run the cases on instead.")
+@click.option("--rrd-dir", type=click.Path(file_okay=False),
+              help="run: write a Rerun recording of each case into this folder.")
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
+              help="The table, .csv or .parquet. Run again, the same sweep keeps its finished rows.")
+@click.option("--json", "as_json", is_flag=True, help="Print a summary as JSON.")
+def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler, rrd_dir, out, as_json):
+    """Run LAYOUT over speeds and layout parameters: one row per case, in a table."""
+    _layout(layout)
+    a, b, n = _range("--speeds", speeds)
+    if workers is not None and scheduler is not None:
+        raise Failure("give --workers or --scheduler, not both", EXIT_BAD_INPUT)
+    if workers is not None and not 1 <= workers <= 1024:
+        raise Failure(f"--workers must be between 1 and 1024, got {workers}", EXIT_BAD_INPUT)
+    if Path(out).suffix not in (".csv", ".parquet"):
+        raise Failure(f"-o {out}: the table must be .csv or .parquet", EXIT_BAD_INPUT)
+    _check_outputs(layout, [("-o", out)])
+    if rrd_dir:
+        _check_outputs(layout, [("--rrd-dir", rrd_dir)], folders=True)
+    from rail_mj.sweep import SweepError, plan, summarise, sweep
+
+    try:
+        total = len(plan(layout, (a, b, n), sets, grids, method, distance))
+        with _status(f"sweep of {total} cases") as show:
+            def progress(done, total, row):
+                if show is not None:
+                    show(f"{done}/{total}, last: case {row['case']} {row['status']}")
+
+            table = sweep(layout, (a, b, n), sets=sets, grids=grids, method=method, distance=distance,
+                          workers=workers, scheduler=scheduler, out=out, recordings=rrd_dir,
+                          progress=progress)
+    except SweepError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    except OSError as e:
+        raise Failure(f"-o {out}: {e.strerror or e}", EXIT_BAD_INPUT) from None
+    result = summarise(table)
+    result["table"] = out
+    if as_json:
+        click.echo(json.dumps(result, indent=2))
+        return
+    counts = ", ".join(f"{k} {v}" for k, v in result["by_status"].items() if v)
+    click.echo(f"{result['cases']} cases ({counts}), {result['wall_time_s']:.1f} s of computing: {out}")
+    for bracket in result.get("brackets", []):
+        where = ", ".join(f"{k} = {v:g}" for k, v in bracket.items() if k != "critical_speed_bracket_m_per_s")
+        span = bracket["critical_speed_bracket_m_per_s"]
+        found = f"between {span[0]:g} and {span[1]:g} m/s" if span else "not within the speeds run"
+        click.echo(f"the motion stops decaying {found}" + (f" ({where})" if where else ""))
+
+
+def _range(option: str, text: str) -> tuple[float, float, int]:
+    """A:B:N for speeds: 0 < A <= B, not beyond any railway."""
+    try:
+        a, b, n = text.split(":")
+        a, b, n = float(a), float(b), int(n)
+    except ValueError:
+        raise Failure(f"{option} must be A:B:N (from A to B m/s in N steps), got {text!r}",
+                      EXIT_BAD_INPUT) from None
+    if not (math.isfinite(a) and math.isfinite(b) and 0 < a <= b and 1 <= n <= 100_000):
+        raise Failure(f"{option} A:B:N needs 0 < A <= B and 1 <= N <= 100000, got {text!r}", EXIT_BAD_INPUT)
+    error = RANGES["speed"].check(b)
+    if error:
+        raise Failure(f"{option}: B {error}", EXIT_BAD_INPUT)
+    return a, b, n
+
+
+@cli.command("map")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("--x", "x_axis", required=True, metavar="KEY=A:B:N[:log]", help="The parameter along x.")
+@click.option("--y", "y_axis", required=True, metavar="KEY=A:B:N[:log]", help="The parameter along y.")
+@click.option("--method", type=click.Choice(["eigen", "nonlinear"]), default="eigen", show_default=True,
+              help="The critical speed mapped: linear (eigen) or nonlinear.")
+@click.option("--speeds", default="5:150:60", show_default=True,
+              help="A:B:N, the speed range searched, m/s, with N scan points.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="A layout key set everywhere.")
+@click.option("--workers", type=int, help="Threads on this machine [default: every core].")
+@click.option("--scheduler", help="Address of a Dask distributed scheduler to run the cells on instead.")
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="The map, PNG.")
+@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
+              help="The table as CSV [default: the map's name with .csv].")
+def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, out, csv_path):
+    """The critical speed of LAYOUT as a map over two layout parameters."""
+    lay = _layout(layout)
+    a, b, n = _range("--speeds", speeds)
+    csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
+    if csv_path == STDOUT and out == STDOUT:
+        raise Failure("-o - needs --csv FILE: the map and the table cannot both go to standard output",
+                      EXIT_BAD_INPUT)
+    if workers is not None and scheduler is not None:
+        raise Failure("give --workers or --scheduler, not both", EXIT_BAD_INPUT)
+    if workers is not None and not 1 <= workers <= 1024:
+        raise Failure(f"--workers must be between 1 and 1024, got {workers}", EXIT_BAD_INPUT)
+    _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
+    from rail_mj.plots import stability_map_png
+    from rail_mj.sweep import SweepError, parse_assignment, plan, sweep
+
+    try:
+        keys = [parse_assignment(text, option)[0] for option, text in (("--x", x_axis), ("--y", y_axis))]
+        if keys[0] == keys[1]:
+            raise SweepError(f"--x and --y both vary {keys[0]}")
+        total = len(plan(layout, (a, b, n), sets, (x_axis, y_axis), method))
+        with _status(f"map of {total} cells") as show:
+            def progress(done, total, row):
+                if show is not None:
+                    show(f"{done}/{total}")
+
+            table = sweep(layout, (a, b, n), sets=sets, grids=(x_axis, y_axis), method=method,
+                          workers=workers, scheduler=scheduler, progress=progress)
+    except SweepError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    import pyarrow.csv as pacsv
+    import io
+
+    try:
+        with staged([csv_path, out]) as (csv_tmp, png_tmp):
+            buffer = io.BytesIO()
+            pacsv.write_csv(table, buffer)
+            csv_tmp.write_bytes(buffer.getvalue())
+            png_tmp.write_bytes(stability_map_png(table, keys[0], keys[1], x_axis.endswith(":log"),
+                                                  y_axis.endswith(":log"), method, lay.name))
+    except OSError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    err = _uses_stdout(out, csv_path)
+    rows = table.to_pylist()
+    found = [r["critical_speed_m_per_s"] for r in rows if r["critical_speed_m_per_s"] is not None]
+    click.echo(f"map: {out}\ndata: {csv_path}", err=err)
+    if found:
+        click.echo(f"critical speed from {min(found):.1f} to {max(found):.1f} m/s over {len(rows)} cells "
+                   f"({len(rows) - len(found)} without one in {a:g}-{b:g} m/s)", err=err)
+    else:
+        click.echo(f"no critical speed in {a:g}-{b:g} m/s in any of the {len(rows)} cells", err=err)
+
+
 @cli.command("contact")
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")

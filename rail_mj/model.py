@@ -379,12 +379,15 @@ def add_sensors(spec: mujoco.MjSpec, bodies: list[str]) -> None:
 class Sensors:
     """Where `add_sensors`' readings sit in MuJoCo's sensordata, and what they mean."""
 
-    def __init__(self, model: mujoco.MjModel, wheelset_names):
-        bodies = range(1, model.nbody)
-        address = lambda name: model.sensor(name).adr[0]  # noqa: E731
-        self.bodies = np.array(list(bodies), dtype=np.int64)
-        self.pos = np.array([np.arange(3) + address(f"{model.body(b).name}_pos") for b in bodies])
-        self.quat = np.array([np.arange(4) + address(f"{model.body(b).name}_quat") for b in bodies])
+    def __init__(self, model: mujoco.MjModel, wheelset_names, prefix: str = ""):
+        """`model` holds the vehicle under `prefix` (several vehicles stepped together);
+        the readings are for the vehicle's own bodies 1, 2, ... in its own order."""
+        address = lambda name: model.sensor(prefix + name).adr[0]  # noqa: E731
+        own = [name.removeprefix(prefix) for b in range(1, model.nbody)
+               if (name := model.body(b).name).startswith(prefix)]
+        self.bodies = np.arange(1, len(own) + 1, dtype=np.int64)
+        self.pos = np.array([np.arange(3) + address(f"{name}_pos") for name in own])
+        self.quat = np.array([np.arange(4) + address(f"{name}_quat") for name in own])
         # The lateral velocity and yaw rate of each wheelset, in the world (track) frame.
         self.lateral_rate = np.array([address(f"{w}_linvel") + 1 for w in wheelset_names])
         self.yaw_rate = np.array([address(f"{w}_angvel") + 2 for w in wheelset_names])

@@ -143,3 +143,52 @@ def bifurcation_png(critical: CriticalSpeed, down, up, clearance: float, title: 
     fig.savefig(png, format="png", dpi=110)
     plt.close(fig)
     return png.getvalue()
+
+
+def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, method: str, title: str) -> bytes:
+    """The critical speed over two parameters (a sweep's table, one row per cell): colour
+    and contours, the mode that sets it marked in each cell, cells with no critical speed
+    in the range searched hatched, cells that could not be computed crossed."""
+    rows = table.to_pylist()
+    xs = sorted({r[x_key] for r in rows})
+    ys = sorted({r[y_key] for r in rows})
+    speed = np.full((len(ys), len(xs)), np.nan)
+    modes: dict[str, list[tuple[float, float]]] = {}
+    failed, stable = [], []
+    for r in rows:
+        i, j = ys.index(r[y_key]), xs.index(r[x_key])
+        if r["status"] != "ok":
+            failed.append((r[x_key], r[y_key]))
+        elif r["critical_speed_m_per_s"] is None:
+            stable.append((r[x_key], r[y_key]))
+        else:
+            speed[i, j] = r["critical_speed_m_per_s"]
+            modes.setdefault(r["mode"] or "?", []).append((r[x_key], r[y_key]))
+    fig, ax = plt.subplots(figsize=(9.5, 7), layout="constrained")
+    if np.any(np.isfinite(speed)):
+        mesh = ax.pcolormesh(xs, ys, np.ma.masked_invalid(speed), shading="nearest", cmap="viridis")
+        fig.colorbar(mesh, ax=ax, label=f"{'linear' if method == 'eigen' else 'nonlinear'} critical speed (m/s)")
+        if len(xs) > 1 and len(ys) > 1:
+            lines = ax.contour(xs, ys, np.ma.masked_invalid(speed), colors="white", linewidths=0.8)
+            ax.clabel(lines, fmt="%.0f", fontsize=8)
+    markers = "o^svD<>phX*"
+    for k, (name, points) in enumerate(sorted(modes.items())):
+        px, py = zip(*points)
+        ax.scatter(px, py, s=10, marker=markers[k % len(markers)], facecolors="none", edgecolors="black",
+                   linewidths=0.5, label=name)
+    if stable:
+        px, py = zip(*stable)
+        ax.scatter(px, py, s=40, marker="s", color="lightgrey", edgecolors="grey", label="stable in the range searched")
+    if failed:
+        px, py = zip(*failed)
+        ax.scatter(px, py, s=40, marker="x", color="red", label="not computed (see the table)")
+    ax.set(xlabel=x_key, ylabel=y_key, title=f"Critical speed of {title}")
+    if x_log:
+        ax.set_xscale("log")
+    if y_log:
+        ax.set_yscale("log")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=8, title="mode at the threshold")
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=110)
+    plt.close(fig)
+    return png.getvalue()

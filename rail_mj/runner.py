@@ -197,6 +197,63 @@ def _warnings(data) -> str | None:
     return None
 
 
+@dataclasses.dataclass
+class Request:
+    """One run to make: a layout at a speed for a distance, from a disturbed start (or from
+    `state` = (qpos, qvel), to continue a run)."""
+
+    layout: Layout
+    speed: float
+    distance: float
+    initial_lateral: float = 0.0
+    initial_yaw: float = 0.0
+    state: tuple[np.ndarray, np.ndarray] | None = None
+
+
+@dataclasses.dataclass
+class _Prepared:
+    """A request checked, its vehicle built and its timestep chosen."""
+
+    request: Request
+    vehicle: Vehicle
+    timestep: float
+    n_steps: int
+
+
+def prepare(request: Request, python_callback: bool = False) -> _Prepared:
+    """Check a request, build its vehicle (speed set) and choose its timestep. Raises
+    ValueError for an impossible request and RunRefused for one too slow to simulate."""
+    layout, speed, distance = request.layout, request.speed, request.distance
+    for name, value in (("speed", speed), ("distance", distance)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive number, got {value}")
+    for name, value in (("initial lateral", request.initial_lateral), ("initial yaw", request.initial_yaw)):
+        if not math.isfinite(value):
+            raise ValueError(f"{name} must be finite, got {value}")
+    if abs(request.initial_lateral) >= DERAILMENT_LATERAL:
+        raise ValueError(
+            f"initial lateral {request.initial_lateral} m puts the wheels off the rails "
+            f"(|y| must be below {DERAILMENT_LATERAL} m)"
+        )
+    vehicle = Vehicle(layout)
+    set_speed(vehicle.model, speed)
+    forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed) if python_callback else None
+    dt = stable_timestep(vehicle, forces)
+    steps = distance / speed / float(dt)
+    if not steps <= MAX_STEPS:  # also catches inf from an absurdly slow run
+        w, c = layout.wheelset, layout.creep
+        creep_rate = 2 * c.f22 / (speed * w.mass)  # lateral creep damping / wheelset mass
+        cause = (f"the creep damping 2*f22/V = {2 * c.f22 / speed:.3g} N s/m on a {w.mass:g} kg "
+                 f"wheelset" if creep_rate * dt > 0.5 * STEP_FRACTION
+                 else "the fastest mode of the linearised vehicle")
+        raise RunRefused(
+            f"{speed:g} m/s for {distance:g} m is too slow to simulate: {cause} needs a timestep "
+            f"of {dt:.2g} s, {steps:.3g} steps (limit {MAX_STEPS:.0e}); raise --speed or "
+            f"shorten --distance"
+        )
+    return _Prepared(request, vehicle, dt, math.ceil(steps))
+
+
 def simulate(
     layout: Layout,
     speed: float,
@@ -217,116 +274,202 @@ def simulate(
     cannot be done or diverges. The creep forces come from the native callback
     (rail_mj.native); `python_callback` uses the Python one (rail_mj.forces) instead.
     """
-    for name, value in (("speed", speed), ("distance", distance)):
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive number, got {value}")
-    for name, value in (("initial lateral", initial_lateral), ("initial yaw", initial_yaw)):
-        if not math.isfinite(value):
-            raise ValueError(f"{name} must be finite, got {value}")
-    if abs(initial_lateral) >= derailment_lateral:
-        raise ValueError(
-            f"initial lateral {initial_lateral} m puts the wheels off the rails "
-            f"(|y| must be below {derailment_lateral} m)"
-        )
+    prepared = prepare(Request(layout, speed, distance, initial_lateral, initial_yaw, state), python_callback)
+    vehicle = prepared.vehicle
+    forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed) if python_callback else None
+    (result,) = _step(vehicle.model, [prepared], [_Place.whole(vehicle)], progress, derailment_lateral, forces)
+    if isinstance(result, SimulationError):
+        raise result
+    return result
 
-    vehicle = Vehicle(layout)
-    model = vehicle.model
-    set_speed(model, speed)
-    # The native callback unless the Python one is asked for (the tests compare them).
-    forces = CreepForces(model, vehicle.wheelset_names, speed) if python_callback else None
-    dt = stable_timestep(vehicle, forces)
-    steps = distance / speed / float(dt)
-    if not steps <= MAX_STEPS:  # also catches inf from an absurdly slow run
-        w, c = layout.wheelset, layout.creep
-        creep_rate = 2 * c.f22 / (speed * w.mass)  # lateral creep damping / wheelset mass
-        cause = (f"the creep damping 2*f22/V = {2 * c.f22 / speed:.3g} N s/m on a {w.mass:g} kg "
-                 f"wheelset" if creep_rate * dt > 0.5 * STEP_FRACTION
-                 else "the fastest mode of the linearised vehicle")
-        raise RunRefused(
-            f"{speed:g} m/s for {distance:g} m is too slow to simulate: {cause} needs a timestep "
-            f"of {dt:.2g} s, {steps:.3g} steps (limit {MAX_STEPS:.0e}); raise --speed or "
-            f"shorten --distance"
-        )
-    n_steps = math.ceil(steps)
+
+def simulate_many(requests: list[Request], derailment_lateral: float = DERAILMENT_LATERAL,
+                  ) -> list[Run | Exception]:
+    """Several runs stepped together in one MuJoCo model (each vehicle attached under its
+    own name prefix, its own speed in the native block): one step of the model advances
+    them all, cheaper than a step of each. Each result is exactly the Run that `simulate`
+    gives for its request, bit for bit, or the exception it raises (ValueError,
+    SimulationError). Runs are grouped by timestep; runs of similar length belong
+    together, as the model steps until the longest ends. A numerical failure of a group
+    is put down to its runs one by one, each run again on its own."""
+    results: list = [None] * len(requests)
+    groups: dict[float, list[tuple[int, _Prepared]]] = {}
+    for k, request in enumerate(requests):
+        try:
+            prepared = prepare(request)
+        except (ValueError, SimulationError) as e:
+            results[k] = e
+            continue
+        groups.setdefault(prepared.timestep, []).append((k, prepared))
+    for group in groups.values():
+        indices, prepared = zip(*group)
+        if len(prepared) == 1:
+            model, places = prepared[0].vehicle.model, [_Place.whole(prepared[0].vehicle)]
+        else:
+            model, places = _pack([p.vehicle for p in prepared], [p.request.speed for p in prepared])
+        stepped = _step(model, list(prepared), places, None, derailment_lateral, None)
+        for k, p, result in zip(indices, prepared, stepped):
+            if isinstance(result, SimulationError) and not isinstance(result, Derailed) and len(prepared) > 1:
+                (result,) = _step(p.vehicle.model, [p], [_Place.whole(p.vehicle)], None, derailment_lateral, None)
+            results[k] = result
+    return results
+
+
+@dataclasses.dataclass
+class _Place:
+    """Where one vehicle sits in the model that is stepped: its sensors, and its qpos and
+    qvel entries."""
+
+    sensors: object  # rail_mj.model.Sensors
+    qpos: np.ndarray
+    qvel: np.ndarray
+    lateral: np.ndarray  # qpos entries of its root lateral joints
+    yaw: np.ndarray  # qpos entries of its wheelsets' yaw joints
+
+    @classmethod
+    def whole(cls, vehicle: Vehicle) -> "_Place":
+        model = vehicle.model
+        return cls(vehicle.sensors, np.arange(model.nq), np.arange(model.nv),
+                   vehicle.root_lateral_dofs, vehicle.wheelset_dofs(YAW))
+
+
+def _pack(vehicles: list[Vehicle], speeds: list[float]):
+    """One model holding every vehicle, attached under the prefixes v0/, v1/, ..., the
+    native block listing them all with their speeds."""
+    from rail_mj.model import NUMERIC_NATIVE, Sensors, compile_spec
+
+    parent = mujoco.MjSpec()
+    first = vehicles[0].spec
+    parent.option.timestep = first.option.timestep
+    parent.option.integrator = first.option.integrator
+    parent.option.disableflags = first.option.disableflags
+    native_numeric = parent.add_numeric(name=NUMERIC_NATIVE, data=[0.0])  # first: the block
+    for k, vehicle in enumerate(vehicles):
+        parent.attach(vehicle.spec.copy(), prefix=f"v{k}/", frame=parent.worldbody.add_frame())
+    layout = vehicles[0].layout
+    model = compile_spec(parent, layout)
+    entries = []
+    for k, (vehicle, speed) in enumerate(zip(vehicles, speeds)):
+        bodies = [model.body(f"v{k}/{w}").id for w in vehicle.wheelset_names]
+        entries.append(native.vehicle_block(model, bodies, contact_parameters(vehicle.model, len(bodies)), speed))
+    native_numeric.data = native.block(entries).tolist()
+    model = compile_spec(parent, layout)
+    places = []
+    for k, vehicle in enumerate(vehicles):
+        own = vehicle.model
+        joints = [model.joint(f"v{k}/{own.joint(j).name}").id for j in range(own.njnt)]
+        qpos = np.array([model.jnt_qposadr[j] for j in joints], dtype=np.int64)
+        qvel = np.array([model.jnt_dofadr[j] for j in joints], dtype=np.int64)
+        # Each own joint is one coordinate (slide or hinge): own index -> packed index.
+        places.append(_Place(Sensors(model, vehicle.wheelset_names, prefix=f"v{k}/"), qpos, qvel,
+                             qpos[vehicle.root_lateral_dofs], qpos[vehicle.wheelset_dofs(YAW)]))
+    return model, places
+
+
+def _step(model, prepared: list[_Prepared], places: list[_Place], progress, derailment_lateral: float,
+          forces) -> list[Run | SimulationError]:
+    """Step `model`, holding the prepared runs at `places`, until each has covered its
+    distance: MuJoCo steps in chunks (`mujoco.rollout`) and measures every body with its
+    sensors. A step's sensor values are those of the state it started from (sensors are
+    computed in the forward pass, before integration), so step j's record is the sample
+    at step j. Each run that leaves the rails is stopped there (its part of the state is
+    re-centred so that it cannot disturb the others); a numerical failure stops all."""
+    dt = prepared[0].timestep
     model.opt.timestep = dt
     data = mujoco.MjData(model)
-    if state is None:
-        data.qpos[vehicle.root_lateral_dofs] = initial_lateral
-        data.qpos[vehicle.wheelset_dofs(YAW)] = initial_yaw
-    else:
-        data.qpos[:], data.qvel[:] = state
-
+    for p, place in zip(prepared, places):
+        r = p.request
+        if r.state is None:
+            data.qpos[place.lateral] = r.initial_lateral
+            data.qpos[place.yaw] = r.initial_yaw
+        else:
+            data.qpos[place.qpos], data.qvel[place.qvel] = r.state
     every = max(1, round(SAMPLE_INTERVAL / dt))
-    n_samples = -(-n_steps // every) + 1  # the last sample at or past `distance`
+    counts = [-(-p.n_steps // every) + 1 for p in prepared]  # the last sample at or past the distance
+    n_samples = max(counts)
     t = np.arange(n_samples) * (every * dt)  # exact, where data.time accumulates round-off
-    pos = np.zeros((n_samples, model.nbody, 3))
-    quat = np.zeros((n_samples, model.nbody, 4))
-    quat[:, 0, 0] = 1.0  # the world
-    rates = np.empty((n_samples, vehicle.n_wheelsets, 2))
-    sensors = vehicle.sensors
+    records = []
+    for p in prepared:
+        nbody = p.vehicle.model.nbody
+        quat = np.zeros((n_samples, nbody, 4))
+        quat[:, 0, 0] = 1.0  # the world
+        records.append((np.zeros((n_samples, nbody, 3)), quat, np.empty((n_samples, p.vehicle.n_wheelsets, 2))))
+    results: list = [None] * len(prepared)
+    finals: list = [None] * len(prepared)
+    derails: dict[int, tuple[int, int]] = {}  # run -> (sample, wheelset) where it left the rails
 
-    def partial(k: int) -> Run:
-        return Run(vehicle, speed, dt, t[:k].copy(), pos[:k].copy(), quat[:k].copy(), rates[:k].copy())
+    def partial(m: int, k: int) -> Run:
+        pos, quat, rates = records[m]
+        return Run(prepared[m].vehicle, prepared[m].request.speed, dt, t[:k].copy(), pos[:k].copy(),
+                   quat[:k].copy(), rates[:k].copy())
 
-    # MuJoCo steps in chunks (`mujoco.rollout`) and measures every body with its sensors;
-    # a step's sensor values are those of the state it started from (sensors are computed
-    # in the forward pass before integration), so step j's record is sample j/every's.
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     current = np.empty(mujoco.mj_stateSize(model, spec))
     mujoco.mj_getState(model, data, current, spec)
-    chunk = CHECK_EVERY * every
+    nq = model.nq
     done = 0  # samples recorded and checked
-    derailed = None  # (sample, wheelset) where a wheelset left the rails
     with installed(forces) if forces else native.installed():
         while done < n_samples:
             count = min(CHECK_EVERY, n_samples - done)
             start = current
             states, readings = rollout.rollout(model, data, current, nstep=count * every)
             readings = readings[0, ::every]
-            batch = slice(done, done + count)
-            sensors.poses(readings, pos[batch], quat[batch])
-            sensors.rates(readings, rates[batch])
-            current = states[0, -1]
+            current = states[0, -1].copy()
             warning = _warnings(data)
             if warning or not np.all(np.isfinite(readings)):
-                raise SimulationError(
-                    f"diverged by t = {t[done + count - 1]:.4g} s (x = {speed * t[done + count - 1]:.4g} m): "
-                    f"MuJoCo reported {warning or 'non-finite positions'} with timestep {dt:.3g} s at "
-                    f"{speed:g} m/s; the suspension or creep stiffness is too high for this step",
-                    partial(done),
-                )
-            lateral = np.abs(pos[batch][:, vehicle.wheelset_ids, 1])
-            off = np.nonzero(np.max(lateral, axis=1) > derailment_lateral)[0]
-            if len(off):
-                derailed = done + off[0], int(np.argmax(lateral[off[0]]))
+                at = t[done + count - 1]
+                for m, p in enumerate(prepared):
+                    if results[m] is None:
+                        results[m] = SimulationError(
+                            f"diverged by t = {at:.4g} s (x = {p.request.speed * at:.4g} m): MuJoCo reported "
+                            f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at "
+                            f"{p.request.speed:g} m/s; the suspension or creep stiffness is too high for this step",
+                            partial(m, done))
                 break
+            for m, (p, place) in enumerate(zip(prepared, places)):
+                if results[m] is not None or done >= counts[m]:
+                    continue
+                mine = slice(done, min(done + count, counts[m]))
+                pos, quat, rates = records[m]
+                place.sensors.poses(readings[:mine.stop - done], pos[mine], quat[mine])
+                place.sensors.rates(readings[:mine.stop - done], rates[mine])
+                lateral = np.abs(pos[mine][:, p.vehicle.wheelset_ids, 1])
+                off = np.nonzero(np.max(lateral, axis=1) > derailment_lateral)[0]
+                if len(off):
+                    derails[m] = done + off[0], int(np.argmax(lateral[off[0]]))
+                    results[m] = partial(m, derails[m][0] + 1)  # its Derailed is made below
+                    current[1 + place.qpos] = 0.0  # re-centred: it cannot blow up the others
+                    current[1 + nq + place.qvel] = 0.0
+                elif mine.stop == counts[m]:  # its last sample: the state the run ends in
+                    last = mine.stop - 1 - done
+                    state = states[0, last * every - 1] if last > 0 else start
+                    finals[m] = (state[1 + place.qpos].copy(), state[1 + nq + place.qvel].copy())
             done += count
             if progress is not None:
                 progress(min(done, n_samples - 1) / (n_samples - 1))
-    # The last sample's state: the run ends there (the chunk ran `every` steps past it).
-    final = states[0, (count - 1) * every - 1] if count > 1 else start
-    if derailed is not None:
-        j, worst = derailed
-        why = ("the flanges did not hold it" if layout.flange else
-               "without [flange] contact nothing bounds the motion")
-        if _linearly_stable(vehicle, forces):
-            start = (f"the start (shifted {initial_lateral:g} m, yawed {initial_yaw:g} rad)"
-                     if state is None else "the state it started from")
-            cause = (f"At {speed:g} m/s the centred vehicle is stable (every linear mode decays), "
-                     f"so {start} was too large a disturbance and {why}; start nearer the centre")
-        else:
-            cause = (f"{speed:g} m/s is above this vehicle's critical speed (a linear mode grows), "
-                     f"and {why}; lower --speed or shorten --distance")
-        raise Derailed(
-            f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
-            f"x = {speed * t[j]:.4g} m (t = {t[j]:.4g} s). {cause}",
-            partial(j + 1),
-        )
-    return Run(vehicle, speed, dt, t, pos, quat, rates, _qpos_qvel(model, final))
+    for m, (j, worst) in derails.items():  # outside the callback's block: the cause linearises
+        results[m] = _derailed(prepared[m], worst, j, t, derailment_lateral, forces, results[m])
+    for m, p in enumerate(prepared):
+        if results[m] is None:
+            pos, quat, rates = records[m]
+            k = counts[m]
+            results[m] = Run(p.vehicle, p.request.speed, dt, t[:k], pos[:k], quat[:k], rates[:k], finals[m])
+    return results
 
 
-def _qpos_qvel(model: mujoco.MjModel, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(qpos, qvel) of a full-physics state vector: time, then qpos, then qvel."""
-    return state[1:1 + model.nq].copy(), state[1 + model.nq:1 + model.nq + model.nv].copy()
-
-
+def _derailed(p: _Prepared, worst: int, j: int, t, derailment_lateral: float, forces, run) -> "Derailed":
+    """Why a wheelset left the rails: the speed (a linear mode grows) or the start."""
+    r = p.request
+    why = ("the flanges did not hold it" if r.layout.flange else
+           "without [flange] contact nothing bounds the motion")
+    if _linearly_stable(p.vehicle, forces):
+        start = (f"the start (shifted {r.initial_lateral:g} m, yawed {r.initial_yaw:g} rad)"
+                 if r.state is None else "the state it started from")
+        cause = (f"At {r.speed:g} m/s the centred vehicle is stable (every linear mode decays), "
+                 f"so {start} was too large a disturbance and {why}; start nearer the centre")
+    else:
+        cause = (f"{r.speed:g} m/s is above this vehicle's critical speed (a linear mode grows), "
+                 f"and {why}; lower --speed or shorten --distance")
+    return Derailed(
+        f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
+        f"x = {r.speed * t[j]:.4g} m (t = {t[j]:.4g} s). {cause}", run)

@@ -163,6 +163,12 @@ def plan(layout_path: str | Path, speeds: tuple[float, float, int], sets: Iterab
         layout_from_dict(data, source=str(path))
     except LayoutError as e:
         raise SweepError(str(e)) from None
+    for key, values in axes:  # a key the layout does not know fails the sweep, not each case
+        try:
+            layout_from_dict(with_value(data, key, values[0]), source=str(path))
+        except LayoutError as e:
+            if "unknown key" in str(e) or "must be a table" in str(e):
+                raise SweepError(f"--grid {key}: {e}") from None
     points = [dict(zip([k for k, _ in axes], combo)) for combo in _product([v for _, v in axes])]
     run_speeds = values_of(f"{a!r}:{b!r}:{n}", "--speeds") if method == "run" else [None]
     cases = []
@@ -192,15 +198,67 @@ def run_case(case: Case) -> dict:
     """The row of one case. Never raises: a case that cannot be computed is a row whose
     status says why (refused: bad input; diverged: the run left the rails or blew up;
     failed: anything else, a bug to report)."""
+
+    def compute() -> dict:
+        layout = layout_from_dict(case.layout, source=case.source)
+        return _run(case, layout) if case.method == "run" else _critical(case, layout)
+
+    return _row(case, compute)
+
+
+# Runs stepped together in one MuJoCo model (rail_mj.runner.simulate_many): a step of a
+# model of several vehicles costs less than a step of each. Eight coaches a model; cases
+# are packed in the order of their duration, so that few steps are wasted on runs that
+# have ended while the longest goes on.
+PACK = 8
+
+
+def tasks(cases: list[Case]) -> list[list[Case]]:
+    """The units of work: runs packed by duration, PACK at a time; every other case alone.
+    Depends on the plan alone, so every executor computes the same packs, the same rows."""
+    runs = sorted((c for c in cases if c.method == "run"), key=lambda c: (c.distance / c.speed, c.index))
+    packs = [runs[k:k + PACK] for k in range(0, len(runs), PACK)]
+    return packs + [[c] for c in cases if c.method != "run"]
+
+
+def run_task(cases: list[Case]) -> list[dict]:
+    """The rows of a task (see `tasks`). Never raises."""
+    if len(cases) == 1:
+        return [run_case(cases[0])]
+    from rail_mj.runner import Request, simulate_many
+
+    started = time.perf_counter()
+    layouts, requests = [], []
+    for case in cases:
+        try:
+            layouts.append(layout_from_dict(case.layout, source=case.source))
+            requests.append(Request(layouts[-1], case.speed, case.distance, DEFAULT_INITIAL_LATERAL))
+        except (LayoutError, ValueError):
+            layouts.append(None)
+    try:
+        outcomes = iter(simulate_many(requests))
+    except Exception:  # noqa: BLE001 - a pack that cannot be built: each case on its own
+        return [run_case(case) for case in cases]
+    share = (time.perf_counter() - started) / len(cases)
+    rows = []
+    for case, layout in zip(cases, layouts):
+        if layout is None:
+            rows.append(run_case(case))  # says why its layout is refused
+            continue
+        outcome = next(outcomes)
+        rows.append(_row(case, lambda: _summarise_run(case, layout, outcome), share))
+    return rows
+
+
+def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> dict:
+    """A case's row from `compute`, which may raise: status and message say what happened."""
     from rail_mj.runner import RunRefused, SimulationError
 
     started = time.perf_counter()
     row = {"case": case.index, **case.params, "speed_m_per_s": case.speed}
-    columns = RESULTS["run" if case.method == "run" else "critical"]
-    row.update(dict.fromkeys(columns))
+    row.update(dict.fromkeys(RESULTS["run" if case.method == "run" else "critical"]))
     try:
-        layout = layout_from_dict(case.layout, source=case.source)
-        row.update(_run(case, layout) if case.method == "run" else _critical(case, layout))
+        row.update(compute())
         status, message = "ok", ""
     except RunRefused as e:
         status, message = "refused", str(e)
@@ -210,16 +268,23 @@ def run_case(case: Case) -> dict:
         status, message = "refused", str(e)
     except Exception as e:  # noqa: BLE001 - one case must never stop a sweep
         status, message = "failed", f"{type(e).__name__}: {' '.join(str(e).split())}"
-    row.update(status=status, message=message, wall_time_s=time.perf_counter() - started,
+    row.update(status=status, message=message, wall_time_s=time.perf_counter() - started + extra_time,
                case_key=case.key)
     return row
 
 
 def _run(case: Case, layout) -> dict:
-    from rail_mj.analysis import summary
     from rail_mj.runner import simulate
 
-    run = simulate(layout, case.speed, case.distance, DEFAULT_INITIAL_LATERAL)
+    return _summarise_run(case, layout, simulate(layout, case.speed, case.distance, DEFAULT_INITIAL_LATERAL))
+
+
+def _summarise_run(case: Case, layout, run) -> dict:
+    """The row's results of a run (or raise what the run raised)."""
+    from rail_mj.analysis import summary
+
+    if isinstance(run, Exception):
+        raise run
     result = summary(run)
     wheelsets = result["wheelsets"]
     # The motion that outlives the rest names the growth rate and frequency.
@@ -413,17 +478,17 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
         except (OSError, TimeoutError) as e:
             raise SweepError(f"--scheduler {scheduler}: cannot reach it ({e})") from None
         try:
-            futures = client.map(run_case, cases, pure=False)
+            futures = client.map(run_task, tasks(cases), pure=False)
             for future in dask_completed(futures):
-                yield future.result()
+                yield from future.result()
         finally:
             client.close()
         return
     threads = workers or os.cpu_count() or 1
     with ThreadPoolExecutor(max_workers=threads) as pool:
-        futures = [pool.submit(run_case, case) for case in cases]
+        futures = [pool.submit(run_task, task) for task in tasks(cases)]
         for future in as_completed(futures):
-            yield future.result()
+            yield from future.result()
 
 
 def summarise(table) -> dict:

@@ -1,0 +1,142 @@
+"""Sweeps and maps: brackets against the eigenvalues, resuming, failures, executors."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from rail_mj import sweep as sweep_module
+from rail_mj.cli import main
+from rail_mj.stability import Stability
+from rail_mj.layout import load_layout
+from rail_mj.sweep import Journal, SweepError, plan, summarise, sweep
+
+from conftest import MODELS
+
+WHEELSET = MODELS / "wheelset" / "wheelset.toml"  # linear creep, no flange: Vc = 57.50 m/s
+BOGIE = MODELS / "bogie" / "bogie.toml"
+
+
+def results(table) -> list[dict]:
+    """The rows without their wall times (which no two runs share)."""
+    return [{k: v for k, v in row.items() if k != "wall_time_s"} for row in table.to_pylist()]
+
+
+def test_the_bracket_of_a_run_sweep_contains_the_eigen_critical_speed():
+    table = sweep(WHEELSET, (45.0, 70.0, 6), distance=400.0)
+    (bracket,) = summarise(table)["brackets"]
+    low, high = bracket["critical_speed_bracket_m_per_s"]
+    critical = Stability(load_layout(WHEELSET)).critical_speed().critical_speed
+    assert low < critical < high and high - low == pytest.approx(5.0)
+
+
+def test_threads_and_one_worker_give_identical_tables():
+    args = dict(speeds=(30.0, 90.0, 5), grids=["primary.yaw_stiffness=1e6:4e6:2"], distance=150.0)
+    one = sweep(WHEELSET, workers=1, **args)
+    two = sweep(WHEELSET, workers=2, **args)
+    assert results(one) == results(two)
+    assert one.num_rows == 10 and one.column_names[:3] == ["case", "primary.yaw_stiffness", "speed_m_per_s"]
+
+
+def test_a_broken_case_is_failed_and_the_rest_finish(monkeypatch):
+    real = sweep_module._summarise_run
+
+    def broken(case, layout, run):
+        if case.speed == 40.0:
+            raise RuntimeError("deliberately broken")
+        return real(case, layout, run)
+
+    monkeypatch.setattr(sweep_module, "_summarise_run", broken)
+    rows = sweep(WHEELSET, (30.0, 50.0, 3), distance=100.0).to_pylist()
+    assert [r["status"] for r in rows] == ["ok", "failed", "ok"]
+    assert rows[1]["message"] == "RuntimeError: deliberately broken"
+    assert rows[0]["max_abs_lateral_m"] > 0 and rows[2]["max_abs_lateral_m"] > 0
+
+
+def test_bad_values_are_refused_per_case_and_unknown_keys_stop_the_sweep():
+    rows = sweep(WHEELSET, (30.0, 30.0, 1), grids=["wheelset.conicity=-0.1:0.2:4"], distance=60.0).to_pylist()
+    assert [r["status"] for r in rows] == ["refused", "ok", "ok", "ok"]
+    assert "wheelset.conicity" in rows[0]["message"]
+    with pytest.raises(SweepError, match="yaw_stifness"):
+        plan(WHEELSET, (30.0, 30.0, 1), grids=["primary.yaw_stifness=1:2:2"])
+
+
+def test_resuming_keeps_every_written_row_and_runs_only_the_rest(tmp_path):
+    """A sweep killed mid-way (SIGKILL), and a journal line cut short by it: the same sweep
+    again runs exactly the cases without a row, and keeps the others as they were."""
+    out = tmp_path / "sweep.csv"
+    command = [sys.executable, "-m", "rail_mj.cli", "sweep", str(WHEELSET), "--speeds", "20:56:16",
+               "--distance", "2000", "--workers", "1", "-o", str(out)]
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    journal = Journal(out)
+    deadline = time.monotonic() + 120
+    while len(journal.read()) < 1 and time.monotonic() < deadline and process.poll() is None:
+        time.sleep(0.05)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    written = journal.read()
+    assert 1 <= len(written) < 16, "the sweep was not caught mid-way"
+    assert not out.exists()
+    with open(journal.path, "a") as f:  # a kill in the middle of a write
+        f.write('{"case": 99, "speed_m_')
+    ran = []
+    table = sweep(WHEELSET, (20.0, 56.0, 16), distance=2000.0, workers=1, out=out,
+                  progress=lambda done, total, row: ran.append(row["case"]))
+    assert sorted(ran + [r["case"] for r in written]) == list(range(16))  # nothing lost, nothing twice
+    kept = {r["case"]: r for r in table.to_pylist()}
+    for row in written:
+        assert kept[row["case"]] == row
+    assert not journal.path.exists() and out.exists()
+    again = []
+    sweep(WHEELSET, (20.0, 56.0, 16), distance=2000.0, out=out, progress=lambda *a: again.append(a))
+    assert again == []  # finished: nothing runs
+
+
+def test_an_output_of_another_sweep_is_not_overwritten(tmp_path):
+    out = tmp_path / "sweep.parquet"
+    sweep(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=out)
+    before = out.read_bytes()
+    with pytest.raises(SweepError, match="another sweep"):
+        sweep(WHEELSET, (30.0, 45.0, 2), distance=50.0, out=out)
+    assert out.read_bytes() == before
+
+
+def test_a_dask_cluster_gives_the_local_table():
+    distributed = pytest.importorskip("distributed")
+    args = dict(speeds=(30.0, 70.0, 3), grids=["wheelset.conicity=0.05:0.1:2"], distance=100.0)
+    local = sweep(WHEELSET, **args)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True,
+                                  dashboard_address=None) as cluster:
+        remote = sweep(WHEELSET, scheduler=cluster.scheduler_address, **args)
+    assert results(remote) == results(local)
+
+
+def test_critical_speed_sweeps_match_the_critical_speed_command(capsys):
+    table = sweep(WHEELSET, (5.0, 150.0, 60), method="eigen", grids=["wheelset.conicity=0.1:0.2:2"])
+    rows = table.to_pylist()
+    assert main(["critical-speed", str(WHEELSET), "--json"]) == 0
+    assert rows[0]["critical_speed_m_per_s"] == json.loads(capsys.readouterr().out)["critical_speed"]
+    assert rows[1]["critical_speed_m_per_s"] < rows[0]["critical_speed_m_per_s"]  # higher conicity
+
+
+def test_cli_sweep_and_map(tmp_path, capsys):
+    out = tmp_path / "s.csv"
+    assert main(["sweep", str(WHEELSET), "--speeds", "50:65:4", "--distance", "300", "-o", str(out),
+                 "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["cases"] == 4 and summary["by_status"]["failed"] == 0
+    assert summary["brackets"][0]["critical_speed_bracket_m_per_s"] == [55.0, 60.0]
+    png, csv = tmp_path / "map.png", tmp_path / "map.csv"
+    assert main(["map", str(BOGIE), "--x", "wheelset.conicity=0.05:0.3:3", "--y",
+                 "primary.yaw_stiffness=5e6:60e6:3:log", "-o", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    lines = csv.read_text().splitlines()
+    assert len(lines) == 10 and '"wheelset.conicity","primary.yaw_stiffness"' in lines[0]
+    assert main(["sweep", str(WHEELSET), "--speeds", "50:65:4", "-o", str(tmp_path / "s.xlsx")]) == 2
+    assert main(["map", str(BOGIE), "--x", "wheelset.conicity=0.05:0.3:3", "--y", "wheelset.conicity=0.1:0.2:2",
+                 "-o", str(png)]) == 2
