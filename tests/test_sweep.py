@@ -107,7 +107,7 @@ def test_an_output_of_another_sweep_is_not_overwritten(tmp_path):
 
 
 def test_a_dask_cluster_gives_the_local_table():
-    distributed = pytest.importorskip("distributed")
+    import distributed
     args = dict(speeds=(30.0, 70.0, 3), grids=["wheelset.conicity=0.05:0.1:2"], distance=100.0)
     local = sweep(WHEELSET, **args)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True,
