@@ -140,3 +140,11 @@ def test_cli_sweep_and_map(tmp_path, capsys):
     assert main(["sweep", str(WHEELSET), "--speeds", "50:65:4", "-o", str(tmp_path / "s.xlsx")]) == 2
     assert main(["map", str(BOGIE), "--x", "wheelset.conicity=0.05:0.3:3", "--y", "wheelset.conicity=0.1:0.2:2",
                  "-o", str(png)]) == 2
+
+
+def test_one_recording_per_run_case(tmp_path):
+    folder = tmp_path / "recordings"
+    table = sweep(WHEELSET, (30.0, 40.0, 2), distance=40.0, recordings=folder)
+    assert table.column("status").to_pylist() == ["ok", "ok"]
+    assert sorted(p.name for p in folder.iterdir()) == ["case-00000.rrd", "case-00001.rrd"]
+    assert all(p.stat().st_size > 0 for p in folder.iterdir())
