@@ -663,12 +663,12 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
     err = _uses_stdout(out, csv_path)
     rows = table.to_pylist()
     found = [r["critical_speed_m_per_s"] for r in rows if r["critical_speed_m_per_s"] is not None]
+    unstable = sum(r["critical_speed_m_per_s"] is None and (r["note"] or "").startswith("unstable") for r in rows)
+    other = len(rows) - len(found) - unstable
     click.echo(f"map: {out}\ndata: {csv_path}", err=err)
-    if found:
-        click.echo(f"critical speed from {min(found):.1f} to {max(found):.1f} m/s over {len(rows)} cells "
-                   f"({len(rows) - len(found)} without one in {a:g}-{b:g} m/s)", err=err)
-    else:
-        click.echo(f"no critical speed in {a:g}-{b:g} m/s in any of the {len(rows)} cells", err=err)
+    span = f"critical speed from {min(found):.1f} to {max(found):.1f} m/s" if found else "no critical speed"
+    click.echo(f"{span} over {len(rows)} cells; {unstable} unstable from {a:g} m/s, {other} stable to "
+               f"{b:g} m/s or not computed", err=err)
 
 
 @cli.command("contact")

@@ -147,20 +147,22 @@ def bifurcation_png(critical: CriticalSpeed, down, up, clearance: float, title: 
 
 def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, method: str, title: str) -> bytes:
     """The critical speed over two parameters (a sweep's table, one row per cell): colour
-    and contours, the mode that sets it marked in each cell, cells with no critical speed
-    in the range searched hatched, cells that could not be computed crossed."""
+    and contours, the mode that sets it marked in each cell; cells with no crossing in the
+    range searched marked grey (stable throughout) or black (unstable from its lowest
+    speed); cells that could not be computed crossed."""
     rows = table.to_pylist()
     xs = sorted({r[x_key] for r in rows})
     ys = sorted({r[y_key] for r in rows})
     speed = np.full((len(ys), len(xs)), np.nan)
     modes: dict[str, list[tuple[float, float]]] = {}
-    failed, stable = [], []
+    failed, stable, unstable = [], [], []
     for r in rows:
         i, j = ys.index(r[y_key]), xs.index(r[x_key])
         if r["status"] != "ok":
             failed.append((r[x_key], r[y_key]))
         elif r["critical_speed_m_per_s"] is None:
-            stable.append((r[x_key], r[y_key]))
+            # No crossing in the range: stable throughout, or unstable from its lowest speed.
+            (unstable if (r["note"] or "").startswith("unstable") else stable).append((r[x_key], r[y_key]))
         else:
             speed[i, j] = r["critical_speed_m_per_s"]
             modes.setdefault(r["mode"] or "?", []).append((r[x_key], r[y_key]))
@@ -179,6 +181,9 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
     if stable:
         px, py = zip(*stable)
         ax.scatter(px, py, s=40, marker="s", color="lightgrey", edgecolors="grey", label="stable in the range searched")
+    if unstable:
+        px, py = zip(*unstable)
+        ax.scatter(px, py, s=40, marker="s", color="black", label="unstable from the lowest speed searched")
     if failed:
         px, py = zip(*failed)
         ax.scatter(px, py, s=40, marker="x", color="red", label="not computed (see the table)")

@@ -44,12 +44,14 @@ def main() -> None:
                      stability_map_png(table, *keys, x.endswith(":log"), y.endswith(":log"), "eigen", name))
         rows = table.to_pylist()
         found = [r for r in rows if r["critical_speed_m_per_s"] is not None]
+        unstable = sum(r["critical_speed_m_per_s"] is None and r["note"].startswith("unstable") for r in rows)
         low = min(found, key=lambda r: r["critical_speed_m_per_s"])
         high = max(found, key=lambda r: r["critical_speed_m_per_s"])
         print(f"{name}: {len(rows)} cells in {took:.1f} s; critical speed "
               f"{low['critical_speed_m_per_s']:.1f} m/s at {keys[0]} {low[keys[0]]:.4g}, {keys[1]} {low[keys[1]]:.4g} "
               f"to {high['critical_speed_m_per_s']:.1f} m/s at {keys[0]} {high[keys[0]]:.4g}, "
-              f"{keys[1]} {high[keys[1]]:.4g}; {len(rows) - len(found)} cells stable to 300 m/s; "
+              f"{keys[1]} {high[keys[1]]:.4g}; {unstable} cells unstable from 5 m/s, "
+              f"{len(rows) - len(found) - unstable} stable to 300 m/s; "
               f"modes: {sorted({r['mode'] for r in found})}")
 
 
