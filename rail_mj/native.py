@@ -295,20 +295,28 @@ def _apply(model, data, off_nnumeric, off_numeric, off_qvel, off_xpos, off_xmat,
 
 
 _CALLBACK = None
+_CALLBACK_LOCK = threading.Lock()
 
 
 def callback():
     """The C function pointer MuJoCo's passive callback takes (compiled once a process)."""
     global _CALLBACK
-    if _CALLBACK is None:
-        offsets = _offsets()
-
-        @numba.cfunc(types.void(types.voidptr, types.voidptr), nopython=True)
-        def passive(model, data):
-            _apply(model, data, *offsets)
-
-        _CALLBACK = (passive, ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(passive.address))
+    with _CALLBACK_LOCK:
+        if _CALLBACK is None:
+            _CALLBACK = _compile()
     return _CALLBACK[1]
+
+
+def _compile():
+    """The cfunc and its ctypes pointer. The offsets are constants of this process's
+    MuJoCo, so the cfunc itself is not cached on disk (the law it calls is)."""
+    offsets = _offsets()
+
+    @numba.cfunc(types.void(types.voidptr, types.voidptr), nopython=True)
+    def passive(model, data):
+        _apply(model, data, *offsets)
+
+    return passive, ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(passive.address)
 
 
 _users = 0  # blocks inside `installed`, in every thread

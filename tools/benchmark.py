@@ -2,11 +2,15 @@
 
     python tools/benchmark.py
 
-Times (best of several repeats, wall clock, one process):
-- the eigen critical speed of the shipped coach (target: well under 2 s);
-- a root locus of 50 speeds of the coach (target: under 5 s);
-- one simulation step of the coach, bare and with the creep callback (RK4 calls it
-  four times a step), as a ratio measured in the same run;
+Times (best of several repeats, wall clock, one process, side by side in one run):
+- the eigen critical speed of the shipped coach; a root locus of 50 speeds;
+- one RK4 step of the coach, bare, with the native creep callback (target: at most
+  1.3x bare) and with the Python one;
+- one coach run, 1 km at 60 m/s (target: under 0.3 s);
+- the 64-speed sweep of the coach, 20-100 m/s, 1 km each, on every core (target: under
+  10 s), and a 20 x 20 eigen stability map (target: under 20 s);
+- the peers, what a user writes instead (tools/peer_solve_ivp.py, tools/peer_numba.py),
+  per vehicle-km against rail-mj;
 - start-up: `rail-mj --help` and a layout error, each a new process, against the bare
   interpreter and against importing what a run needs (target: under 0.5 s).
 """
@@ -22,12 +26,14 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from rail_mj import native
 from rail_mj.forces import CreepForces, installed
 from rail_mj.layout import load_layout
 from rail_mj.model import Vehicle
 from rail_mj.plots import root_locus
 from rail_mj.runner import simulate
 from rail_mj.stability import Stability
+from rail_mj.sweep import sweep
 
 COACH = Path(__file__).resolve().parent.parent / "models" / "manchester-coach" / "manchester-coach.toml"
 
@@ -39,6 +45,15 @@ def best(fn, repeats: int) -> float:
         fn()
         times.append(time.perf_counter() - t0)
     return min(times)
+
+
+def peer_times() -> list[tuple[str, float, str]]:
+    """(name, s per vehicle-km, compared with 'single' or 'batch') of the peers in tools/."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import peer_numba
+    import peer_solve_ivp
+
+    return peer_solve_ivp.benchmark_rows() + peer_numba.benchmark_rows()
 
 
 def process(*args: str) -> None:
@@ -69,19 +84,44 @@ def main() -> None:
     vehicle = Vehicle(layout)
     model, data = vehicle.model, mujoco.MjData(vehicle.model)
     model.opt.timestep = 1e-3
+    native.set_speed(model, 40.0)
     n = 5000
-    bare = best(lambda: mujoco.mj_step(model, data, nstep=n), 3) / n
+    bare = best(lambda: mujoco.mj_step(model, data, nstep=n), 5) / n
+    with native.installed():
+        fast = best(lambda: mujoco.mj_step(model, data, nstep=n), 5) / n
     with installed(CreepForces(model, vehicle.wheelset_names, 40.0)):
         creep = best(lambda: mujoco.mj_step(model, data, nstep=n), 3) / n
     run = best(lambda: simulate(layout, 40.0, 400.0, 0.002), 3)
+    simulate(layout, 60.0, 1000.0, 0.002)
+    km = best(lambda: simulate(layout, 60.0, 1000.0, 0.002), 5)
+    speeds = (20.0, 100.0, 64)
+    sweep_time = best(lambda: sweep(COACH, speeds), 2)
+    vehicle_km = 64.0  # 64 runs of 1 km
+    map_time = best(lambda: sweep(COACH, (5.0, 150.0, 60), method="eigen",
+                                  grids=["wheelset.conicity=0.025:0.4:20", "primary.yaw_stiffness=2e6:100e6:20:log"]), 1)
+    peers = peer_times()
 
     print("| benchmark (shipped coach, 14 dof) | time |")
     print("|---|---|")
     print(f"| eigen critical speed (`rail-mj critical-speed`) | {critical:.2f} s |")
     print(f"| root locus, 50 speeds | {locus:.2f} s |")
     print(f"| one RK4 step, bare MuJoCo | {bare * 1e6:.1f} µs |")
-    print(f"| one RK4 step with creep forces (4 callbacks) | {creep * 1e6:.1f} µs ({creep / bare:.1f}x bare) |")
+    print(f"| one RK4 step with the native creep callback | {fast * 1e6:.1f} µs ({fast / bare:.2f}x bare) |")
+    print(f"| one RK4 step with the Python creep callback (4 calls) | {creep * 1e6:.1f} µs ({creep / bare:.1f}x bare) |")
     print(f"| `simulate`: 400 m at 40 m/s (10 s, 10 000 steps) | {run:.2f} s |")
+    print(f"| `simulate`: 1 km at 60 m/s | {km:.2f} s |")
+    print(f"| `rail-mj sweep`: 64 speeds 20-100 m/s, 1 km each, every core | {sweep_time:.1f} s "
+          f"({sweep_time / vehicle_km:.3f} s per vehicle-km) |")
+    print(f"| `rail-mj map`: 20 x 20 eigen critical speeds | {map_time:.1f} s |")
+    print()
+    print("| the coach, per vehicle-km (1 km at 60 m/s; batch: 64 speeds, 20-100 m/s) | s | rail-mj is |")
+    print("|---|---|---|")
+    print(f"| rail-mj, one run (`simulate`) | {km:.3f} | |")
+    print(f"| rail-mj, batch (`sweep`: eight coaches a model, every core) | {sweep_time / vehicle_km:.3f} | |")
+    for name, seconds, versus in peers:
+        ours = km if versus == "single" else sweep_time / vehicle_km
+        print(f"| {name} | {seconds:.3f} | {seconds / ours:.2f}x faster |" if seconds >= ours else
+              f"| {name} | {seconds:.3f} | {ours / seconds:.2f}x slower |")
     print()
     print("| start-up (a new process each) | time |")
     print("|---|---|")
