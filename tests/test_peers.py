@@ -1,0 +1,59 @@
+"""The peers of tools/ (what a user would write instead of rail-mj) model the same coach:
+the numba peer follows rail-mj's trajectory to round-off, and the solve_ivp peer's numpy
+creep law and equations of motion are rail-mj's law and the numba peer's equations."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+sys.path.insert(0, str(ROOT / "tools"))
+
+import peer_numba  # noqa: E402
+import peer_solve_ivp  # noqa: E402
+import peers  # noqa: E402
+from rail_mj.creep import ContactParameters, wheelset_forces  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def coach():
+    return peers.coach()
+
+
+@pytest.mark.parametrize("speed", [60.0, 120.0])  # decaying; hunting on the flanges
+def test_numba_peer_follows_rail_mj(speed):
+    """Same equations, same law, same RK4 and step: the trajectories agree to round-off
+    (over 100 m: |y| up to 2 mm at 60 m/s; at 120 m/s the wheelsets are on the flanges,
+    past the 8 mm clearance, from 27 m on)."""
+    run = peers.reference(speed, 100.0, 0.002)
+    assert np.abs(run.y).max() > (0.008 if speed > 100 else 0.001)
+    assert peer_numba.agreement(run, speed, 100.0, 0.002) < 1e-12
+
+
+def test_numpy_law_is_rail_mj_law(coach):
+    """The solve_ivp peer's creep law, written out in numpy, gives rail-mj's forces, on the
+    tread and on the flanges."""
+    params = ContactParameters(*(row for row in coach.contact), law=coach.law, flange=coach.flange)
+    rng = np.random.default_rng(5)
+    for speed in (20.0, 60.0, 140.0):
+        y, psi = rng.normal(0.0, 0.01, 4), rng.normal(0.0, 0.005, 4)
+        y_dot, psi_dot = rng.normal(0.0, 0.2, 4), rng.normal(0.0, 0.2, 4)
+        ours = peer_solve_ivp.creep_forces(coach.contact, coach.law, coach.flange, coach.falling, y, psi, y_dot,
+                                           psi_dot, speed)
+        np.testing.assert_allclose(ours, wheelset_forces(params, y, psi, y_dot, psi_dot, speed), rtol=1e-13)
+
+
+def test_peers_share_equations(coach):
+    """The two peers write the exact nested kinematics two ways (body by body; all bodies
+    through the ancestor matrix): the same accelerations at a disturbed state."""
+    rng = np.random.default_rng(3)
+    q, v = rng.normal(0.0, 0.01, coach.dofs), rng.normal(0.0, 0.1, coach.dofs)
+    numba_qacc = np.zeros(coach.dofs)
+    peer_numba._accelerations(peer_numba._arrays(coach), 60.0, q, v, peer_numba._workspace(coach.parent),
+                              numba_qacc)
+    numpy_qacc = peer_solve_ivp.Equations(coach, 60.0)(0.0, np.concatenate([q, v]))[coach.dofs:]
+    np.testing.assert_allclose(numpy_qacc, numba_qacc, rtol=0, atol=1e-12 * np.abs(numba_qacc).max())
