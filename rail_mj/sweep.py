@@ -206,23 +206,20 @@ def run_case(case: Case) -> dict:
     return _row(case, compute)
 
 
-# Runs stepped together in one MuJoCo model (rail_mj.runner.simulate_many): a step of a
-# model of several vehicles costs less than a step of each. Eight coaches a model; cases
-# are packed in the order of their duration, so that few steps are wasted on runs that
-# have ended while the longest goes on.
-PACK = 8
+def tasks(cases: list[Case], packs_per_task: int = 1) -> list[list[Case]]:
+    """The units of work: runs in the order of their duration, `packs_per_task` models of
+    PACK vehicles at a time (rail_mj.runner.simulate_many steps them side by side); every
+    other case alone. Packing changes no result (each run is the one `simulate` gives,
+    bit for bit), so executors may cut the work as suits them."""
+    from rail_mj.runner import PACK
 
-
-def tasks(cases: list[Case]) -> list[list[Case]]:
-    """The units of work: runs packed by duration, PACK at a time; every other case alone.
-    Depends on the plan alone, so every executor computes the same packs, the same rows."""
+    size = PACK * packs_per_task
     runs = sorted((c for c in cases if c.method == "run"), key=lambda c: (c.distance / c.speed, c.index))
-    packs = [runs[k:k + PACK] for k in range(0, len(runs), PACK)]
-    return packs + [[c] for c in cases if c.method != "run"]
+    return [runs[k:k + size] for k in range(0, len(runs), size)] + [[c] for c in cases if c.method != "run"]
 
 
-def run_task(cases: list[Case]) -> list[dict]:
-    """The rows of a task (see `tasks`). Never raises."""
+def run_task(cases: list[Case], threads: int = 1) -> list[dict]:
+    """The rows of a task (see `tasks`), runs stepped on `threads` threads. Never raises."""
     if len(cases) == 1:
         return [run_case(cases[0])]
     from rail_mj.runner import Request, simulate_many
@@ -236,18 +233,21 @@ def run_task(cases: list[Case]) -> list[dict]:
         except (LayoutError, ValueError):
             layouts.append(None)
     try:
-        outcomes = iter(simulate_many(requests))
-    except Exception:  # noqa: BLE001 - a pack that cannot be built: each case on its own
+        outcomes = iter(simulate_many(requests, threads))
+    except Exception:  # noqa: BLE001 - packs that cannot be built: each case on its own
         return [run_case(case) for case in cases]
     share = (time.perf_counter() - started) / len(cases)
-    rows = []
+    jobs = []
     for case, layout in zip(cases, layouts):
         if layout is None:
-            rows.append(run_case(case))  # says why its layout is refused
-            continue
-        outcome = next(outcomes)
-        rows.append(_row(case, lambda: _summarise_run(case, layout, outcome), share))
-    return rows
+            jobs.append(lambda case=case: run_case(case))  # says why its layout is refused
+        else:
+            outcome = next(outcomes)
+            jobs.append(lambda case=case, layout=layout, outcome=outcome:
+                        _row(case, lambda: _summarise_run(case, layout, outcome), share))
+    # The summaries (filters, spectra: numpy and scipy, which let go of the GIL) side by side.
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        return list(pool.map(lambda job: job(), jobs))
 
 
 def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> dict:
@@ -478,15 +478,20 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
         except (OSError, TimeoutError) as e:
             raise SweepError(f"--scheduler {scheduler}: cannot reach it ({e})") from None
         try:
-            futures = client.map(run_task, tasks(cases), pure=False)
+            futures = client.map(run_task, tasks(cases), pure=False)  # a pack a task, a task a thread
             for future in dask_completed(futures):
                 yield from future.result()
         finally:
             client.close()
         return
     threads = workers or os.cpu_count() or 1
+    work = tasks(cases, packs_per_task=threads)
+    # Runs: one task at a time, its packs stepped side by side by MuJoCo's own threads
+    # (mujoco.rollout); critical speeds: a thread each.
+    for task in (t for t in work if t[0].method == "run"):
+        yield from run_task(task, threads)
     with ThreadPoolExecutor(max_workers=threads) as pool:
-        futures = [pool.submit(run_task, task) for task in tasks(cases)]
+        futures = [pool.submit(run_task, task) for task in work if task[0].method != "run"]
         for future in as_completed(futures):
             yield from future.result()
 

@@ -53,7 +53,15 @@ def peer_times() -> list[tuple[str, float, str]]:
     import peer_numba
     import peer_solve_ivp
 
-    return peer_solve_ivp.benchmark_rows() + peer_numba.benchmark_rows()
+    rows = []
+    for method in peer_solve_ivp.METHODS:
+        seconds, km = peer_solve_ivp.time_run(method)
+        rows.append((f"solve_ivp {method}, numpy right-hand side (`tools/peer_solve_ivp.py`)", seconds / km, "single"))
+    seconds, km = peer_numba.time_single()
+    rows.append(("planar RK4 compiled with numba, one run (`tools/peer_numba.py`)", seconds / km, "single"))
+    seconds, km = peer_numba.time_batch()
+    rows.append(("planar RK4 compiled with numba, 64 speeds on every core", seconds / km, "batch"))
+    return rows
 
 
 def process(*args: str) -> None:
