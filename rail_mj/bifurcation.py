@@ -105,7 +105,8 @@ def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 15
     linear = Stability(layout).critical_speed(vmin, vmax)
     if linear.critical_speed is None:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
-                             f"no linear critical speed to start from: {linear.note}"), None
+                             f"no linear critical speed to start from: {linear.note}",
+                             outcome=linear.outcome), None
     vc = linear.critical_speed
     start = min(1.1 * linear.critical_speed, vmax)
     speeds = start * (1.0 - step) ** np.arange(int(math.log(vmin / start) / math.log(1.0 - step)) + 1)
@@ -115,18 +116,18 @@ def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 15
     if alive and alive[-1] == len(branch.alive) - 1:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
                              f"the limit cycle survives down to {branch.speeds[-1]:.2f} m/s",
-                             linear_critical_speed=vc, step=step), branch
+                             linear_critical_speed=vc, step=step, outcome="unstable"), branch
     if not alive:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
                              f"no limit cycle at {start:.2f} m/s", linear_critical_speed=vc,
-                             step=step), branch
+                             step=step, outcome="none"), branch
     last = alive[-1]  # the lowest speed that still carried the limit cycle
     if branch.speeds[last] > vc:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
                              f"no limit cycle below the linear critical speed: it dies below "
                              f"{branch.speeds[last]:.2f} m/s (steps of {step:.0%}), above "
                              f"{vc:.2f} m/s, so hunting starts at the linear critical speed",
-                             linear_critical_speed=vc, step=step), branch
+                             linear_critical_speed=vc, step=step, outcome="linear"), branch
     return CriticalSpeed("nonlinear", branch.speeds[last], branch.frequencies[last], linear.mode,
                          vmin, vmax, f"the limit cycle dies below this speed (steps of {step:.0%}); "
                          f"the mode is the linear one at {vc:.2f} m/s", linear_critical_speed=vc,

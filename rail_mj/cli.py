@@ -137,6 +137,13 @@ def _check_outputs(layout: str, outputs: list[tuple[str, str | None]], folders: 
     """Refuse, before any work, outputs that cannot or must not be written: a folder
     given for a file, the layout itself, two outputs on one path (or on standard output),
     an unwritable place. `-` is standard output; a FIFO or a device is written through."""
+    try:
+        _check_output_paths(layout, outputs, folders)
+    except (OSError, RuntimeError) as e:  # a link in a circle, a path too long ...
+        raise Failure(f"cannot use the output path: {e}", EXIT_BAD_INPUT) from None
+
+
+def _check_output_paths(layout: str, outputs: list[tuple[str, str | None]], folders: bool) -> None:
     seen = {Path(layout).resolve(): "the layout file"}
     on_stdout = None
     for option, path in outputs:
@@ -663,12 +670,13 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
     err = _uses_stdout(out, csv_path)
     rows = table.to_pylist()
     found = [r["critical_speed_m_per_s"] for r in rows if r["critical_speed_m_per_s"] is not None]
-    unstable = sum(r["critical_speed_m_per_s"] is None and (r["note"] or "").startswith("unstable") for r in rows)
-    other = len(rows) - len(found) - unstable
+    unstable = sum(r["outcome"] == "unstable" for r in rows)
+    stable = sum(r["outcome"] == "stable" for r in rows)
+    other = len(rows) - len(found) - unstable - stable
     click.echo(f"map: {out}\ndata: {csv_path}", err=err)
     span = f"critical speed from {min(found):.1f} to {max(found):.1f} m/s" if found else "no critical speed"
-    click.echo(f"{span} over {len(rows)} cells; {unstable} unstable from {a:g} m/s, {other} stable to "
-               f"{b:g} m/s or not computed", err=err)
+    click.echo(f"{span} over {len(rows)} cells; {unstable} unstable from {a:g} m/s, {stable} stable to "
+               f"{b:g} m/s, {other} other (see the table's status and note)", err=err)
 
 
 @cli.command("contact")

@@ -12,6 +12,7 @@ place, so a failure there still leaves none of the regular files.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import shutil
 import stat
@@ -44,8 +45,16 @@ def is_special(path) -> bool:
 
 def _destination(path: Path) -> Path:
     """Where a regular output really goes: a symbolic link's final target (so the link
-    survives and what it points at is replaced), else the path itself."""
-    return Path(os.path.realpath(path)) if path.is_symlink() else path
+    survives and what it points at is replaced), else the path itself. A link that
+    points in a circle is an error, never replaced."""
+    if not path.is_symlink():
+        return path
+    try:
+        return Path(os.path.realpath(path, strict=True))
+    except FileNotFoundError:  # a dangling link: its target is made
+        return Path(os.path.realpath(path))
+    except (OSError, RuntimeError) as e:
+        raise OutputError(f"cannot write {path}: a symbolic link that does not resolve ({e})") from None
 
 
 def _stage(final: Path, special: bool) -> Path:
@@ -61,15 +70,23 @@ def _stage(final: Path, special: bool) -> Path:
 
 
 def _write_through(tmp: Path, final: str) -> None:
-    """Copy a finished temporary file into standard output or a special file."""
+    """Copy a finished temporary file into standard output or a special file. A FIFO must
+    have its reader already: nothing waits forever for one."""
     with open(tmp, "rb") as source:
         if final == STDOUT:
             sys.stdout.flush()
             shutil.copyfileobj(source, sys.stdout.buffer)
             sys.stdout.buffer.flush()
-        else:
-            with open(final, "wb") as sink:  # a FIFO blocks here until a reader opens it
-                shutil.copyfileobj(source, sink)
+            return
+        try:
+            fd = os.open(final, os.O_WRONLY | os.O_NONBLOCK)
+        except OSError as e:
+            if e.errno == errno.ENXIO:
+                raise OutputError(f"cannot write {final}: a FIFO with no reader (start the reader first)") from None
+            raise
+        os.set_blocking(fd, True)  # the reader is there: write at its pace
+        with os.fdopen(fd, "wb") as sink:
+            shutil.copyfileobj(source, sink)
 
 
 @contextlib.contextmanager
@@ -92,6 +109,10 @@ def staged(paths):
             if spec:
                 try:
                     _write_through(tmp, final)
+                except BrokenPipeError:
+                    raise  # the reader went away (`| head`): theirs to decide, not an error here
+                except OutputError:
+                    raise
                 except OSError as e:
                     raise OutputError(f"cannot write {final}: {e.strerror or e}") from None
         for tmp, final, dest, spec in zip(temps, finals, destinations, special):
@@ -109,7 +130,7 @@ def staged(paths):
     except BaseException as error:
         for tmp in temps:
             tmp.unlink(missing_ok=True)
-        if isinstance(error, OSError) and not isinstance(error, OutputError):
+        if isinstance(error, OSError) and not isinstance(error, (OutputError, BrokenPipeError)):
             names = {str(t): f for t, f in zip(temps, finals)}
             where = names.get(str(error.filename), error.filename or "output")
             raise OutputError(f"cannot write {where}: {error.strerror or error}") from None

@@ -162,7 +162,7 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
             failed.append((r[x_key], r[y_key]))
         elif r["critical_speed_m_per_s"] is None:
             # No crossing in the range: stable throughout, or unstable from its lowest speed.
-            (unstable if (r["note"] or "").startswith("unstable") else stable).append((r[x_key], r[y_key]))
+            (unstable if r["outcome"] == "unstable" else stable).append((r[x_key], r[y_key]))
         else:
             speed[i, j] = r["critical_speed_m_per_s"]
             modes.setdefault(r["mode"] or "?", []).append((r[x_key], r[y_key]))

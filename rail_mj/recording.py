@@ -42,6 +42,7 @@ Example:
 from __future__ import annotations
 
 import math
+import uuid
 from pathlib import Path
 from typing import NamedTuple
 
@@ -166,7 +167,7 @@ def recorded_samples(run: Run, rate: float | None = None) -> np.ndarray:
     fs = sample_rate(run)
     if rate is None:
         rate = recording_rate(run)
-    stride = _stride(fs, rate) if math.isfinite(fs) else 1
+    stride = min(_stride(fs, rate), max(1, len(run.t) - 1)) if math.isfinite(fs) else 1  # at least both ends
     keep = np.arange(0, len(run.t), stride)
     if keep[-1] != len(run.t) - 1:
         keep = np.append(keep, len(run.t) - 1)
@@ -423,7 +424,9 @@ def save_recording(run: Run, path: str | Path, rate: float | None = None) -> Non
     `rate` samples/s: None for `recording_rate(run)`, math.inf for every sample."""
     keep = recorded_samples(run, rate)  # refuse a bad rate before the file is opened
     shown = plots(run)
-    rec = rr.RecordingStream(APP_ID, recording_id=f"{run.layout.name}-{run.speed:g}")
+    # One id per recording: Rerun merges recordings that share one when opened together
+    # (the runs of a sweep share a layout name and perhaps a speed).
+    rec = rr.RecordingStream(APP_ID, recording_id=str(uuid.uuid4()))
     rec.save(str(path), default_blueprint=blueprint(run, shown))
     _log_samples(rec, run, keep, shown)
     rec.flush()

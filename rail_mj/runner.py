@@ -16,6 +16,7 @@ physically, saying why.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import math
@@ -41,7 +42,7 @@ STEP_FRACTION = 1.0
 MAX_TIMESTEP = 1e-3  # s; the modes of interest are below 20 Hz
 MAX_STEPS = 50_000_000  # about half an hour of stepping: beyond this, refuse
 SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
-CHECK_EVERY = 200  # samples between divergence checks
+CHECK_EVERY = 500  # samples between divergence checks (and progress reports)
 
 
 class SimulationError(RuntimeError):
@@ -444,21 +445,27 @@ def _step(packs: list[_Pack], progress, derailment_lateral: float, forces, threa
         return Run(packs[a].prepared[m].vehicle, packs[a].prepared[m].request.speed, dt, t[:k].copy(),
                    pos[:k].copy(), quat[:k].copy(), rates[:k].copy())
 
+    for pack in packs:
+        # A run that blows up must stay blown up (non-finite) in its own pack, not be reset by
+        # MuJoCo to its start: that is how it is told from the runs stepped beside it.
+        pack.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
     datas = [mujoco.MjData(packs[0].model) for _ in range(max(1, min(threads, len(packs))))]
     nq = packs[0].model.nq
     done = 0  # samples recorded and checked
     active = list(range(len(packs)))
-    with installed(forces) if forces else native.installed():
+    with installed(forces) if forces else native.installed(), _quiet_mujoco():
         while active:
             count = min(CHECK_EVERY, max(max(counts[a]) for a in active) - done)
             starts = [current[a] for a in active]
             states, readings = rollout.rollout([packs[a].model for a in active], datas[:len(active)],
                                                np.array(starts), nstep=count * every)
-            warning = next((w for d in datas if (w := _warnings(d))), None)
+            # MuJoCo's warnings are counted per thread, not per pack: they name a failure only
+            # when one pack is stepped; otherwise the pack's own non-finite values do.
+            warning = _warnings(datas[0]) if len(active) == 1 else None
             for b, a in enumerate(active):
                 current[a] = states[b, -1].copy()
                 mine_all = readings[b, ::every]
-                if warning or not np.all(np.isfinite(mine_all)):
+                if warning or not (np.all(np.isfinite(mine_all)) and np.all(np.isfinite(current[a]))):
                     at = t[min(done + count, n_samples) - 1]
                     for m, p in enumerate(packs[a].prepared):
                         if results[a][m] is None and done < counts[a][m]:
@@ -500,6 +507,19 @@ def _step(packs: list[_Pack], progress, derailment_lateral: float, forces, threa
                 k = counts[a][m]
                 results[a][m] = Run(p.vehicle, p.request.speed, dt, t[:k], pos[:k], quat[:k], rates[:k], finals[a][m])
     return results
+
+
+@contextlib.contextmanager
+def _quiet_mujoco():
+    """While stepping, MuJoCo's warnings are not printed nor appended to MUJOCO_LOG.TXT in
+    the working folder: the runner reports a failure itself, in one line, naming the
+    warning (from the data's warning counters)."""
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda message: None)
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 
 def _records(vehicle: Vehicle, n_samples: int):

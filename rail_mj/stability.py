@@ -85,6 +85,11 @@ class CriticalSpeed:
     unstable_ranges: list[list[float]] = dataclasses.field(default_factory=list)
     linear_critical_speed: float | None = None  # m/s (nonlinear method: where it started from)
     step: float | None = None  # nonlinear method: the speed step, a fraction of the speed
+    # What the search found, for programs: "crossing" (a critical speed), "stable" (stable
+    # over the whole range), "unstable" (unstable from its lowest speed), or for the
+    # nonlinear method "linear" (no limit cycle below the linear critical speed) and
+    # "none" (no limit cycle found to follow).
+    outcome: str = "crossing"
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -264,14 +269,14 @@ class Stability:
             mode = self.least_damped(vmin)
             return CriticalSpeed("eigen", None, None, None, vmin, vmax,
                                  f"unstable already at {vmin:g} m/s: {mode.name} grows at "
-                                 f"{mode.eigenvalue.real:.3g} 1/s", ranges)
+                                 f"{mode.eigenvalue.real:.3g} 1/s", ranges, outcome="unstable")
         if ranges:
             vc = ranges[0][0]
             mode = self.least_damped(vc)
             return CriticalSpeed("eigen", vc, mode.frequency, mode.name, vmin, vmax,
                                  "the least-damped root crosses the imaginary axis", ranges)
         return CriticalSpeed("eigen", None, None, None, vmin, vmax,
-                             f"stable over the whole range {vmin:g}-{vmax:g} m/s", ranges)
+                             f"stable over the whole range {vmin:g}-{vmax:g} m/s", ranges, outcome="stable")
 
 
 def _crossing(f, lo: float, hi: float) -> float:
@@ -347,7 +352,8 @@ def time_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, 
     speeds = np.linspace(vmin, vmax, points)
     if growth(speeds[0]) >= 0:
         return CriticalSpeed("time", None, None, None, vmin, vmax,
-                             f"the motion already grows at {vmin:g} m/s ({growth(speeds[0]):.3g} 1/s)")
+                             f"the motion already grows at {vmin:g} m/s ({growth(speeds[0]):.3g} 1/s)",
+                             outcome="unstable")
     for lo, hi in zip(speeds, speeds[1:]):
         if growth(hi) >= 0:
             vc = float(brentq(growth, lo, hi, xtol=rtol * lo, rtol=1e-12))
@@ -360,4 +366,4 @@ def time_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, 
             return CriticalSpeed("time", vc, freq, name, vmin, vmax,
                                  "the disturbed motion stops decaying; mode matched by frequency")
     return CriticalSpeed("time", None, None, None, vmin, vmax,
-                         f"the motion decays at every speed scanned, {vmin:g}-{vmax:g} m/s")
+                         f"the motion decays at every speed scanned, {vmin:g}-{vmax:g} m/s", outcome="stable")

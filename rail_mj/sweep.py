@@ -19,9 +19,11 @@ Example:
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import hashlib
+import itertools
 import json
 import math
 import os
@@ -33,7 +35,7 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from rail_mj.files import staged
+from rail_mj.files import is_special, staged
 from rail_mj.layout import LayoutError, layout_from_dict
 
 METHODS = ("run", "eigen", "time", "nonlinear")
@@ -45,7 +47,8 @@ STATUSES = ("ok", "diverged", "refused", "failed")
 RESULTS = {
     "run": ("max_abs_lateral_m", "final_abs_lateral_m", "growth_rate_per_s", "frequency_hz",
             "wavelength_m", "decayed", "flange_contact", "hunting", "hunting_rms_n", "hunting_limit_n"),
-    "critical": ("critical_speed_m_per_s", "frequency_hz", "mode", "linear_critical_speed_m_per_s", "note"),
+    "critical": ("critical_speed_m_per_s", "frequency_hz", "mode", "linear_critical_speed_m_per_s", "outcome",
+                 "note"),
 }
 TAIL = ("status", "message", "wall_time_s", "case_key")
 
@@ -125,8 +128,11 @@ class Case:
     @property
     def key(self) -> str:
         """What determines the result: changes if the layout, method or case does."""
-        text = json.dumps([self.method, self.layout, self.params, self.speed, self.speeds, self.distance],
-                          sort_keys=True)
+        if self.method == "run":  # a run: its layout, speed and distance
+            what = [self.method, self.layout, self.params, self.speed, self.distance]
+        else:  # a critical speed: its layout and the range searched
+            what = [self.method, self.layout, self.params, self.speeds]
+        text = json.dumps(what, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -163,13 +169,18 @@ def plan(layout_path: str | Path, speeds: tuple[float, float, int], sets: Iterab
         layout_from_dict(data, source=str(path))
     except LayoutError as e:
         raise SweepError(str(e)) from None
+    if method == "nonlinear":
+        base = layout_from_dict(data, source=str(path))
+        if base.flange is None or base.creep.law == "linear":
+            raise SweepError(f"{path}: the nonlinear critical speed needs [flange] and a saturating creep "
+                             f"law (set them with --set, or in the layout)")
     for key, values in axes:  # a key the layout does not know fails the sweep, not each case
         try:
             layout_from_dict(with_value(data, key, values[0]), source=str(path))
         except LayoutError as e:
             if "unknown key" in str(e) or "must be a table" in str(e):
                 raise SweepError(f"--grid {key}: {e}") from None
-    points = [dict(zip([k for k, _ in axes], combo)) for combo in _product([v for _, v in axes])]
+    points = [dict(zip([k for k, _ in axes], combo)) for combo in itertools.product(*[v for _, v in axes])]
     run_speeds = values_of(f"{a!r}:{b!r}:{n}", "--speeds") if method == "run" else [None]
     cases = []
     for point in points:
@@ -182,13 +193,6 @@ def plan(layout_path: str | Path, speeds: tuple[float, float, int], sets: Iterab
                          if recordings is not None and method == "run" else None)
             cases.append(Case(index, method, variant, str(path), point, speed, (a, b, n), distance, recording))
     return cases
-
-
-def _product(lists: list[list[float]]) -> list[tuple]:
-    combos: list[tuple] = [()]
-    for values in lists:
-        combos = [c + (v,) for c in combos for v in values]
-    return combos
 
 
 # --- one case ----------------------------------------------------------------------------
@@ -327,6 +331,7 @@ def _critical(case: Case, layout) -> dict:
         "frequency_hz": result.frequency,
         "mode": result.mode,
         "linear_critical_speed_m_per_s": result.linear_critical_speed,
+        "outcome": result.outcome,
         "note": result.note,
     }
 
@@ -364,13 +369,17 @@ class Journal:
         return rows
 
     def __enter__(self):
-        self.file = open(self.path, "a", encoding="utf-8")
-        if self.file.tell() and not self.path.read_text(encoding="utf-8").endswith("\n"):
-            self.file.write("\n")  # after a line cut short
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.file = open(self.path, "a+b")
+        self.file.seek(0)
+        text = self.file.read()
+        if text and not text.endswith(b"\n"):  # a line cut short by a kill: drop it, its case runs again
+            self.file.truncate(text.rfind(b"\n") + 1)
+        self.file.seek(0, os.SEEK_END)
         return self
 
     def append(self, row: dict) -> None:
-        self.file.write(json.dumps(row) + "\n")
+        self.file.write((json.dumps(row) + "\n").encode())
         self.file.flush()
         os.fsync(self.file.fileno())
 
@@ -383,12 +392,18 @@ class Journal:
 
 def read_table(path: Path) -> list[dict]:
     """The rows of a written sweep output (CSV or Parquet)."""
+    import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
-    if path.suffix == ".parquet":
-        return pq.read_table(path).to_pylist()
-    return pacsv.read_csv(path, convert_options=pacsv.ConvertOptions(strings_can_be_null=True)).to_pylist()
+    try:
+        if path.suffix == ".parquet":
+            return pq.read_table(path).to_pylist()
+        options = pacsv.ConvertOptions(strings_can_be_null=True, column_types={"case_key": pa.string()})
+        return pacsv.read_csv(path, convert_options=options).to_pylist()
+    except (pa.ArrowException, OSError) as e:
+        raise SweepError(f"{path}: not a sweep table that can be read ({' '.join(str(e).split())[:200]}); "
+                         f"write to a new file or delete it") from None
 
 
 def to_table(rows: list[dict], columns: list[str]):
@@ -426,23 +441,28 @@ def sweep(layout_path: str | Path, speeds: tuple[float, float, int], *, sets: It
     output = Path(out) if out is not None else None
     if output is not None and output.suffix not in (".csv", ".parquet"):
         raise SweepError(f"-o {output}: the output must end in .csv or .parquet")
+    if output is not None and (is_special(output) or output.is_dir()):
+        raise SweepError(f"-o {output}: a sweep keeps its table in a regular file (it resumes from it)")
     kept: dict[str, dict] = {}
     journal = Journal(output) if output is not None else None
     if output is not None:
-        previous = (read_table(output) if output.exists() else []) + journal.read()
         wanted = {c.key: c for c in cases}
-        for row in previous:
-            if row.get("case_key") not in wanted:
-                raise SweepError(f"{output} holds results of another sweep (case {row.get('case')}); "
-                                 f"write to a new file or delete it")
-            kept[row["case_key"]] = {**row, "case": wanted[row["case_key"]].index}
+        for where, rows in ((output, read_table(output) if output.exists() else []), (journal.path, journal.read())):
+            for row in rows:
+                if row.get("case_key") not in wanted:
+                    raise SweepError(f"{where} holds results of another sweep (case {row.get('case')}); "
+                                     f"write to a new file or delete it")
+                if row.get("status") != "failed":  # a failure is a bug, perhaps mended since: again
+                    kept[row["case_key"]] = {**row, "case": wanted[row["case_key"]].index}
     todo = [c for c in cases if c.key not in kept]
     if recordings is not None and todo and method == "run":
         Path(recordings).mkdir(parents=True, exist_ok=True)
     rows = list(kept.values())
     done = len(rows)
-    with journal if journal is not None else _nothing():
-        for row in _execute(todo, workers, scheduler):
+    executing = _execute(todo, workers, scheduler)
+    first = next(executing, None)  # reach the cluster (or fail) before the journal is made
+    with journal if journal is not None and first is not None else contextlib.nullcontext():
+        for row in itertools.chain([first] if first is not None else [], executing):
             rows.append(row)
             if journal is not None:
                 journal.append(row)
@@ -456,14 +476,6 @@ def sweep(layout_path: str | Path, speeds: tuple[float, float, int], *, sets: It
     return table
 
 
-class _nothing:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-
 def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
     """Rows as cases finish, in any order: on local threads, or on a Dask cluster."""
     if not cases:
@@ -475,8 +487,8 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
             raise SweepError("--scheduler needs Dask: pip install 'rail-mj[cluster]'") from None
         try:
             client = Client(scheduler, timeout=10)
-        except (OSError, TimeoutError) as e:
-            raise SweepError(f"--scheduler {scheduler}: cannot reach it ({e})") from None
+        except (OSError, TimeoutError, ValueError) as e:
+            raise SweepError(f"--scheduler {scheduler!r}: cannot reach it ({' '.join(str(e).split())})") from None
         try:
             futures = client.map(run_task, tasks(cases), pure=False)  # a pack a task, a task a thread
             for future in dask_completed(futures):
@@ -485,15 +497,18 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
             client.close()
         return
     threads = workers or os.cpu_count() or 1
-    work = tasks(cases, packs_per_task=threads)
+    work = tasks(cases, packs_per_task=2 * threads)
     # Runs: one task at a time, its packs stepped side by side by MuJoCo's own threads
     # (mujoco.rollout); critical speeds: a thread each.
     for task in (t for t in work if t[0].method == "run"):
         yield from run_task(task, threads)
-    with ThreadPoolExecutor(max_workers=threads) as pool:
+    pool = ThreadPoolExecutor(max_workers=threads)
+    try:
         futures = [pool.submit(run_task, task) for task in work if task[0].method != "run"]
         for future in as_completed(futures):
             yield from future.result()
+    finally:  # interrupted (Ctrl-C): the queued cases are dropped, not waited for
+        pool.shutdown(wait=False, cancel_futures=True)
 
 
 def summarise(table) -> dict:

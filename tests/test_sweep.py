@@ -70,8 +70,8 @@ def test_resuming_keeps_every_written_row_and_runs_only_the_rest(tmp_path):
     """A sweep killed mid-way (SIGKILL), and a journal line cut short by it: the same sweep
     again runs exactly the cases without a row, and keeps the others as they were."""
     out = tmp_path / "sweep.csv"
-    command = [sys.executable, "-m", "rail_mj.cli", "sweep", str(WHEELSET), "--speeds", "20:56:16",
-               "--distance", "2000", "--workers", "1", "-o", str(out)]
+    command = [sys.executable, "-m", "rail_mj.cli", "sweep", str(WHEELSET), "--speeds", "20:59:40",
+               "--distance", "1500", "--workers", "1", "-o", str(out)]
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     journal = Journal(out)
     deadline = time.monotonic() + 120
@@ -80,20 +80,20 @@ def test_resuming_keeps_every_written_row_and_runs_only_the_rest(tmp_path):
     process.send_signal(signal.SIGKILL)
     process.wait()
     written = journal.read()
-    assert 1 <= len(written) < 16, "the sweep was not caught mid-way"
+    assert 1 <= len(written) < 40, "the sweep was not caught mid-way"
     assert not out.exists()
     with open(journal.path, "a") as f:  # a kill in the middle of a write
         f.write('{"case": 99, "speed_m_')
     ran = []
-    table = sweep(WHEELSET, (20.0, 56.0, 16), distance=2000.0, workers=1, out=out,
+    table = sweep(WHEELSET, (20.0, 59.0, 40), distance=1500.0, workers=1, out=out,
                   progress=lambda done, total, row: ran.append(row["case"]))
-    assert sorted(ran + [r["case"] for r in written]) == list(range(16))  # nothing lost, nothing twice
+    assert sorted(ran + [r["case"] for r in written]) == list(range(40))  # nothing lost, nothing twice
     kept = {r["case"]: r for r in table.to_pylist()}
     for row in written:
         assert kept[row["case"]] == row
     assert not journal.path.exists() and out.exists()
     again = []
-    sweep(WHEELSET, (20.0, 56.0, 16), distance=2000.0, out=out, progress=lambda *a: again.append(a))
+    sweep(WHEELSET, (20.0, 59.0, 40), distance=1500.0, out=out, progress=lambda *a: again.append(a))
     assert again == []  # finished: nothing runs
 
 
@@ -148,3 +148,31 @@ def test_one_recording_per_run_case(tmp_path):
     assert table.column("status").to_pylist() == ["ok", "ok"]
     assert sorted(p.name for p in folder.iterdir()) == ["case-00000.rrd", "case-00001.rrd"]
     assert all(p.stat().st_size > 0 for p in folder.iterdir())
+
+
+def test_a_journal_cut_short_twice_still_resumes(tmp_path):
+    """A kill mid-write leaves half a line: opening the journal drops it (its case runs again),
+    so a second kill mid-write leaves the journal as readable as the first."""
+    journal = Journal(tmp_path / "s.csv")
+    with journal:
+        journal.append({"case": 0, "case_key": "a"})
+    for cut in ('{"case": 1, "ca', '{"case": 2'):
+        with open(journal.path, "a") as f:
+            f.write(cut)
+        assert [r["case"] for r in journal.read()] == [0]
+        with journal:
+            journal.append({"case": 3, "case_key": "b"})
+        assert [r["case"] for r in journal.read()][-1] == 3
+
+
+def test_a_sweep_output_must_be_a_regular_file(tmp_path):
+    import os
+
+    fifo = tmp_path / "s.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(SweepError, match="regular file"):
+        sweep(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=fifo)
+    damaged = tmp_path / "d.parquet"
+    damaged.write_bytes(b"not parquet")
+    with pytest.raises(SweepError, match="not a sweep table"):
+        sweep(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=damaged)

@@ -44,7 +44,7 @@ def main() -> None:
                      stability_map_png(table, *keys, x.endswith(":log"), y.endswith(":log"), "eigen", name))
         rows = table.to_pylist()
         found = [r for r in rows if r["critical_speed_m_per_s"] is not None]
-        unstable = sum(r["critical_speed_m_per_s"] is None and r["note"].startswith("unstable") for r in rows)
+        unstable = sum(r["outcome"] == "unstable" for r in rows)
         low = min(found, key=lambda r: r["critical_speed_m_per_s"])
         high = max(found, key=lambda r: r["critical_speed_m_per_s"])
         print(f"{name}: {len(rows)} cells in {took:.1f} s; critical speed "
