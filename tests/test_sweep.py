@@ -156,13 +156,15 @@ def test_a_journal_cut_short_twice_still_resumes(tmp_path):
     journal = Journal(tmp_path / "s.csv")
     with journal:
         journal.append({"case": 0, "case_key": "a"})
-    for cut in ('{"case": 1, "ca', '{"case": 2'):
+    written = [0]
+    for cut, next_case in (('{"case": 1, "ca', 3), ('{"case": 2', 4)):
         with open(journal.path, "a") as f:
             f.write(cut)
-        assert [r["case"] for r in journal.read()] == [0]
+        assert [r["case"] for r in journal.read()] == written
         with journal:
-            journal.append({"case": 3, "case_key": "b"})
-        assert [r["case"] for r in journal.read()][-1] == 3
+            journal.append({"case": next_case, "case_key": str(next_case)})
+        written.append(next_case)
+        assert [r["case"] for r in journal.read()] == written
 
 
 def test_a_sweep_output_must_be_a_regular_file(tmp_path):
