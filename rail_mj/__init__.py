@@ -1,15 +1,17 @@
-"""rail-mj: railway bogies on rails in MuJoCo.
+"""rail-mj: railway vehicles on rails in MuJoCo.
 
-Data flows through one module each:
+Data flows through one module each (README.md, "How the code is laid out"):
 
-    layout.py   layout file (TOML) -> checked `Layout`
-    model.py    `Layout` -> MuJoCo model (MjSpec), generated MJCF (`Vehicle`, `generate`)
-    creep.py    wheel-rail contact and creep law (compiled with numba), over wheelsets
-    forces.py   the creep law bound to MuJoCo's passive-force callback
-    runner.py   timestep choice and the headless run (`simulate` -> `Run`)
-    analysis.py what a run shows: amplitude, growth rate, wavelength, frequency
-    recording.py  Rerun recording of a run
-    cli.py      the `rail-mj` command, a thin layer over the above
+    layout.py, practice.py  layout file (TOML) -> checked `Layout`; what is refused or warned
+    model.py, wheel.py      `Layout` -> MuJoCo model (MjSpec), generated MJCF (`Vehicle`, `generate`)
+    contact.py, creep.py    Hertz and Kalker; the wheel-rail contact law (compiled with numba)
+    forces.py, native.py    that law as MuJoCo's passive-force callback, in Python and native
+    runner.py               timestep choice and headless runs (`simulate` -> `Run`, `simulate_many`)
+    analysis.py             what a run shows: amplitude, growth, frequency, EN 14363
+    recording.py            Rerun recording of a run
+    linear.py, stability.py, bifurcation.py   eigenvalues, modes, critical speeds, limit cycles
+    sweep.py, plots.py      parameter studies and stability maps; figures
+    files.py, cli.py        safe outputs; the `rail-mj` command
 """
 
 import importlib

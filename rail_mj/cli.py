@@ -434,17 +434,10 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, as_json):
 
 
 def _speeds(text: str) -> list[float]:
-    try:
-        a, b, n = text.split(":")
-        a, b, n = float(a), float(b), int(n)
-    except ValueError:
-        raise Failure(f"--speeds must be A:B:N (from A to B m/s in N steps), got {text!r}",
-                      EXIT_BAD_INPUT) from None
-    if not (math.isfinite(a) and math.isfinite(b) and 0 < a < b and 2 <= n <= 10_000):
-        raise Failure(f"--speeds A:B:N needs 0 < A < B and 2 <= N <= 10000, got {text!r}", EXIT_BAD_INPUT)
-    error = RANGES["speed"].check(b)
-    if error:
-        raise Failure(f"--speeds: B {error}", EXIT_BAD_INPUT)
+    """--speeds A:B:N of root-locus: N >= 2 speeds from A < B."""
+    a, b, n = _range("--speeds", text)
+    if not (a < b and n >= 2):
+        raise Failure(f"--speeds A:B:N needs A < B and N >= 2, got {text!r}", EXIT_BAD_INPUT)
     return [a + (b - a) * k / (n - 1) for k in range(n)]
 
 
@@ -556,20 +549,16 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler,
     """Run LAYOUT over speeds and layout parameters: one row per case, in a table."""
     _layout(layout)
     a, b, n = _range("--speeds", speeds)
-    if workers is not None and scheduler is not None:
-        raise Failure("give --workers or --scheduler, not both", EXIT_BAD_INPUT)
-    if workers is not None and not 1 <= workers <= 1024:
-        raise Failure(f"--workers must be between 1 and 1024, got {workers}", EXIT_BAD_INPUT)
+    _check_executor(workers, scheduler)
     if Path(out).suffix not in (".csv", ".parquet"):
         raise Failure(f"-o {out}: the table must be .csv or .parquet", EXIT_BAD_INPUT)
     _check_outputs(layout, [("-o", out)])
     if rrd_dir:
         _check_outputs(layout, [("--rrd-dir", rrd_dir)], folders=True)
-    from rail_mj.sweep import SweepError, plan, summarise, sweep
+    from rail_mj.sweep import SweepError, summarise, sweep
 
     try:
-        total = len(plan(layout, (a, b, n), sets, grids, method, distance))
-        with _status(f"sweep of {total} cases") as show:
+        with _status("sweep") as show:
             def progress(done, total, row):
                 if show is not None:
                     show(f"{done}/{total}, last: case {row['case']} {row['status']}")
@@ -593,6 +582,13 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler,
         span = bracket["critical_speed_bracket_m_per_s"]
         found = f"between {span[0]:g} and {span[1]:g} m/s" if span else "not within the speeds run"
         click.echo(f"the motion stops decaying {found}" + (f" ({where})" if where else ""))
+
+
+def _check_executor(workers: int | None, scheduler: str | None) -> None:
+    if workers is not None and scheduler is not None:
+        raise Failure("give --workers or --scheduler, not both", EXIT_BAD_INPUT)
+    if workers is not None and not 1 <= workers <= 1024:
+        raise Failure(f"--workers must be between 1 and 1024, got {workers}", EXIT_BAD_INPUT)
 
 
 def _range(option: str, text: str) -> tuple[float, float, int]:
@@ -633,23 +629,19 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
     if csv_path == STDOUT and out == STDOUT:
         raise Failure("-o - needs --csv FILE: the map and the table cannot both go to standard output",
                       EXIT_BAD_INPUT)
-    if workers is not None and scheduler is not None:
-        raise Failure("give --workers or --scheduler, not both", EXIT_BAD_INPUT)
-    if workers is not None and not 1 <= workers <= 1024:
-        raise Failure(f"--workers must be between 1 and 1024, got {workers}", EXIT_BAD_INPUT)
+    _check_executor(workers, scheduler)
     _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.plots import stability_map_png
-    from rail_mj.sweep import SweepError, parse_assignment, plan, sweep
+    from rail_mj.sweep import SweepError, parse_assignment, sweep
 
     try:
         keys = [parse_assignment(text, option)[0] for option, text in (("--x", x_axis), ("--y", y_axis))]
         if keys[0] == keys[1]:
             raise SweepError(f"--x and --y both vary {keys[0]}")
-        total = len(plan(layout, (a, b, n), sets, (x_axis, y_axis), method))
-        with _status(f"map of {total} cells") as show:
+        with _status("map") as show:
             def progress(done, total, row):
                 if show is not None:
-                    show(f"{done}/{total}")
+                    show(f"{done}/{total} cells")
 
             table = sweep(layout, (a, b, n), sets=sets, grids=(x_axis, y_axis), method=method,
                           workers=workers, scheduler=scheduler, progress=progress)

@@ -14,8 +14,9 @@ the speed of a compiled model.
 
 The callback reads mjModel and mjData through byte offsets taken from MuJoCo's own struct
 declarations (`mujoco.introspect`, generated from the installed version's headers) and
-checked at import against the arrays the Python bindings expose: on a MuJoCo whose structs
-differ, importing this module fails with a message, never a wrong force.
+checked, before the callback is first compiled, against the arrays the Python bindings
+expose: on a MuJoCo whose structs differ, `callback()` raises NativeError with a message,
+never a wrong force.
 
 Example:
 
@@ -60,7 +61,7 @@ _VALUE_TYPES = {
 }
 
 
-class NativeError(RuntimeError):
+class NativeError(ValueError):
     """The native callback cannot run on this MuJoCo, or on this model."""
 
 

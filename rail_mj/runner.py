@@ -1,4 +1,4 @@
-"""The headless runner: a vehicle at constant speed along straight, perfect track.
+"""The headless runner: vehicles at constant speed along straight, perfect track.
 
 Example:
 
@@ -8,10 +8,11 @@ Example:
     >>> run.y.shape[1], round(float(run.x[-1]))   # two wheelsets, 60 m
     (2, 60)
 
-`simulate` picks the timestep (`stable_timestep`), steps MuJoCo with the creep
-forces installed, samples each wheelset's absolute lateral displacement and yaw in
-the track frame, and raises `SimulationError` if the run diverges, numerically or
-physically, saying why.
+`simulate` picks the timestep (`stable_timestep`), steps MuJoCo with the native creep
+callback (rail_mj.native) in chunks (`mujoco.rollout`), records every body's pose and
+each wheelset's rates with MuJoCo's sensors, and raises `SimulationError` if the run
+diverges, numerically or physically, saying why. `simulate_many` steps many runs
+together, packed several vehicles to a model, each with exactly `simulate`'s result.
 """
 
 from __future__ import annotations
@@ -81,7 +82,11 @@ class Run:
     def contact_forces(self) -> ContactForces:
         """The rails' forces on each wheelset at every sample, by origin: arrays of shape
         (n_samples, n_wheelsets). One call of the creep law over every sample, from the
-        states the run recorded."""
+        states the run recorded (once: the summary, the CSV and the recording share it)."""
+        return self._contact_forces
+
+    @functools.cached_property
+    def _contact_forces(self) -> ContactForces:
         params = contact_parameters(self.vehicle.model, len(self.vehicle.wheelset_names))
         rates = self.wheelset_rates
         return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed)

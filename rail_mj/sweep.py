@@ -2,10 +2,11 @@
 
 A sweep is a list of cases: every combination of the `grid` values (layout keys such as
 `primary.yaw_stiffness`), with the `sets` applied to all, and for `method="run"` every
-speed as well. Each case is computed on its own (a run and its summary, or a critical
-speed) by `run_case`, a pure function of the case, so any executor gives the same rows:
-threads on every local core by default (the native creep callback holds no GIL), or a
-Dask cluster. Finished rows are appended to a journal beside the output as they come;
+speed as well. Runs are stepped many at a time (rail_mj.runner.simulate_many: packed
+eight vehicles to a MuJoCo model, the models side by side on MuJoCo's threads), each
+with exactly the result it would have alone; critical speeds are computed a case a
+thread (`run_case`). Every row is a function of its case alone, so any executor gives
+the same rows: this machine's cores by default, or a Dask cluster. Finished rows are appended to a journal beside the output as they come;
 the same sweep started again keeps them and runs only the rest, and the output is written
 whole at the end, sorted by case.
 
