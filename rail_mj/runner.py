@@ -389,7 +389,15 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     parent.option.disableflags = first.option.disableflags
     native_numeric = parent.add_numeric(name=NUMERIC_NATIVE, data=[0.0])  # first: the block
     for k, vehicle in enumerate(vehicles):
-        parent.attach(vehicle.spec.copy(), prefix=f"v{k}/", frame=parent.worldbody.add_frame())
+        child = vehicle.spec.copy()
+        # The drawn shapes touch nothing and weigh nothing, yet MuJoCo places each one at
+        # every stage of every step (a fifth of a coach's step): a packed model goes without
+        # them, and each Run keeps its own vehicle's, for its recording.
+        for geom in list(child.geoms):
+            child.delete(geom)
+        for mesh in list(child.meshes):
+            child.delete(mesh)
+        parent.attach(child, prefix=f"v{k}/", frame=parent.worldbody.add_frame())
     layout = vehicles[0].layout
     model = compile_spec(parent, layout)
     entries = []

@@ -7,6 +7,8 @@ which would fill the flange throat, so wheel-rail contact is computed in
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import trimesh
 
@@ -51,6 +53,8 @@ def wheel_mesh(rolling_radius: float, conicity: float) -> trimesh.Trimesh:
     return mesh
 
 
+@functools.lru_cache(maxsize=64)
 def wheel_stl(rolling_radius: float, conicity: float) -> bytes:
-    """Binary STL of the wheel, byte-for-byte the same for the same inputs."""
+    """Binary STL of the wheel, byte-for-byte the same for the same inputs (made once for
+    them: a sweep builds the same wheel for every case)."""
     return wheel_mesh(rolling_radius, conicity).export(file_type="stl")
