@@ -90,8 +90,10 @@ RANGES = {
     # Dry rail 0.3-0.5, wet 0.1-0.2, leaves and grease down to 0.05; sand raises it.
     "creep.friction": Range((0.0, 2.0), (0.05, 0.6), "", "a friction coefficient",
                             "contaminated to sanded rail"),
-    "bogie.mass": Range((0.0, math.inf), (500.0, 12000.0), "kg", "a mass",
-                        "light-rail to locomotive bogie frames"),
+    # The frame and what it carries: a light-rail frame of half a tonne to a Co-Co
+    # locomotive's three-axle bogie with its traction motors, 25-30 t.
+    "bogie.mass": Range((0.0, math.inf), (500.0, 30000.0), "kg", "a mass",
+                        "light-rail frames to locomotive bogies with their motors"),
     "carbody.mass": Range((0.0, math.inf), (1000.0, 150000.0), "kg", "a mass",
                           "tram modules to locomotive bodies"),
 }
