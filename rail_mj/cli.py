@@ -133,18 +133,21 @@ def _csv_bytes(run) -> bytes:
     return buf.getvalue().encode()
 
 
-def _check_outputs(layout: str, outputs: list[tuple[str, str | None]], folders: bool = False) -> None:
+def _check_outputs(layout: str | None, outputs: list[tuple[str, str | None]], folders: bool = False,
+                   source: str = "the layout file") -> None:
     """Refuse, before any work, outputs that cannot or must not be written: a folder
-    given for a file, the layout itself, two outputs on one path (or on standard output),
-    an unwritable place. `-` is standard output; a FIFO or a device is written through."""
+    given for a file, the input (`layout`, called `source`) itself, two outputs on one path
+    (or on standard output), an unwritable place. `-` is standard output; a FIFO or a
+    device is written through."""
     try:
-        _check_output_paths(layout, outputs, folders)
+        _check_output_paths(layout, outputs, folders, source)
     except (OSError, RuntimeError) as e:  # a link in a circle, a path too long ...
         raise Failure(f"cannot use the output path: {e}", EXIT_BAD_INPUT) from None
 
 
-def _check_output_paths(layout: str, outputs: list[tuple[str, str | None]], folders: bool) -> None:
-    seen = {Path(layout).resolve(): "the layout file"}
+def _check_output_paths(layout: str | None, outputs: list[tuple[str, str | None]], folders: bool,
+                        source: str) -> None:
+    seen = {Path(layout).resolve(): source} if layout is not None else {}
     on_stdout = None
     for option, path in outputs:
         if path is None:
@@ -693,6 +696,46 @@ def contact_cmd(layout, as_json):
     click.echo(f"Kalker: C11 {r['C11']:.3f}, C22 {r['C22']:.3f}, C23 {r['C23']:.3f}, C33 {r['C33']:.3f}")
     click.echo(f"creep coefficients: f11 {r['f11'] / 1e6:.3f} MN, f22 {r['f22'] / 1e6:.3f} MN, "
                f"f23 {r['f23'] / 1e3:.3f} kN m, f33 {r['f33']:.2f} N m^2")
+
+
+@cli.command("profile")
+@click.argument("profile", metavar="s1002|60e1|FILE")
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
+              help="The points as CSV (y_mm,z_mm; docs/profiles.md).")
+@click.option("--png", type=click.Path(dir_okay=False), help="Draw the profile here.")
+@click.option("--kind", type=click.Choice(["wheel", "rail"]),
+              help="What a CSV file holds [default: a rail if its highest point is inside its span].")
+def profile_cmd(profile, out, png, kind):
+    """Write a wheel or rail profile as CSV, and draw it: the standard S1002 wheel (EN 13715)
+    or 60E1 rail (EN 13674-1), or a measured one (.csv, SIMPACK .prw or .prr)."""
+    from rail_mj import profiles
+
+    is_standard = profile.lower() in ("s1002", "60e1")
+    if not is_standard and Path(profile).suffix.lower() not in (".csv", ".prw", ".prr"):
+        raise Failure(f"{profile}: not s1002, 60e1 or a profile file (.csv, SIMPACK .prw or .prr)",
+                      EXIT_BAD_INPUT)
+    _check_outputs(None if is_standard else profile, [("-o", out), ("--png", png)],
+                   source="the profile file")
+    try:
+        shape = profiles.standard(profile) if is_standard else profiles.read_profile(profile, kind)
+    except profiles.ProfileError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    if kind is not None and shape.kind != kind:
+        raise Failure(f"{profile}: --kind {kind}, but it is a {shape.kind} profile", EXIT_BAD_INPUT)
+    outputs = [p for p in (out, png) if p]
+    try:
+        with staged(outputs) as temps:  # both or neither
+            temps[0].write_bytes(profiles.write_csv(shape))
+            if png:
+                from rail_mj.plots import profile_png
+
+                temps[1].write_bytes(profile_png(shape))
+    except OSError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    err = _uses_stdout(out, png)
+    click.echo(f"{shape.name}: {shape.kind}, {len(shape.y)} points, y from {shape.y[0] * 1e3:.3f} to "
+               f"{shape.y[-1] * 1e3:.3f} mm", err=err)
+    click.echo(f"points: {out}" + (f"\nplot: {png}" if png else ""), err=err)
 
 
 def main(argv: list[str] | None = None) -> int:

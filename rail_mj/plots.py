@@ -1,4 +1,4 @@
-"""Root loci and stability charts: what a person looks at.
+"""Root loci, stability charts and profiles: what a person looks at.
 
 Example:
 
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import matplotlib
 
@@ -28,7 +28,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from rail_mj.files import atomic_write  # noqa: E402
-from rail_mj.stability import CriticalSpeed, Stability  # noqa: E402
+
+if TYPE_CHECKING:  # annotations only: `rail-mj profile` draws without loading MuJoCo
+    from rail_mj.profiles import Profile
+    from rail_mj.stability import CriticalSpeed, Stability
 
 CSV_COLUMNS = ("speed_m_per_s", "mode", "frequency_hz", "damping_ratio", "real", "imag")
 
@@ -193,6 +196,30 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
     if y_log:
         ax.set_yscale("log")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=8, title="mode at the threshold")
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=110)
+    plt.close(fig)
+    return png.getvalue()
+
+
+def profile_png(profile: Profile) -> bytes:
+    """A wheel or rail profile, to scale, in its own frame (rail_mj.profiles): the metal
+    shaded on its side of the surface (above a wheel's, below a rail's)."""
+    y, z = profile.y * 1e3, profile.z * 1e3
+    fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
+    margin = 5.0
+    if profile.kind == "wheel":
+        ax.fill_between(y, z, z.max() + margin, color="lightsteelblue", label="wheel")
+        ax.axvline(0.0, color="grey", linestyle=":", label="taping line (y = 0)")
+    else:
+        ax.fill_between(y, z, z.min() - margin, color="lightgrey", label="rail")
+        ax.axvline(0.0, color="grey", linestyle=":", label="head centreline (y = 0)")
+    ax.plot(y, z, color="black", linewidth=1.2, label=f"surface ({len(y)} points)")
+    ax.set_aspect("equal")
+    ax.set(xlabel="y (mm), positive towards the field side", ylabel="z (mm), up",
+           title=f"{profile.kind} profile {profile.name}" + (f" ({profile.source})" if profile.source else ""))
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=9)
     png = io.BytesIO()
     fig.savefig(png, format="png", dpi=110)
     plt.close(fig)
