@@ -197,3 +197,27 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
     fig.savefig(png, format="png", dpi=110)
     plt.close(fig)
     return png.getvalue()
+
+
+def conicity_png(amplitudes, conicity, title: str, harmonic=None, quoted: tuple[float, float] | None = None) -> bytes:
+    """Equivalent conicity against amplitude (mm; rail_mj.conicity): the integration method,
+    the harmonic linearisation dashed when given, and the value at `quoted` = (ŷ, λe), the
+    3 mm of acceptance work, marked."""
+    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    ax.plot(amplitudes, conicity, "o-", ms=4, label="integration of the Klingel equation (EN 15302 reference)")
+    if harmonic is not None:
+        ax.plot(amplitudes, harmonic, "--", color="grey", label="harmonic linearisation (cross-check)")
+    if quoted is not None:
+        at, value = quoted
+        ax.axvline(at, color="red", linestyle=":", linewidth=1.2)
+        ax.plot([at], [value], "D", color="red", label=f"λe = {value:.4f} at ŷ = {at:g} mm")
+    ax.set(xlabel="amplitude ŷ (mm, half the peak-to-peak lateral motion)",
+           ylabel="equivalent conicity λe (-)", title=f"Equivalent conicity (EN 15302): {title}")
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(bottom=0.0)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=9)
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=110)
+    plt.close(fig)
+    return png.getvalue()
