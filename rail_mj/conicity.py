@@ -159,6 +159,8 @@ class DeltaR:
         i, j = int(negative[-1]), int(positive[0])
         a = self._edge(grid[i], grid[i + 1], lambda y: self._at(y) < 0)
         b = self._edge(grid[j - 1], grid[j], lambda y: not self._at(y) > 0)
+        if b - a <= 1e-12 * (grid[-1] - grid[0]):  # one zero, found from both sides
+            a = b = 0.5 * (a + b)
         return a, max(a, b)
 
     @staticmethod
@@ -231,10 +233,11 @@ class DeltaR:
 
     def half_period(self, amplitude: float) -> float:
         """∫ dy / sqrt(2(Φ − G(y))) from y- to y+ (mm per sqrt(mm) units with e·r0 = 1):
-        the half wavelength divided by sqrt(e·r0). math.inf inside a dead band."""
+        the half wavelength divided by sqrt(e·r0). math.inf inside a dead band, NaN where no
+        periodic motion has this amplitude."""
         lo, hi, level = self.turning_points(amplitude)
         if not level > 0.0:
-            return math.inf
+            return level if math.isnan(level) else math.inf
         a, b = self.centre
         flat = (b - a) / math.sqrt(2.0 * level)  # the dead band, crossed at constant speed
         return flat + self._quarter(b, hi, level) + self._quarter(a, lo, level)
