@@ -594,14 +594,19 @@ def _check_executor(workers: int | None, scheduler: str | None) -> None:
         raise Failure(f"--workers must be between 1 and 1024, got {workers}", EXIT_BAD_INPUT)
 
 
-def _range(option: str, text: str) -> tuple[float, float, int]:
-    """A:B:N for speeds: 0 < A <= B, not beyond any railway."""
+def _triple(option: str, text: str, unit: str) -> tuple[float, float, int]:
+    """A:B:N as numbers, unchecked."""
     try:
         a, b, n = text.split(":")
-        a, b, n = float(a), float(b), int(n)
+        return float(a), float(b), int(n)
     except ValueError:
-        raise Failure(f"{option} must be A:B:N (from A to B m/s in N steps), got {text!r}",
+        raise Failure(f"{option} must be A:B:N (from A to B {unit} in N steps), got {text!r}",
                       EXIT_BAD_INPUT) from None
+
+
+def _range(option: str, text: str) -> tuple[float, float, int]:
+    """A:B:N for speeds: 0 < A <= B, not beyond any railway."""
+    a, b, n = _triple(option, text, "m/s")
     if not (math.isfinite(a) and math.isfinite(b) and 0 < a <= b and 1 <= n <= 100_000):
         raise Failure(f"{option} A:B:N needs 0 < A <= B and 1 <= N <= 100000, got {text!r}", EXIT_BAD_INPUT)
     error = RANGES["speed"].check(b)
@@ -736,6 +741,123 @@ def profile_cmd(profile, out, png, kind):
     click.echo(f"{shape.name}: {shape.kind}, {len(shape.y)} points, y from {shape.y[0] * 1e3:.3f} to "
                f"{shape.y[-1] * 1e3:.3f} mm", err=err)
     click.echo(f"points: {out}" + (f"\nplot: {png}" if png else ""), err=err)
+
+
+@cli.command("conicity")
+@click.argument("layout", required=False, type=click.Path(dir_okay=False))
+@click.option("--delta-r", "delta_r_csv", type=click.Path(dir_okay=False),
+              help="The rolling-radius difference r_left - r_right against the lateral shift y, as CSV "
+                   "with the header y_mm,delta_r_mm, y increasing.")
+@click.option("--amplitudes",
+              help="A:B:N, N amplitudes from A to B mm  [default: 0.5 to 10 mm in 0.5 mm steps, "
+                   "as far as the data reach]")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@click.option("--png", type=click.Path(dir_okay=False), help="Plot the equivalent conicity against amplitude here.")
+def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
+    """Equivalent conicity (EN 15302) against amplitude, from a Δr function (--delta-r) or
+    the cone of LAYOUT's wheelset.conicity.
+
+    The amplitude is half the peak-to-peak lateral motion, about the centre where Δr
+    vanishes (wheels of unequal diameters move it off y = 0). The method is the standard's
+    reference one, integration of the nonlinear kinematic (Klingel) motion: docs/conicity.md."""
+    if (layout is None) == (delta_r_csv is None):
+        raise Failure("give LAYOUT or --delta-r FILE.csv" + (", not both" if layout else ""), EXIT_BAD_INPUT)
+    wanted = _amplitudes(amplitudes) if amplitudes is not None else None
+    source = layout or delta_r_csv
+    with contextlib.suppress(OSError, RuntimeError):
+        if png and png != STDOUT and Path(png).resolve() == Path(source).resolve():
+            raise Failure(f"--png {png}: would overwrite the input {source}", EXIT_BAD_INPUT)
+    _check_outputs(source, [("--png", png)])
+    from rail_mj.conicity import DEFAULT_AMPLITUDES, QUOTED_AMPLITUDE, ConicityError, DeltaR, equivalent_conicity
+
+    try:
+        if layout is not None:
+            lay = _cone_layout(layout)
+            reach = max(wanted or DEFAULT_AMPLITUDES)
+            delta_r = DeltaR.cone(lay.wheelset.conicity, half_range=reach, centre=0.0)
+            spacing, r0 = 2e3 * lay.wheelset.contact_half_spacing, 1e3 * lay.wheelset.rolling_radius
+        else:
+            delta_r = DeltaR.read_csv(delta_r_csv)
+            spacing, r0 = 1500.0, 460.0  # any: λe does not depend on them
+        largest = delta_r.largest_amplitude()
+        if wanted is None:
+            wanted = [a for a in DEFAULT_AMPLITUDES if a <= largest * (1 + 1e-12)]
+            if not wanted:
+                raise Failure(f"{source}: the data reach amplitudes up to {largest:.3g} mm only, below "
+                              f"{DEFAULT_AMPLITUDES[0]:g} mm: give --amplitudes", EXIT_BAD_INPUT)
+        elif max(wanted) > largest * (1 + 1e-12):
+            raise Failure(f"--amplitudes: {max(wanted):g} mm is beyond {source}: the motion about its centre "
+                          f"stays within y from {delta_r.y_min:g} to {delta_r.y_max:g} mm only up to "
+                          f"{largest:.4g} mm", EXIT_BAD_INPUT)
+        values = equivalent_conicity(delta_r, wanted, e=spacing, r0=r0)
+        quoted = None
+        if QUOTED_AMPLITUDE <= largest:
+            quoted = (QUOTED_AMPLITUDE, float(equivalent_conicity(delta_r, [QUOTED_AMPLITUDE], e=spacing, r0=r0)[0]))
+        if png:
+            from rail_mj.plots import conicity_png
+
+            harmonic = [_harmonic_or_nan(delta_r, a) for a in wanted]
+            picture = conicity_png(wanted, values, Path(source).name, harmonic, quoted)
+    except ConicityError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    if png:
+        try:
+            with staged([png]) as (tmp,):
+                tmp.write_bytes(picture)
+        except OSError as e:
+            raise Failure(str(e), EXIT_BAD_INPUT) from None
+    err = _uses_stdout(png)
+    finite = [float(v) if math.isfinite(v) else None for v in values]
+    if as_json:
+        click.echo(json.dumps({"amplitude_mm": [float(a) for a in wanted], "equivalent_conicity": finite}),
+                   err=err)
+        return
+    a, b = delta_r.centre
+    centre = f"centre y = {a:.4g} mm" if a == b else f"dead band y from {a:.4g} to {b:.4g} mm"
+    click.echo(f"equivalent conicity of {source} (EN 15302, integration of the Klingel equation); {centre}",
+               err=err)
+    click.echo(f"{'amplitude_mm':>12}  equivalent_conicity", err=err)
+    for amp, value in zip(wanted, finite):
+        click.echo(f"{amp:12.4g}  {'none (no periodic motion)' if value is None else f'{value:.5f}'}", err=err)
+    if quoted is not None:
+        click.echo(f"at {quoted[0]:g} mm: {quoted[1]:.4f}", err=err)
+    if png:
+        click.echo(f"plot: {png}", err=err)
+
+
+def _cone_layout(path: str) -> Layout:
+    """A layout whose wheels are cones (wheelset.conicity); one with wheel and rail profiles
+    is refused until their contact geometry gives a Δr function."""
+    import tomllib
+
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        data = None  # _layout says what is wrong
+    if isinstance(data, dict):
+        wheelset = data.get("wheelset")
+        if "profiles" in data or (isinstance(wheelset, dict) and any(k.startswith("profile") for k in wheelset)):
+            raise Failure(f"{path}: the equivalent conicity of layouts with [profiles] is not supported yet: "
+                          f"give their Δr function with --delta-r FILE.csv", EXIT_BAD_INPUT)
+    return _layout(path)
+
+
+def _harmonic_or_nan(delta_r, amplitude: float) -> float:
+    from rail_mj.conicity import ConicityError, harmonic_conicity
+
+    try:
+        return harmonic_conicity(delta_r, amplitude)
+    except ConicityError:  # the centre of the harmonic balance needs data past the ends
+        return math.nan
+
+
+def _amplitudes(text: str) -> list[float]:
+    """--amplitudes A:B:N: N amplitudes from A to B mm, 0 < A <= B."""
+    a, b, n = _triple("--amplitudes", text, "mm")
+    if not (math.isfinite(a) and math.isfinite(b) and 0 < a <= b and 1 <= n <= 10_000 and (n > 1 or a == b)):
+        raise Failure(f"--amplitudes A:B:N needs 0 < A <= B and 1 <= N <= 10000 (N = 1: A = B), got {text!r}",
+                      EXIT_BAD_INPUT)
+    return [a + (b - a) * k / (n - 1) for k in range(n)] if n > 1 else [a]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -220,7 +220,33 @@ def profile_png(profile: Profile) -> bytes:
            title=f"{profile.kind} profile {profile.name}" + (f" ({profile.source})" if profile.source else ""))
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=9)
+    return _png(fig)
+
+
+def _png(fig) -> bytes:
+    """The figure as PNG bytes; the figure closed."""
     png = io.BytesIO()
     fig.savefig(png, format="png", dpi=110)
     plt.close(fig)
     return png.getvalue()
+
+
+def conicity_png(amplitudes, conicity, title: str, harmonic=None, quoted: tuple[float, float] | None = None) -> bytes:
+    """Equivalent conicity against amplitude (mm; rail_mj.conicity): the integration method,
+    the harmonic linearisation dashed when given, and the value at `quoted` = (ŷ, λe), the
+    3 mm of acceptance work, marked."""
+    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    ax.plot(amplitudes, conicity, "o-", ms=4, label="integration of the Klingel equation (EN 15302 reference)")
+    if harmonic is not None:
+        ax.plot(amplitudes, harmonic, "--", color="grey", label="harmonic linearisation (cross-check)")
+    if quoted is not None:
+        at, value = quoted
+        ax.axvline(at, color="red", linestyle=":", linewidth=1.2)
+        ax.plot([at], [value], "D", color="red", label=f"λe = {value:.4f} at ŷ = {at:g} mm")
+    ax.set(xlabel="amplitude ŷ (mm, half the peak-to-peak lateral motion)",
+           ylabel="equivalent conicity λe (-)", title=f"Equivalent conicity (EN 15302): {title}")
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(bottom=0.0)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=9)
+    return _png(fig)
