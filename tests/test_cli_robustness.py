@@ -156,6 +156,13 @@ HOSTILE = [
     ["map", WHEELSET, "--x", "wheelset.conicity=0.1:0.2:2", "--y", "primary.yaw_stiffness=1e6:2e6:2",
      "--method", "nonlinear", "-o", "m.png"],
     ["map", WHEELSET, "--x", "conicity", "--y", "primary.yaw_stiffness=1e6:2e6:2", "-o", "m.png"],
+    # profiles and conicity
+    ["profile", "s1003", "-o", "p.csv"],
+    ["profile", WHEELSET, "-o", "p.csv"],
+    ["profile", "s1002", "-o", "-", "--png", "-"],
+    ["conicity"],
+    ["conicity", WHEELSET, "--amplitudes", "0:0:0"],
+    ["conicity", "--delta-r", WHEELSET],
     # the rest
     ["contact", WHEELSET],
     ["generate", WHEELSET, "-o", "-"],
