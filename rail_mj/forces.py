@@ -50,8 +50,7 @@ def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParame
 class CreepForces:
     """Creep forces on every wheelset of `model` at forward speed `speed` (m/s).
 
-    Call it as MuJoCo's passive callback (`installed(forces)`); `wheelset_states`
-    gives the kinematic inputs of the creep law. The yaw angle is taken from
+    Call it as MuJoCo's passive callback (`installed(forces)`). The yaw angle is taken from
     the body rotation (atan2), the rates from the body Jacobians at the wheelset
     centre.
     """
@@ -76,10 +75,6 @@ class CreepForces:
         states = (data.xpos[self.body_ids, 1], np.arctan2(xmat[:, 3], xmat[:, 0]),
                   jy @ data.qvel, jpsi @ data.qvel)
         return states, jy, jpsi
-
-    def wheelset_states(self, model, data):
-        """(y, psi, y_dot, psi_dot), arrays over wheelsets, in the track frame."""
-        return self._kinematics(model, data)[0]
 
     def __call__(self, model, data):
         states, jy, jpsi = self._kinematics(model, data)

@@ -225,6 +225,7 @@ class _Prepared:
     vehicle: Vehicle
     timestep: float
     n_steps: int
+    forces: CreepForces | None = None  # the Python callback, when asked for; None: the native one
 
 
 def prepare(request: Request, python_callback: bool = False) -> _Prepared:
@@ -258,7 +259,7 @@ def prepare(request: Request, python_callback: bool = False) -> _Prepared:
             f"of {dt:.2g} s, {steps:.3g} steps (limit {MAX_STEPS:.0e}); raise --speed or "
             f"shorten --distance"
         )
-    return _Prepared(request, vehicle, dt, math.ceil(steps))
+    return _Prepared(request, vehicle, dt, math.ceil(steps), forces)
 
 
 def simulate(
@@ -282,9 +283,7 @@ def simulate(
     (rail_mj.native); `python_callback` uses the Python one (rail_mj.forces) instead.
     """
     prepared = prepare(Request(layout, speed, distance, initial_lateral, initial_yaw, state), python_callback)
-    vehicle = prepared.vehicle
-    forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed) if python_callback else None
-    ((result,),) = _step([_Pack.alone(prepared)], progress, derailment_lateral, forces)
+    ((result,),) = _step([_Pack.alone(prepared)], progress, derailment_lateral, prepared.forces)
     if isinstance(result, SimulationError):
         raise result
     return result
