@@ -70,14 +70,19 @@ class Track:
 
 
 def track_of(layout) -> Track:
-    """The Track of a Layout with [profiles] (or of a layout.Profiles and r0 = 0.46 m)."""
-    from rail_mj.layout import read_profiles
-
+    """The Track of a Layout with [profiles] (or of a layout.Profiles, r0 = 0.46 m)."""
     p = getattr(layout, "profiles", layout)
     if p is None:
         raise GeometryError(f"{getattr(layout, 'source', 'layout')}: no [profiles] table")
-    wheel, rail = read_profiles(p)
     r0 = layout.wheelset.rolling_radius if hasattr(layout, "wheelset") else _p.NOMINAL_RADIUS
+    return track_of_profiles(p, r0)
+
+
+def track_of_profiles(p, r0: float) -> Track:
+    """The Track of a layout.Profiles with wheels of nominal radius r0."""
+    from rail_mj.layout import read_profiles
+
+    wheel, rail = read_profiles(p)
     return Track(wheel, rail, p.rail_inclination, p.track_gauge, p.flange_back_spacing, r0)
 
 

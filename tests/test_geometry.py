@@ -168,3 +168,129 @@ def test_delta_r_feeds_the_conicity(standard):
     assert d.centre[0] == pytest.approx(0.0, abs=1e-12) and d.centre[0] == d.centre[1]
     value = geometry.equivalent_conicity(standard, 3.0)
     assert 0.05 < value < 0.5  # a plausible new-profile value; the number is printed in the docs
+
+
+# --- [profiles] in a layout ------------------------------------------------------------
+
+PROFILED = (MODELS / "wheelset" / "wheelset.toml").read_text().replace("conicity = 0.1\n", "") + """
+[profiles]
+wheel = "s1002"
+rail = "60e1"
+rail_inclination = 0.025
+track_gauge = 1.435
+flange_back_spacing = 1.360
+"""
+
+
+def write(tmp_path, text, name="profiled.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_profiled_layout_loads_with_the_profiles_conicity(tmp_path, standard):
+    from rail_mj.layout import Profiles, load_layout
+
+    layout = load_layout(write(tmp_path, PROFILED))
+    assert layout.profiles == Profiles("s1002", "60e1", 0.025, 1.435, 1.36)
+    # wheelset.conicity omitted: the equivalent conicity at 3 mm of the same table (1e-12)
+    assert layout.wheelset.conicity == pytest.approx(geometry.equivalent_conicity(standard, 3.0), abs=1e-12)
+    # given: kept
+    given = load_layout(write(tmp_path, PROFILED.replace("contact_half_spacing = 0.75\n",
+                                                         "contact_half_spacing = 0.75\nconicity = 0.2\n"), "g.toml"))
+    assert given.wheelset.conicity == 0.2 and given.profiles == layout.profiles
+
+
+def test_profile_files_are_relative_to_the_layout(tmp_path):
+    from rail_mj.layout import load_layout
+    from rail_mj.profiles import write_csv
+
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "wheel.csv").write_bytes(write_csv(s1002()))
+    (tmp_path / "p" / "rail.csv").write_bytes(write_csv(rail_60e1()))
+    text = PROFILED.replace('wheel = "s1002"', 'wheel = "p/wheel.csv"').replace('rail = "60e1"', 'rail = "p/rail.csv"')
+    layout = load_layout(write(tmp_path, text.replace("contact_half_spacing = 0.75\n",
+                                                      "contact_half_spacing = 0.75\nconicity = 0.2\n")))
+    assert layout.profiles.wheel == str(tmp_path / "p" / "wheel.csv")
+    t = contact_table(layout, ys=[-0.002, 0.0, 0.002])
+    # The sampled profiles (1001 and 801 points, straight between them) against the exact
+    # ones: within 10 um of radius (4 um found: the contact at +2 mm sits where S1002's
+    # concave tread nearly fits the rail, and moves with the small chords).
+    exact = contact_table(Track(s1002(), rail_60e1()), ys=[-0.002, 0.0, 0.002])
+    np.testing.assert_allclose(t.r_left, exact.r_left, atol=1e-5)
+
+
+@pytest.mark.parametrize("change, key", [
+    (('rail_inclination = 0.025', 'rail_inclination = 0.2'), "profiles.rail_inclination"),
+    (('rail_inclination = 0.025', 'rail_inclination = -0.01'), "profiles.rail_inclination"),
+    (('track_gauge = 1.435', 'track_gauge = 1435'), "profiles.track_gauge"),
+    (('flange_back_spacing = 1.360', 'flange_back_spacing = 1.5'), "profiles.flange_back_spacing"),
+    (('flange_back_spacing = 1.360', 'flange_back_spacing = "1.36"'), "profiles.flange_back_spacing"),
+    (('wheel = "s1002"', 'wheel = "60e1"'), "profiles.wheel"),
+    (('wheel = "s1002"', 'wheel = "s1003"'), "profiles.wheel"),
+    (('wheel = "s1002"', 'wheel = "missing.csv"'), "profiles.wheel"),
+    (('rail = "60e1"', 'rail = "bad.csv"'), "profiles.rail"),
+    (('rail = "60e1"', 'rail = 60'), "profiles.rail"),
+    (('rail = "60e1"', 'rail = "60e1"\nrail_cant = 0.025'), "profiles.rail_cant"),
+    (('wheel = "s1002"\n', ''), "profiles.wheel"),
+])
+def test_bad_profiles_keys_are_refused_in_one_line(tmp_path, capsys, change, key):
+    from rail_mj.cli import main
+
+    (tmp_path / "bad.csv").write_text("y_mm,z_mm\n0,0\n1\n")
+    path = write(tmp_path, PROFILED.replace(*change))
+    assert change[0] in PROFILED
+    status = main(["conicity", str(path)])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert len(err.strip().splitlines()) == 1 and key in err and str(path) in err
+
+
+def test_layout_without_profiles_still_needs_its_conicity(tmp_path):
+    from rail_mj.layout import LayoutError, load_layout
+
+    text = (MODELS / "wheelset" / "wheelset.toml").read_text().replace("conicity = 0.1\n", "")
+    with pytest.raises(LayoutError, match="wheelset.conicity: missing"):
+        load_layout(write(tmp_path, text))
+
+
+# --- the command ------------------------------------------------------------------------
+
+def test_cli_contact_geometry_writes_the_table_and_the_picture(tmp_path, capsys, standard):
+    from rail_mj.cli import main
+
+    layout = write(tmp_path, PROFILED)
+    csv, png = tmp_path / "out" / "cg.csv", tmp_path / "out" / "cg.png"
+    status = main(["contact-geometry", str(layout), "-o", str(csv), "--png", str(png)])
+    out, err = capsys.readouterr()
+    assert status == 0, err
+    assert "flange contact from |y| = 6.30 mm" in out
+    lines = csv.read_text().splitlines()
+    assert lines[0].startswith("y_m,r_left_m,r_right_m,delta_r_m,contact_angle_left_rad,"
+                               "contact_angle_right_rad,roll_rad,")
+    rows = np.loadtxt(lines[1:], delimiter=",")
+    np.testing.assert_allclose(rows[:, 3], standard.delta_r, atol=1e-11)  # the same table
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_cli_contact_geometry_needs_profiles(tmp_path, capsys):
+    from rail_mj.cli import main
+
+    csv = tmp_path / "cg.csv"
+    status = main(["contact-geometry", str(MODELS / "wheelset" / "wheelset.toml"), "-o", str(csv)])
+    err = capsys.readouterr().err
+    assert status == 2 and len(err.strip().splitlines()) == 1 and "[profiles]" in err
+    assert not csv.exists()
+
+
+def test_cli_conicity_of_profiles_and_of_a_cone(tmp_path, capsys, standard):
+    import json
+
+    from rail_mj.cli import main
+
+    assert main(["conicity", str(write(tmp_path, PROFILED)), "--amplitudes", "3:3:1", "--json"]) == 0
+    value = json.loads(capsys.readouterr().out)["equivalent_conicity"][0]
+    assert value == pytest.approx(geometry.equivalent_conicity(standard, 3.0), abs=1e-9)
+    # a coned layout without [profiles] still gives its cone's conicity (1e-9)
+    assert main(["conicity", str(MODELS / "wheelset" / "wheelset.toml"), "--amplitudes", "3:3:1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["equivalent_conicity"][0] == pytest.approx(0.1, abs=1e-9)
