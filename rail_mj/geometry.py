@@ -18,7 +18,7 @@ Example, S1002 on 60E1 at 1:40, standard gauge:
     >>> from rail_mj.profiles import rail_60e1, s1002
     >>> t = contact_table(Track(s1002(), rail_60e1()), ys=[-0.003, 0.0, 0.003])
     >>> [round(float(v) * 1e3, 4) for v in t.delta_r]          # mm
-    [-0.3063, 0.0, 0.3063]
+    [-0.9585, 0.0, 0.9585]
     >>> round(float(t.roll[1]), 12), bool(t.r_left[1] == t.r_right[1])
     (0.0, True)
 """
