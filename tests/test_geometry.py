@@ -294,3 +294,14 @@ def test_cli_conicity_of_profiles_and_of_a_cone(tmp_path, capsys, standard):
     # a coned layout without [profiles] still gives its cone's conicity (1e-9)
     assert main(["conicity", str(MODELS / "wheelset" / "wheelset.toml"), "--amplitudes", "3:3:1", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["equivalent_conicity"][0] == pytest.approx(0.1, abs=1e-9)
+
+
+def test_cli_contact_geometry_refuses_to_overwrite_its_layout(tmp_path, capsys):
+    from rail_mj.cli import main
+
+    layout = write(tmp_path, PROFILED)
+    before = layout.read_bytes()
+    status = main(["contact-geometry", str(layout), "-o", str(tmp_path / "t.csv"), "--png", str(layout)])
+    err = capsys.readouterr().err
+    assert status == 2 and len(err.strip().splitlines()) == 1 and "overwrite" in err
+    assert layout.read_bytes() == before and not (tmp_path / "t.csv").exists()
