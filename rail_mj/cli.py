@@ -755,7 +755,8 @@ def profile_cmd(profile, out, png, kind):
 @click.option("--png", type=click.Path(dir_okay=False), help="Plot the equivalent conicity against amplitude here.")
 def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
     """Equivalent conicity (EN 15302) against amplitude, from a Δr function (--delta-r) or
-    the cone of LAYOUT's wheelset.conicity.
+    LAYOUT: the Δr of its [profiles]' contact geometry, or else the cone of its
+    wheelset.conicity.
 
     The amplitude is half the peak-to-peak lateral motion, about the centre where Δr
     vanishes (wheels of unequal diameters move it off y = 0). The method is the standard's
@@ -772,10 +773,13 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
 
     try:
         if layout is not None:
-            lay = _cone_layout(layout)
-            reach = max(wanted or DEFAULT_AMPLITUDES)
-            delta_r = DeltaR.cone(lay.wheelset.conicity, half_range=reach, centre=0.0)
+            lay = _layout(layout)
             spacing, r0 = 2e3 * lay.wheelset.contact_half_spacing, 1e3 * lay.wheelset.rolling_radius
+            if lay.profiles is not None:
+                delta_r = _delta_r_of_profiles(lay)
+            else:
+                reach = max(wanted or DEFAULT_AMPLITUDES)
+                delta_r = DeltaR.cone(lay.wheelset.conicity, half_range=reach, centre=0.0)
         else:
             delta_r = DeltaR.read_csv(delta_r_csv)
             spacing, r0 = 1500.0, 460.0  # any: λe does not depend on them
@@ -825,21 +829,60 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
         click.echo(f"plot: {png}", err=err)
 
 
-def _cone_layout(path: str) -> Layout:
-    """A layout whose wheels are cones (wheelset.conicity); one with wheel and rail profiles
-    is refused until their contact geometry gives a Δr function."""
-    import tomllib
+def _contact_table(lay: Layout):
+    """The contact geometry of a layout with [profiles]."""
+    from rail_mj.geometry import GeometryError, contact_table
 
     try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
-        data = None  # _layout says what is wrong
-    if isinstance(data, dict):
-        wheelset = data.get("wheelset")
-        if "profiles" in data or (isinstance(wheelset, dict) and any(k.startswith("profile") for k in wheelset)):
-            raise Failure(f"{path}: the equivalent conicity of layouts with [profiles] is not supported yet: "
-                          f"give their Δr function with --delta-r FILE.csv", EXIT_BAD_INPUT)
-    return _layout(path)
+        return contact_table(lay)
+    except GeometryError as e:
+        raise Failure(f"{lay.source}: profiles: {e}", EXIT_BAD_INPUT) from None
+
+
+def _delta_r_of_profiles(lay: Layout):
+    """Δr (mm) of a layout's wheel and rail profiles, from their contact geometry."""
+    from rail_mj.geometry import delta_r
+
+    return delta_r(_contact_table(lay))
+
+
+@cli.command("contact-geometry")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
+              help="The table as CSV: y_m, r_left_m, r_right_m, delta_r_m, contact_angle_left_rad, "
+                   "contact_angle_right_rad, roll_rad, then more (docs/geometry.md).")
+@click.option("--png", type=click.Path(dir_okay=False),
+              help="Draw Δr(y), the contact angles and the contact points on the profiles here.")
+def contact_geometry_cmd(layout, out, png):
+    """The contact geometry of LAYOUT's wheel and rail profiles ([profiles]): a rigid
+    wheelset shifted y from -10 to +10 mm at zero yaw, its roll, rolling radii and contact
+    angles, contact points, curvatures and two-point contacts."""
+    _check_outputs(layout, [("-o", out), ("--png", png)])
+    lay = _layout(layout)
+    if lay.profiles is None:
+        raise Failure(f"{layout}: profiles: no [profiles] table: contact geometry needs wheel and rail "
+                      f"profiles (docs/geometry.md)", EXIT_BAD_INPUT)
+    table = _contact_table(lay)
+    outputs = [p for p in (out, png) if p]
+    try:
+        with staged(outputs) as temps:  # both or neither
+            temps[0].write_bytes(table.to_csv())
+            if png:
+                from rail_mj.plots import contact_geometry_png
+
+                cone = None if lay.wheelset.conicity is None else lay.wheelset.conicity
+                temps[1].write_bytes(contact_geometry_png(table, lay.name, cone))
+    except OSError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    err = _uses_stdout(out, png)
+    import numpy as np
+
+    flange = np.flatnonzero(np.maximum(table.contact_angle_left, table.contact_angle_right) > 1.0)
+    where = (f"flange contact from |y| = {np.min(np.abs(table.y[flange])) * 1e3:.2f} mm" if len(flange)
+             else "no flange contact within the range")
+    click.echo(f"{lay.name}: {len(table.y)} lateral shifts from {table.y[0] * 1e3:g} to {table.y[-1] * 1e3:g} mm; "
+               f"{where}", err=err)
+    click.echo(f"table: {out}" + (f"\nplot: {png}" if png else ""), err=err)
 
 
 def _harmonic_or_nan(delta_r, amplitude: float) -> float:

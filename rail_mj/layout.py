@@ -18,6 +18,7 @@ the file, the key and what is wrong.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import re
 import tomllib
@@ -87,6 +88,18 @@ class Contact:
 
 
 @dataclasses.dataclass(frozen=True)
+class Profiles:
+    """[profiles]: wheel and rail profiles and how the track places them (docs/geometry.md).
+    `wheel` and `rail` are a standard name ("s1002", "60e1") or a file's resolved path."""
+
+    wheel: str
+    rail: str
+    rail_inclination: float  # tan of each rail's cant towards the track centre
+    track_gauge: float  # m, 14 mm below the rail top
+    flange_back_spacing: float  # m, between the wheels' inner faces
+
+
+@dataclasses.dataclass(frozen=True)
 class Suspension:
     """A spring-damper acting on a whole body: lateral and yaw."""
 
@@ -123,6 +136,9 @@ class Layout:
     secondary: Suspension | None = None
     contact: Contact | None = None  # when given, `creep` was computed from it
     flange: Flange | None = None  # None: no flange contact (the classical linear model)
+    # Wheel and rail profiles. The dynamics still run on a cone of wheelset.conicity, which
+    # defaults to the profiles' equivalent conicity at 3 mm (docs/geometry.md).
+    profiles: Profiles | None = None
     source: str = "<layout>"
     # Legal values far outside railway practice (rail_mj.practice), one line each.
     warnings: tuple[str, ...] = dataclasses.field(default=(), compare=False)
@@ -302,6 +318,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
         top.fail("name", f"must be letters, digits, '-' or '_', got {name!r}")
 
+    has_profiles = top.get("profiles", None, required=False) is not None
     t = _Table(source, "wheelset", top.get("wheelset"))
     wheelset = Wheelset(
         mass=t.positive("mass"),
@@ -309,7 +326,8 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         rolling_radius=t.positive("rolling_radius"),
         contact_half_spacing=t.positive("contact_half_spacing"),
         # Treads steeper than 1:2 are not wheels; the linear contact model assumes small angles.
-        conicity=t.number("conicity", low=0.0, low_open=True, high=0.5),
+        # With [profiles], omitted: the profiles' equivalent conicity (below).
+        conicity=t.number("conicity", low=0.0, low_open=True, high=0.5, required=not has_profiles),
         flangeway_clearance=t.positive("flangeway_clearance", 0.008),
         wheel_load=t.positive("wheel_load", required=False),
     )
@@ -323,6 +341,13 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     r0, b = wheelset.rolling_radius, wheelset.contact_half_spacing
     # Wheels at +/-b, axle journals and brake discs about a wheel radius further out.
     _inertia_fits(t, wheelset.mass, wheelset.inertia, math.hypot(b + r0, r0), "wheelset")
+    profiles = None
+    if has_profiles:
+        profiles, conicity = _profiles(_Table(source, "profiles", top.get("profiles")), wheelset)
+        if wheelset.conicity is None:
+            wheelset = dataclasses.replace(wheelset, conicity=conicity)
+            _practice(_Table(source, "wheelset", {}), warnings, conicity=conicity)
+        # Both given: wheelset.conicity is kept; the profiles serve contact geometry only.
 
     has_contact = top.get("contact", None, required=False) is not None
     t = _Table(source, "creep", top.get("creep", {} if has_contact else ...))
@@ -439,12 +464,108 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
-        bogie=bogie, secondary=secondary, contact=contact, flange=flange, source=source,
+        bogie=bogie, secondary=secondary, contact=contact, flange=flange, profiles=profiles, source=source,
         warnings=tuple(warnings),
     )
 
 
 GRAVITY = 9.81  # m/s^2
+STANDARD_PROFILES = {"wheel": ("s1002",), "rail": ("60e1", "uic60")}
+
+
+def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None]:
+    """[profiles], checked: the files read, the wheelset stood on its rails. With
+    wheelset.conicity omitted, also the profiles' equivalent conicity at 3 mm."""
+    from rail_mj import profiles as p  # numpy: only for layouts that need it
+
+    base = Path(t.source).parent if t.source != "<layout>" else Path(".")
+    names = {}
+    for kind in ("wheel", "rail"):
+        value = t.get(kind)
+        if not isinstance(value, str) or not value.strip():
+            t.fail(kind, f"must be a standard {kind} ({', '.join(STANDARD_PROFILES[kind])}) or a profile "
+                         f"file's path, got {_kind(value)}")
+        if value.lower() in STANDARD_PROFILES[kind]:
+            names[kind] = value.lower()
+            continue
+        other = "rail" if kind == "wheel" else "wheel"
+        if value.lower() in STANDARD_PROFILES[other]:
+            t.fail(kind, f"{value!r} is a standard {other} profile, not a {kind}")
+        path = (base / value) if not Path(value).is_absolute() else Path(value)
+        if path.suffix.lower() not in (".csv", ".prw", ".prr"):
+            t.fail(kind, f"must be {', '.join(STANDARD_PROFILES[kind])} or a profile file (.csv, SIMPACK .prw "
+                         f"or .prr), got {value!r}")
+        if not path.is_file():
+            t.fail(kind, f"{path}: no such file (paths are relative to the layout file)")
+        names[kind] = str(path)
+    profiles = Profiles(
+        wheel=names["wheel"], rail=names["rail"],
+        rail_inclination=t.number("rail_inclination", p.RAIL_INCLINATION, low=0.0, high=0.1),
+        track_gauge=t.number("track_gauge", p.GAUGE, low=0.5, high=2.0),
+        flange_back_spacing=t.positive("flange_back_spacing", p.BACK_TO_BACK),
+    )
+    t.done()
+    gauge, back = profiles.track_gauge, profiles.flange_back_spacing
+    if not gauge - 0.2 < back < gauge:
+        t.fail("flange_back_spacing", f"must be below track_gauge ({gauge:g} m) by less than 0.2 m (the flanges "
+                                      f"and their play), got {back:g} m")
+    try:
+        read_profiles(profiles)
+    except p.ProfileError as e:
+        key = "wheel" if str(e).startswith(profiles.wheel) else "rail"
+        t.fail(key, str(e))
+    except ValueError as e:
+        t.fail(None, str(e))
+    from rail_mj.geometry import GeometryError
+
+    try:
+        conicity = _profiles_conicity(profiles, wheelset.rolling_radius, _stamp(profiles),
+                                      wheelset.conicity is None)
+    except GeometryError as e:
+        t.fail(None, str(e))
+    if wheelset.conicity is None and not (conicity is not None and 0.0 < conicity <= 0.5):
+        t.fail(None, f"the profiles' equivalent conicity at 3 mm is {conicity:.4g}, outside (0, 0.5]: give "
+                     f"wheelset.conicity for the dynamics")
+    return profiles, conicity
+
+
+def read_profiles(profiles: Profiles):
+    """(wheel, rail): the Profile objects [profiles] names. Raises ProfileError."""
+    from rail_mj import profiles as p
+
+    out = []
+    for kind, name in (("wheel", profiles.wheel), ("rail", profiles.rail)):
+        if name in STANDARD_PROFILES[kind]:
+            out.append(p.standard(name))
+            continue
+        shape = p.read_profile(name, kind if Path(name).suffix.lower() == ".csv" else None)
+        if shape.kind != kind:
+            raise p.ProfileError(f"{name}: a {shape.kind} profile given as the {kind}")
+        out.append(shape)
+    return tuple(out)
+
+
+def _stamp(profiles: Profiles):
+    """The profile files' modification times: a changed file is read again."""
+    return tuple(Path(n).stat().st_mtime_ns if Path(n).is_file() else 0 for n in (profiles.wheel, profiles.rail))
+
+
+@functools.lru_cache(maxsize=32)
+def _profiles_conicity(profiles: Profiles, r0: float, _stamp, wanted: bool) -> float | None:
+    """The profiles' equivalent conicity at 3 mm (EN 15302) from their contact geometry,
+    or with `wanted` false only the wheelset stood on its rails (a check). Once per profiles."""
+    from rail_mj import geometry
+    from rail_mj.conicity import QUOTED_AMPLITUDE, ConicityError
+
+    track = geometry.track_of_profiles(profiles, r0)
+    if not wanted:
+        geometry.contact_table(track, ys=[0.0])
+        return None
+    table = geometry.contact_table(track)
+    try:
+        return geometry.equivalent_conicity(table, QUOTED_AMPLITUDE)
+    except ConicityError as e:
+        raise geometry.GeometryError(f"no equivalent conicity: {e}") from None
 
 
 def _contact(t: _Table, wheelset: Wheelset):

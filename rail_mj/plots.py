@@ -250,3 +250,51 @@ def conicity_png(amplitudes, conicity, title: str, harmonic=None, quoted: tuple[
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=9)
     return _png(fig)
+
+
+def contact_geometry_png(table, title: str, conicity: float | None = None) -> bytes:
+    """The picture of a contact table (rail_mj.geometry): Δr(y), with the cone 2λy of
+    `conicity` for comparison; the contact angles; and the left wheel over the left rail in
+    the track frame at a few shifts, their contact points marked (two-point contacts as
+    open circles)."""
+    from rail_mj.geometry import rail_points, wheel_points
+
+    y = table.y * 1e3
+    fig = plt.figure(figsize=(13, 8.5), layout="constrained")
+    grid = fig.add_gridspec(2, 2, height_ratios=(1, 1.25))
+    ax_dr, ax_angle, ax_prof = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, :])
+    ax_dr.plot(y, table.delta_r * 1e3, color="black", label="Δr = r_left − r_right")
+    if conicity is not None:
+        ax_dr.plot(y, 2 * conicity * y, "--", color="grey", label=f"cone 2λy, λ = {conicity:.4g}")
+    ax_dr.set(xlabel="lateral shift y (mm, to the left)", ylabel="Δr (mm)", title="rolling-radius difference")
+    ax_angle.plot(y, np.degrees(table.contact_angle_left), label="left wheel")
+    ax_angle.plot(y, np.degrees(table.contact_angle_right), label="right wheel")
+    ax_angle.set(xlabel="lateral shift y (mm, to the left)", ylabel="contact angle (degrees)",
+                 title="contact angles (track frame, roll included)")
+    for ax in (ax_dr, ax_angle):
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=9)
+    rq, rz = rail_points(table.track, "left")
+    ax_prof.fill_between(rq * 1e3, rz * 1e3, rz.min() * 1e3 - 2, color="lightgrey")
+    ax_prof.plot(rq * 1e3, rz * 1e3, color="black", linewidth=1.2, label="left rail (canted)")
+    flange = np.flatnonzero(table.contact_angle_left > 1.0)
+    wanted = [0.0, 0.25 * y[-1], 0.5 * y[-1]] + ([y[flange[0]]] if len(flange) else []) + [y[-1]]
+    rows = sorted({int(np.argmin(np.abs(y - w))) for w in wanted})
+    for i, colour in zip(rows, plt.rcParams["axes.prop_cycle"].by_key()["color"]):
+        wq, wz = wheel_points(table, i, "left")
+        ax_prof.plot(wq * 1e3, wz * 1e3, color=colour, linewidth=1.0, label=f"left wheel at y = {y[i]:.2f} mm")
+        cq = table.contact_y_left[i] * 1e3
+        cz = float(np.interp(cq, rq * 1e3, rz * 1e3))
+        ax_prof.plot([cq], [cz], "o", color=colour, ms=6)
+        if table.two_point_left[i] > 0:
+            q2 = table.contact_y2_left[i] * 1e3
+            ax_prof.plot([q2], [np.interp(q2, rq * 1e3, rz * 1e3)], "o", mfc="none", color=colour, ms=9)
+    ax_prof.set_xlim(rq.min() * 1e3 - 5, rq.max() * 1e3 + 5)
+    ax_prof.set_ylim(rz.min() * 1e3 - 2, 12)
+    ax_prof.set_aspect("equal")
+    ax_prof.set(xlabel="track y (mm, from the track centre, to the left)", ylabel="z (mm, up)",
+                title="left wheel on left rail: contact points (open circle: a second contact point)")
+    ax_prof.grid(alpha=0.3)
+    ax_prof.legend(loc="lower right", fontsize=8)
+    fig.suptitle(f"Contact geometry (rigid wheelset, zero yaw): {title}")
+    return _png(fig)

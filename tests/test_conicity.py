@@ -251,13 +251,16 @@ def test_cli_cone_layout_gives_its_conicity(capsys):
     np.testing.assert_allclose(json.loads(out)["equivalent_conicity"], 0.1, rtol=1e-6)
 
 
-def test_cli_layout_with_profiles_is_not_supported_yet(tmp_path, capsys):
+def test_cli_layout_with_profiles_gives_theirs(tmp_path, capsys):
+    """A layout with [profiles]: the Δr of their contact geometry (tests/test_geometry.py),
+    not the cone of its wheelset.conicity."""
     layout = tmp_path / "profiled.toml"
     layout.write_text((MODELS / "wheelset" / "wheelset.toml").read_text()
                       + '\n[profiles]\nwheel = "S1002"\nrail = "UIC60"\n')
-    status, out, err = run(["conicity", layout], capsys)
-    assert status == 2 and out == ""
-    assert len(err.strip().splitlines()) == 1 and "[profiles] is not supported yet" in err
+    status, out, err = run(["conicity", layout, "--amplitudes", "3:3:1", "--json"], capsys)
+    assert status == 0, err
+    value = json.loads(out)["equivalent_conicity"][0]
+    assert value != pytest.approx(0.1, abs=1e-3) and 0.05 < value < 0.5
 
 
 @pytest.mark.parametrize("extra, message", [
