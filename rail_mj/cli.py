@@ -897,9 +897,13 @@ def _harmonic_or_nan(delta_r, amplitude: float) -> float:
 def _amplitudes(text: str) -> list[float]:
     """--amplitudes A:B:N: N amplitudes from A to B mm, 0 < A <= B."""
     a, b, n = _triple("--amplitudes", text, "mm")
+    from rail_mj.conicity import MIN_AMPLITUDE
+
     if not (math.isfinite(a) and math.isfinite(b) and 0 < a <= b and 1 <= n <= 10_000 and (n > 1 or a == b)):
         raise Failure(f"--amplitudes A:B:N needs 0 < A <= B and 1 <= N <= 10000 (N = 1: A = B), got {text!r}",
                       EXIT_BAD_INPUT)
+    if a < MIN_AMPLITUDE:
+        raise Failure(f"--amplitudes: the smallest amplitude is {MIN_AMPLITUDE:g} mm, got {a:g}", EXIT_BAD_INPUT)
     return [a + (b - a) * k / (n - 1) for k in range(n)] if n > 1 else [a]
 
 

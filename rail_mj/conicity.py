@@ -268,10 +268,19 @@ class DeltaR:
         return value
 
 
+# Amplitudes below this are refused: the level of the motion's energy, about lam*y^2, would
+# be lost in the round-off of the potential's values (mm^2 near the data's ends), and no
+# measured profile resolves a hundredth of a millimetre anyway.
+MIN_AMPLITUDE = 0.05  # mm
+
+
 def _amplitude(value) -> float:
     value = float(value)
     if not (math.isfinite(value) and value > 0.0):
         raise ConicityError(f"an amplitude must be a positive number of mm, got {value:g}")
+    if value < MIN_AMPLITUDE:
+        raise ConicityError(f"an amplitude must be at least {MIN_AMPLITUDE:g} mm (below it the energy level "
+                            f"is lost in round-off), got {value:g}")
     return value
 
 

@@ -509,13 +509,13 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None]:
     if not gauge - 0.2 < back < gauge:
         t.fail("flange_back_spacing", f"must be below track_gauge ({gauge:g} m) by less than 0.2 m (the flanges "
                                       f"and their play), got {back:g} m")
-    try:
-        read_profiles(profiles)
-    except p.ProfileError as e:
-        key = "wheel" if str(e).startswith(profiles.wheel) else "rail"
-        t.fail(key, str(e))
-    except ValueError as e:
-        t.fail(None, str(e))
+    for key, other in (("wheel", "rail"), ("rail", "wheel")):  # one at a time: an error names its key
+        try:
+            read_profiles(dataclasses.replace(profiles, **{other: STANDARD_PROFILES[other][0]}))
+        except p.ProfileError as e:
+            t.fail(key, str(e))
+        except ValueError as e:
+            t.fail(key, str(e))
     from rail_mj.geometry import GeometryError
 
     try:
@@ -550,6 +550,10 @@ def _stamp(profiles: Profiles):
     return tuple(Path(n).stat().st_mtime_ns if Path(n).is_file() else 0 for n in (profiles.wheel, profiles.rail))
 
 
+TREAD_ANGLE = 0.2  # rad
+TREAD_HALF_WIDTH = 0.025  # m either side of the taping line
+
+
 @functools.lru_cache(maxsize=32)
 def _profiles_conicity(profiles: Profiles, r0: float, _stamp, wanted: bool) -> float | None:
     """The profiles' equivalent conicity at 3 mm (EN 15302) from their contact geometry,
@@ -558,8 +562,29 @@ def _profiles_conicity(profiles: Profiles, r0: float, _stamp, wanted: bool) -> f
     from rail_mj.conicity import QUOTED_AMPLITUDE, ConicityError
 
     track = geometry.track_of_profiles(profiles, r0)
+    centred = geometry.contact_table(track, ys=[0.0])
+    # Centred, each wheel must stand on its tread, near its taping line: tread cones are 1:40
+    # to 1:10 (0.025-0.1 rad) and run about 25 mm either side of the taping line (S1002: the
+    # flange root begins 26 mm inside it); a flange is at 65-75 degrees. A wheel touching
+    # farther out, steeper, or at the end of its profile is placed wrongly (flange back
+    # spacing, gauge or cant), not a wheel standing on a rail.
+    lo, hi = float(track.wheel.y[0]), float(track.wheel.y[-1])
+    for side in ("left", "right"):
+        angle = float(getattr(centred, f"contact_angle_{side}")[0])
+        s = float(getattr(centred, f"wheel_s_{side}")[0])
+        if abs(s) > TREAD_HALF_WIDTH:
+            raise geometry.GeometryError(
+                f"centred, the {side} wheel touches its rail {s * 1e3:.1f} mm from its taping line, off its "
+                f"tread: check flange_back_spacing, track_gauge and rail_inclination")
+        if abs(angle) > TREAD_ANGLE:
+            raise geometry.GeometryError(
+                f"centred, the {side} wheel touches its rail at {angle:.3g} rad (s = {s * 1e3:.1f} mm), not on "
+                f"its tread: check flange_back_spacing, track_gauge and rail_inclination")
+        if not lo + 0.001 < s < hi - 0.001:
+            raise geometry.GeometryError(
+                f"centred, the {side} wheel touches its rail at the edge of its profile (s = {s * 1e3:.1f} mm): "
+                f"check flange_back_spacing, track_gauge and rail_inclination")
     if not wanted:
-        geometry.contact_table(track, ys=[0.0])
         return None
     table = geometry.contact_table(track)
     try:

@@ -481,6 +481,9 @@ def _parse_simpack(path: Path, text: str, kind: str):
     y, z = y + flags["shift.y"], z + flags["shift.z"]
     # 2. rotate about x (right-handed in SIMPACK's frame), in the file's angle unit
     angle = flags["rotate"] / flags["units.ang.f"]
+    if not math.isfinite(angle):
+        raise ProfileError(f"{path}: rotate / units.ang.f is not a finite angle "
+                           f"({flags['rotate']:g} / {flags['units.ang.f']:g})")
     if angle:
         c, s = math.cos(angle), math.sin(angle)
         y, z = c * y - s * z, s * y + c * z
@@ -542,6 +545,9 @@ def _finish(path: Path, y, z, lines, kind: str | None, ordered: bool) -> Profile
                 "units.len.f is the number of the file's length units in a metre: 1000 for mm")
         raise ProfileError(f"{path}: the points span {span * 1e3:.6g} mm across, not a wheel or rail "
                            f"profile (a few centimetres): {hint}")
+    if not (np.all(np.isfinite(z)) and np.ptp(z) <= _SPAN_MAX):
+        raise ProfileError(f"{path}: the heights span {np.ptp(z) * 1e3:.6g} mm, not a wheel or rail profile "
+                           f"(a few centimetres): check the units and the points")
     if kind is None:
         top = int(np.argmax(z))
         kind = RAIL if 0 < top < len(z) - 1 else WHEEL

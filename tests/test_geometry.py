@@ -12,6 +12,7 @@ from scipy.optimize import brentq
 
 from rail_mj import geometry
 from rail_mj.geometry import Track, contact_table, gaps
+from rail_mj.layout import LayoutError, load_layout
 from rail_mj.profiles import Profile, rail_60e1, s1002
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -305,3 +306,17 @@ def test_cli_contact_geometry_refuses_to_overwrite_its_layout(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 2 and len(err.strip().splitlines()) == 1 and "overwrite" in err
     assert layout.read_bytes() == before and not (tmp_path / "t.csv").exists()
+
+
+@pytest.mark.parametrize("spacing, where", [(1.434, "-53"), (1.24, "52")])
+def test_a_wheelset_not_standing_on_its_treads_is_refused(spacing, where, tmp_path):
+    """Flange backs almost at the gauge put the flange tips on the rails; far apart, the
+    wheels' outer edges: neither is a wheel standing on a rail, and neither may feed the
+    dynamics an equivalent conicity."""
+    text = (MODELS / "manchester-coach" / "manchester-coach.toml").read_text()
+    text = text.replace("conicity = 0.15", "").rstrip() + (
+        f'\n\n[profiles]\nwheel = "s1002"\nrail = "60e1"\nflange_back_spacing = {spacing}\n')
+    path = tmp_path / "placed.toml"
+    path.write_text(text)
+    with pytest.raises(LayoutError, match=f"{where}.* mm from its taping line, off its tread"):
+        load_layout(path)
