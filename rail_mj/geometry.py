@@ -347,9 +347,25 @@ def _side(placed: _Placed, eta: float, psi: float, h: float) -> dict:
     return out
 
 
+def default_table(profiles, r0: float) -> ContactTable:
+    """The contact table of a layout.Profiles at the default shifts (DEFAULT_YS), made once a
+    process for each profiles and r0 (a profile file that changes is read again): a layout's
+    equivalent conicity and `rail-mj contact-geometry` share it."""
+    from rail_mj.layout import _stamp
+
+    return _default_table(profiles, r0, _stamp(profiles))
+
+
+@functools.lru_cache(maxsize=8)
+def _default_table(profiles, r0: float, _stamp) -> ContactTable:
+    return contact_table(track_of_profiles(profiles, r0))
+
+
 def contact_table(source, ys=None) -> ContactTable:
     """The contact geometry of a Track (or a Layout with [profiles]) at the lateral shifts
     ys (m; default -10 to +10 mm in 0.05 mm steps). Raises GeometryError."""
+    if ys is None and not isinstance(source, Track) and getattr(source, "profiles", None) is not None:
+        return default_table(source.profiles, source.wheelset.rolling_radius)
     track = source if isinstance(source, Track) else track_of(source)
     ys = DEFAULT_YS if ys is None else np.asarray(ys, dtype=float)
     if ys.ndim != 1 or len(ys) == 0 or not np.all(np.isfinite(ys)) or np.any(np.diff(ys) <= 0):

@@ -586,7 +586,7 @@ def _profiles_conicity(profiles: Profiles, r0: float, _stamp, wanted: bool) -> f
                 f"check flange_back_spacing, track_gauge and rail_inclination")
     if not wanted:
         return None
-    table = geometry.contact_table(track)
+    table = geometry.default_table(profiles, r0)
     try:
         return geometry.equivalent_conicity(table, QUOTED_AMPLITUDE)
     except ConicityError as e:
