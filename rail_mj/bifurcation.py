@@ -90,6 +90,7 @@ def follow(layout: Layout, speeds, state=None, initial_lateral: float = 0.0,
 def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0,
                              step: float = STEP, dwell: float = DWELL,
                              progress: Callable[[str], None] | None = None,
+                             amplitude: float | None = None,
                              ) -> tuple[CriticalSpeed, Branch]:
     """Lowest speed at which the hunting limit cycle survives, with the branch it followed.
 
@@ -99,50 +100,53 @@ def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 15
     before the speed falls below the linear critical speed gives no nonlinear critical
     speed (the note says so): it is never reported above the linear one.
     """
-    if layout.flange is None or layout.creep.law == "linear":
-        raise ValueError(f"{layout.source}: the nonlinear critical speed needs [flange] and a "
-                         f"saturating creep law: without them hunting grows without bound")
-    linear = Stability(layout).critical_speed(vmin, vmax)
+    if (layout.flange is None and layout.profiles is None) or layout.creep.law == "linear":
+        raise ValueError(f"{layout.source}: the nonlinear critical speed needs flange contact ([flange] or "
+                         f"[profiles]) and a saturating creep law: without them hunting grows without bound")
+    linear = Stability(layout, amplitude).critical_speed(vmin, vmax)
     if linear.critical_speed is None:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
                              f"no linear critical speed to start from: {linear.note}",
-                             outcome=linear.outcome), None
+                             outcome=linear.outcome, amplitude_mm=linear.amplitude_mm), None
     vc = linear.critical_speed
     start = min(1.1 * linear.critical_speed, vmax)
     speeds = start * (1.0 - step) ** np.arange(int(math.log(vmin / start) / math.log(1.0 - step)) + 1)
-    branch = follow(layout, speeds, initial_lateral=2.0 * layout.wheelset.flangeway_clearance,
+    # Onto the flanges: twice the clearance into the flange spring, or on profiles, whose
+    # flanges are rigid walls, to where they touch.
+    reach = 1.0 if layout.profiles is not None else 2.0
+    branch = follow(layout, speeds, initial_lateral=reach * layout.wheelset.flangeway_clearance,
                     dwell=dwell, stop_when_dead=True, progress=progress)
     alive = [k for k, ok in enumerate(branch.alive) if ok]
     if alive and alive[-1] == len(branch.alive) - 1:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
                              f"the limit cycle survives down to {branch.speeds[-1]:.2f} m/s",
-                             linear_critical_speed=vc, step=step, outcome="unstable"), branch
+                             linear_critical_speed=vc, step=step, outcome="unstable", amplitude_mm=linear.amplitude_mm), branch
     if not alive:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
                              f"no limit cycle at {start:.2f} m/s", linear_critical_speed=vc,
-                             step=step, outcome="none"), branch
+                             step=step, outcome="none", amplitude_mm=linear.amplitude_mm), branch
     last = alive[-1]  # the lowest speed that still carried the limit cycle
     if branch.speeds[last] > vc:
         return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
                              f"no limit cycle below the linear critical speed: it dies below "
                              f"{branch.speeds[last]:.2f} m/s (steps of {step:.0%}), above "
                              f"{vc:.2f} m/s, so hunting starts at the linear critical speed",
-                             linear_critical_speed=vc, step=step, outcome="linear"), branch
+                             linear_critical_speed=vc, step=step, outcome="linear", amplitude_mm=linear.amplitude_mm), branch
     return CriticalSpeed("nonlinear", branch.speeds[last], branch.frequencies[last], linear.mode,
                          vmin, vmax, f"the limit cycle dies below this speed (steps of {step:.0%}); "
                          f"the mode is the linear one at {vc:.2f} m/s", linear_critical_speed=vc,
-                         step=step), branch
+                         step=step, amplitude_mm=linear.amplitude_mm), branch
 
 
 def bifurcation(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, step: float = STEP,
                 dwell: float = DWELL, progress: Callable[[str], None] | None = None,
-                ) -> tuple[CriticalSpeed, Branch, Branch]:
+                amplitude: float | None = None) -> tuple[CriticalSpeed, Branch, Branch]:
     """Both branches of the bifurcation diagram around the linear critical speed Vc:
     down from the limit cycle at 1.1*Vc until it dies, and, at the same speeds, runs from
     a small disturbance (5 % of the clearance) for twice as long, which decay below Vc
     and grow onto the limit cycle above it. Between the two critical speeds both the
     centred state and the limit cycle are stable: the hysteresis of hunting."""
-    critical, down = nonlinear_critical_speed(layout, vmin, vmax, step, dwell, progress)
+    critical, down = nonlinear_critical_speed(layout, vmin, vmax, step, dwell, progress, amplitude)
     if down is None:
         return critical, None, None
     low = down.speeds[-1] * (1.0 - step) ** np.arange(3, 0, -1)  # a little below where it died

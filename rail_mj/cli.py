@@ -331,24 +331,41 @@ def _print_summary(result: dict, err: bool = False) -> None:
         say(f"recording: {result['rrd']}{at}  (open it with: rerun {result['rrd']})")
 
 
-def _stability(layout: Layout):
+def _stability(layout: Layout, amplitude: float | None = None):
     from rail_mj.stability import Stability
 
     try:
-        return Stability(layout)
-    except ValueError as e:  # the model does not compile
-        raise Failure(str(e), EXIT_BAD_INPUT) from None
+        return Stability(layout, amplitude)
+    except ValueError as e:  # the model does not compile, or the amplitude is not for it
+        raise Failure(f"--amplitude: {e}" if amplitude is not None and "amplitude" in str(e) else str(e),
+                      EXIT_BAD_INPUT) from None
+
+
+def _amplitude_option(command):
+    """--amplitude: where a profiled contact is linearised."""
+    return click.option(
+        "--amplitude", type=float, default=None,
+        help="For a layout with [profiles]: linearise the contact at this lateral amplitude, mm, as "
+             "practitioners do (the equivalent conicity there, EN 15302)  [default: 3]")(command)
+
+
+def _linearised(stability) -> str:
+    """' (contact linearised at ...)' for a profiled layout, else ''."""
+    text = stability.describe()
+    return f" ({text})" if text else ""
 
 
 @cli.command("eigen")
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option("--speed", type=float, required=True, help="Forward speed, m/s.")
 @click.option("--json", "as_json", is_flag=True, help="Print the modes as JSON.")
-def eigen_cmd(layout, speed, as_json):
+@_amplitude_option
+def eigen_cmd(layout, speed, as_json, amplitude):
     """Eigenvalues and modes of LAYOUT linearised at SPEED, least damped first."""
     lay = _layout(layout)
     _speed("--speed", speed)
-    modes = _stability(lay).modes(speed)
+    stability = _stability(lay, amplitude)
+    modes = stability.modes(speed)
     oscillatory = [m for m in modes if m.oscillatory]
     aperiodic = [m.eigenvalue.real for m in modes if not m.oscillatory]
     if as_json:
@@ -357,8 +374,12 @@ def eigen_cmd(layout, speed, as_json):
             "stable": all(m.eigenvalue.real < 0 for m in modes),
             "modes": [m.as_dict() for m in oscillatory],
             "aperiodic_roots": aperiodic,
+            "amplitude_mm": stability.amplitude,
+            "equivalent_conicity": stability.equivalent_conicity,
         }, indent=2))
         return
+    if stability.amplitude is not None:
+        click.echo(f"{lay.name}: {stability.describe()}")
     click.echo(f"{'mode':<46} {'f (Hz)':>8} {'zeta':>8} {'real (1/s)':>11} {'imag (rad/s)':>12}  participation")
     for m in oscillatory:
         bodies = sorted(m.participation.items(), key=lambda kv: -kv[1])
@@ -396,14 +417,15 @@ def _check_step(step: float | None) -> float:
                    "nonlinear critical speed is known to within it)  [default: 0.02, "
                    "rail_mj.bifurcation.STEP]")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-def critical_speed_cmd(layout, method, vmin, vmax, step, as_json):
+@_amplitude_option
+def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
     """The lowest speed at which LAYOUT stops being stable, and the mode that sets it."""
     lay = _layout(layout)
     _speed_range(vmin, vmax)
     step = _check_step(step)
     from rail_mj.runner import SimulationError
 
-    stability = _stability(lay)  # a model that does not compile fails here, with exit 2
+    stability = _stability(lay, amplitude)  # a model that does not compile fails here, with exit 2
     try:
         with _status(f"critical speed ({method})") as progress:
             if method == "eigen":
@@ -411,7 +433,8 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, as_json):
             elif method == "nonlinear":
                 from rail_mj.bifurcation import nonlinear_critical_speed
 
-                result, _ = nonlinear_critical_speed(lay, vmin, vmax, step, progress=progress)
+                result, _ = nonlinear_critical_speed(lay, vmin, vmax, step, progress=progress,
+                                                     amplitude=amplitude)
             else:
                 from rail_mj.stability import time_critical_speed
 
@@ -428,7 +451,8 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, as_json):
             click.echo(f"linear critical speed: {result.linear_critical_speed:.2f} m/s")
     else:
         click.echo(f"critical speed ({result.method}): {result.critical_speed:.2f} m/s "
-                   f"({result.critical_speed * 3.6:.1f} km/h), {result.frequency:.3f} Hz, {result.mode}")
+                   f"({result.critical_speed * 3.6:.1f} km/h), {result.frequency:.3f} Hz, {result.mode}"
+                   + (_linearised(stability) if result.method == "eigen" else ""))
         if result.linear_critical_speed is not None:
             click.echo(f"linear critical speed: {result.linear_critical_speed:.2f} m/s; {result.note}")
         if len(result.unstable_ranges) > 1 or (result.unstable_ranges and result.unstable_ranges[0][1] < vmax):
@@ -450,7 +474,8 @@ def _speeds(text: str) -> list[float]:
 @click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="The plot, PNG.")
 @click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
               help="The data as CSV [default: the plot's name with .csv].")
-def root_locus_cmd(layout, speeds, out, csv_path):
+@_amplitude_option
+def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
     """Frequency and damping of every mode of LAYOUT against speed, critical speed marked."""
     lay = _layout(layout)
     vs = _speeds(speeds)
@@ -461,7 +486,7 @@ def root_locus_cmd(layout, speeds, out, csv_path):
     _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.plots import locus_csv, root_locus, root_locus_png
 
-    stability = _stability(lay)
+    stability = _stability(lay, amplitude)
     with _status("root locus") as progress:
         rows = root_locus(stability, vs, progress)
         critical = stability.critical_speed(vs[0], vs[-1])
@@ -474,7 +499,8 @@ def root_locus_cmd(layout, speeds, out, csv_path):
     err = _uses_stdout(out, csv_path)
     click.echo(f"plot: {out}\ndata: {csv_path}", err=err)
     if critical.critical_speed is not None:
-        click.echo(f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}", err=err)
+        click.echo(f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}{_linearised(stability)}",
+                   err=err)
     else:
         click.echo(critical.note, err=err)
 
@@ -490,7 +516,8 @@ def root_locus_cmd(layout, speeds, out, csv_path):
               help="The speed step along both branches, a fraction of the speed: the same procedure "
                    "and step as critical-speed --method nonlinear  [default: 0.02, "
                    "rail_mj.bifurcation.STEP]")
-def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step):
+@_amplitude_option
+def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
     """Limit-cycle amplitude of LAYOUT against speed: both branches, both critical speeds."""
     lay = _layout(layout)
     _speed_range(vmin, vmax)
@@ -504,10 +531,10 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step):
     from rail_mj.plots import bifurcation_csv, bifurcation_png
     from rail_mj.runner import SimulationError
 
-    _stability(lay)
+    _stability(lay, amplitude)
     try:
         with _status("bifurcation") as progress:
-            critical, down, up = bifurcation(lay, vmin, vmax, step, progress=progress)
+            critical, down, up = bifurcation(lay, vmin, vmax, step, progress=progress, amplitude=amplitude)
     except ValueError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     except SimulationError as e:
@@ -877,8 +904,10 @@ def contact_geometry_cmd(layout, out, png):
     err = _uses_stdout(out, png)
     import numpy as np
 
-    flange = np.flatnonzero(np.maximum(table.contact_angle_left, table.contact_angle_right) > 1.0)
-    where = (f"flange contact from |y| = {np.min(np.abs(table.y[flange])) * 1e3:.2f} mm" if len(flange)
+    from rail_mj.geometry import flange_contact_shift
+
+    shift = flange_contact_shift(table)
+    where = (f"flange contact from |y| = {shift * 1e3:.2f} mm" if shift is not None
              else "no flange contact within the range")
     click.echo(f"{lay.name}: {len(table.y)} lateral shifts from {table.y[0] * 1e3:g} to {table.y[-1] * 1e3:g} mm; "
                f"{where}", err=err)

@@ -29,6 +29,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from rail_mj import tables as _t
 from rail_mj.layout import LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
 
 
@@ -54,6 +55,8 @@ class ContactParameters:
     flange_slope: np.ndarray  # tan(flange angle), the radius rise per metre on the flange; lam if no flange
     law: int = LINEAR
     flange: bool = False  # flange contact on
+    # A profiled wheelset's contact table (rail_mj.tables); empty: coned wheels.
+    geometry: np.ndarray = dataclasses.field(default_factory=lambda: NO_GEOMETRY)
 
     @functools.cached_property
     def falling(self) -> bool:
@@ -70,20 +73,24 @@ class ContactParameters:
     def broadcast(cls, n: int, *, r0, b, conicity, f11, f22, f23=0.0, f33=0.0,
                   friction_limit=np.inf, falling_friction_ratio=1.0, falling_friction_rate=0.0,
                   law=LINEAR, clearance=0.008, flange_stiffness=0.0, flange_damping=0.0,
-                  flange_slope=None):
+                  flange_slope=None, geometry=None):
         full = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy()  # noqa: E731
         flange = flange_slope is not None
         return cls(full(r0), full(b), full(conicity), full(f11), full(f22), full(f23), full(f33),
                    full(friction_limit), full(falling_friction_ratio), full(falling_friction_rate),
                    full(clearance), full(flange_stiffness),
-                   full(flange_damping), full(flange_slope if flange else conicity), int(law), flange)
+                   full(flange_damping), full(flange_slope if flange else conicity), int(law), flange,
+                   NO_GEOMETRY if geometry is None else np.ascontiguousarray(geometry, dtype=np.float64))
 
+
+NO_GEOMETRY = np.zeros((0, _t.COLUMNS))
 
 # The rows of ContactParameters.table, in order.
 _ROWS = ("r0", "b", "conicity", "f11", "f22", "f23", "f33", "friction_limit", "falling_friction_ratio",
          "falling_friction_rate", "clearance", "flange_stiffness", "flange_damping", "flange_slope")
 (_R0, _B, _LAM, _F11, _F22, _F23, _F33, _LIMIT, _FALL_RATIO, _FALL_RATE, _CLEARANCE, _K_FLANGE,
  _C_FLANGE, _SLOPE) = range(len(_ROWS))
+ROWS = len(_ROWS)
 
 
 # The scalar laws are compiled functions for the kernel (`_saturation`, ...), each with an
@@ -254,15 +261,120 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
 
 
 @numba.njit(cache=True)
-def _kernel(table, law, flange, falling, y, psi, y_dot, psi_dot, speed):
+def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
+    """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
+    them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
+    its contact table (rail_mj.tables), interpolated linearly in y and held at its last row
+    beyond (the runner stops a wheelset that leaves it); `p`: its column of
+    ContactParameters.table, for the falling-friction constants. docs/dynamics-on-profiles.md.
+
+    Per contact point k of side s (+1 left, -1 right), load share w, radius r, contact
+    angle g (leaning towards the track centre), lateral lever l:
+      normal loads from the wheelset's vertical and roll equilibrium under the axle load W:
+        N_L*V_L + N_R*V_R = W,  N_L*M_L + N_R*M_R = 0,
+        V = sum w*cos(g),  M = sum w*(l*cos(g) - s*r*sin(g)),
+      a wheel that would need to pull on its rail carries nothing (it lifts);
+      creepages xi_x = (r0 - r)/r0 - l*psi'/V, xi_y = y'/(V*cos g) - psi*cos g (the slip
+        the rigid contact allows lies in the contact plane), spin = psi'*cos(g)/V - s*sin(g)/r;
+      Kalker's law with this point's ellipse at its load (a, b grow as N^(1/3)), saturated;
+      the normal force's lateral part -s*N*sin(g): gravitational stiffness and the flange.
+    The table's header switches gravitational stiffness and spin creep (f23 = f33 = 0) off.
+    """
+    y0, dy, rows = geo[0, _t.HEADER_Y0], geo[0, _t.HEADER_DY], int(geo[0, _t.HEADER_ROWS])
+    axle_load, shear = geo[0, _t.HEADER_AXLE_LOAD], geo[0, _t.HEADER_SHEAR_MODULUS]
+    mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0]
+    gravity, spinning = geo[0, _t.HEADER_GRAVITY] != 0.0, geo[0, _t.HEADER_SPIN] != 0.0
+    u = min(max((y - y0) / dy, 0.0), rows - 1.0)
+    i = min(int(u), rows - 2)
+    t = u - i
+    lo, hi = geo[1 + i], geo[2 + i]
+    # Vertical and roll equilibrium.
+    v_left = v_right = m_left = m_right = 0.0
+    for side in range(2):
+        s = 1.0 - 2.0 * side
+        for slot in range(_t.SLOTS):
+            c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
+            w = lo[c + _t.WEIGHT] + t * (hi[c + _t.WEIGHT] - lo[c + _t.WEIGHT])
+            r = r0 + lo[c + _t.RADIUS] + t * (hi[c + _t.RADIUS] - lo[c + _t.RADIUS])
+            g = lo[c + _t.ANGLE] + t * (hi[c + _t.ANGLE] - lo[c + _t.ANGLE])
+            lever = lo[c + _t.LEVER] + t * (hi[c + _t.LEVER] - lo[c + _t.LEVER])
+            v = w * math.cos(g)
+            m = w * (lever * math.cos(g) - s * r * math.sin(g))
+            if side == 0:
+                v_left += v
+                m_left += m
+            else:
+                v_right += v
+                m_right += m
+    det = v_left * m_right - v_right * m_left
+    n_left, n_right = axle_load * m_right / det, -axle_load * m_left / det
+    if n_right < 0.0:
+        n_left, n_right = axle_load / v_left, 0.0
+    elif n_left < 0.0:
+        n_left, n_right = 0.0, axle_load / v_right
+    creep_lateral = normal_lateral = couple = spin = lead_moment = 0.0
+    for side in range(2):
+        s = 1.0 - 2.0 * side
+        wheel = n_left if side == 0 else n_right
+        for slot in range(_t.SLOTS):
+            c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
+            normal = wheel * (lo[c + _t.WEIGHT] + t * (hi[c + _t.WEIGHT] - lo[c + _t.WEIGHT]))
+            if normal <= 0.0:
+                continue
+            rise = lo[c + _t.RADIUS] + t * (hi[c + _t.RADIUS] - lo[c + _t.RADIUS])
+            r = r0 + rise
+            g = lo[c + _t.ANGLE] + t * (hi[c + _t.ANGLE] - lo[c + _t.ANGLE])
+            lever = lo[c + _t.LEVER] + t * (hi[c + _t.LEVER] - lo[c + _t.LEVER])
+            cube = normal ** (1.0 / 3.0)
+            a = cube * (lo[c + _t.SEMI_A] + t * (hi[c + _t.SEMI_A] - lo[c + _t.SEMI_A]))
+            b = cube * (lo[c + _t.SEMI_B] + t * (hi[c + _t.SEMI_B] - lo[c + _t.SEMI_B]))
+            ab = a * b
+            f11 = shear * ab * (lo[c + _t.C11] + t * (hi[c + _t.C11] - lo[c + _t.C11]))
+            f22 = shear * ab * (lo[c + _t.C22] + t * (hi[c + _t.C22] - lo[c + _t.C22]))
+            f23 = f33 = 0.0
+            if spinning:
+                f23 = shear * ab * math.sqrt(ab) * (lo[c + _t.C23] + t * (hi[c + _t.C23] - lo[c + _t.C23]))
+                f33 = shear * ab * ab * (lo[c + _t.C33] + t * (hi[c + _t.C33] - lo[c + _t.C33]))
+            cos_g, sin_g = math.cos(g), math.sin(g)
+            xi_x = -rise / r0 - lever * psi_dot / speed
+            xi_y = y_dot / (speed * cos_g) - psi * cos_g
+            xi_sp = psi_dot * cos_g / speed - s * sin_g / r
+            fx = -f11 * xi_x
+            fy = -f22 * xi_y - f23 * xi_sp
+            mz = f23 * xi_y - f33 * xi_sp
+            scale = 1.0
+            if law != LINEAR:
+                limit = mu * normal
+                if falling:
+                    limit = _falling_friction(limit, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_x, xi_y))
+                scale = _saturation_factor(law, fx, fy, limit)
+            lateral = scale * fy * cos_g
+            pushed = -s * normal * sin_g if gravity else 0.0
+            creep_lateral += lateral
+            normal_lateral += pushed
+            couple -= lever * scale * fx
+            spin += scale * mz * cos_g
+            # Where the point lies along the track: a yawed wheel touches a straight rail
+            # ahead of its axle by r*tan(g) (see _flange_lead), its centre sits l*psi behind.
+            lead_moment += psi * (s * r * math.tan(g) - lever) * (lateral + pushed)
+    return creep_lateral, normal_lateral, couple, spin, lead_moment
+
+
+@numba.njit(cache=True)
+def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     """`contact_forces` over flat, contiguous state arrays: the last axis of the original
     shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
-    ContactForces, in order."""
+    ContactForces, in order. A non-empty `geometry` is the wheelsets' contact table."""
     n = table.shape[1]
     out = np.zeros((7, y.size))
+    profiled = geometry.shape[0] > 0
     for k in range(y.size):
-        forces = wheelset_contact(table[:, k % n], law, flange, falling, y[k], psi[k], y_dot[k],
-                                  psi_dot[k], speed)
+        if profiled:
+            forces = profiled_contact(geometry, table[:, k % n], law, falling, y[k], psi[k], y_dot[k],
+                                      psi_dot[k], speed)
+        else:
+            forces = wheelset_contact(table[:, k % n], law, flange, falling, y[k], psi[k], y_dot[k],
+                                      psi_dot[k], speed)
         for row in range(5):
             out[row, k] = forces[row]
         out[5, k] = out[0, k] + out[1, k]
@@ -274,7 +386,7 @@ def _evaluate(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
     """The kernel's rows, each shaped like the states."""
     shape = np.shape(y)
     flat = [np.ascontiguousarray(v, dtype=np.float64).reshape(-1) for v in (y, psi, y_dot, psi_dot)]
-    return _kernel(p.table, p.law, p.flange, p.falling, *flat, float(speed)).reshape((7,) + shape)
+    return _kernel(p.table, p.geometry, p.law, p.flange, p.falling, *flat, float(speed)).reshape((7,) + shape)
 
 
 def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float) -> ContactForces:

@@ -39,6 +39,10 @@ LEADING_COLUMNS = ("y_m", "r_left_m", "r_right_m", "delta_r_m", "contact_angle_l
                    "contact_angle_right_rad", "roll_rad")
 DEFAULT_YS = np.round(np.arange(-200, 201) * 0.05e-3, 12)  # m: -10 to +10 mm in 0.05 mm steps
 TWO_POINT_GAP = 1e-5   # m: a second local minimum of the gap this close to 0 is a second contact
+# m: a second local minimum this close is recorded (r2_*, ... gap2_*): under load the elastic
+# approach of wheel and rail, ~0.05-0.1 mm for a 50-100 kN wheel, closes such a gap, and the
+# dynamics share the wheel's load between the two points (rail_mj.tables).
+NEAR_GAP = 1e-4
 _SECOND_APART = 1e-3   # m: ... and at least this far across the wheel from the first
 _COARSE = 0.1e-3       # m between wheel points in the first search of the gap
 _FINE = 201           # points across two steps of the last grid, at each refinement
@@ -259,8 +263,9 @@ class ContactTable:
     70 degrees on the flange), contact_y (m, track frame), wheel_s (m, across the wheel from
     its taping line, + outwards), rail_u (m, across the rail from its head centreline,
     + outwards), wheel_curvature and rail_curvature (1/m, transverse, positive where convex
-    towards the other body), two_point (a second contact within TWO_POINT_GAP), and the
-    second point's r2, contact_angle2, contact_y2, gap2 (NaN without one). roll (rad, the
+    towards the other body), two_point (a second contact within TWO_POINT_GAP), and a
+    second point within NEAR_GAP: its r2, contact_angle2, contact_y2, gap2, wheel_s2 and
+    curvatures (NaN without one). roll (rad, the
     left side up) and z (m, the axle centre's height above the rails' top)."""
 
     columns: dict
@@ -297,6 +302,11 @@ _CSV_ORDER = (
     ("contact_angle2_left", "contact_angle2_left_rad"), ("contact_angle2_right", "contact_angle2_right_rad"),
     ("contact_y2_left", "contact_y2_left_m"), ("contact_y2_right", "contact_y2_right_m"),
     ("gap2_left", "gap2_left_m"), ("gap2_right", "gap2_right_m"),
+    ("wheel_s2_left", "wheel_s2_left_m"), ("wheel_s2_right", "wheel_s2_right_m"),
+    ("wheel_curvature2_left", "wheel_curvature2_left_per_m"),
+    ("wheel_curvature2_right", "wheel_curvature2_right_per_m"),
+    ("rail_curvature2_left", "rail_curvature2_left_per_m"),
+    ("rail_curvature2_right", "rail_curvature2_right_per_m"),
 )
 CSV_COLUMNS = tuple(name for _, name in _CSV_ORDER)
 assert CSV_COLUMNS[:len(LEADING_COLUMNS)] == LEADING_COLUMNS
@@ -326,24 +336,22 @@ def solve_roll(placed: _Placed, y: float) -> tuple[float, float]:
 def _side(placed: _Placed, eta: float, psi: float, h: float) -> dict:
     """One side's contact (side coordinates; h the centre's height)."""
     track = placed.track
-    found = placed.minima(eta, psi, margin=TWO_POINT_GAP + 1e-4)
+    found = placed.minima(eta, psi, margin=NEAR_GAP + 1e-5)
     out = {}
     for tag, (g, s) in zip(("", "2"), found[:2]):
         q, _ = placed.points(eta, psi, np.array([s]))
         slope = float(track.wheel.slope(np.array([s]))[0])
-        values = {
+        u = float(np.interp(q[0], placed.rail_q, placed.rail_u))
+        out[tag] = {
             "r": placed.r0 - float(track.wheel.height(np.array([s]))[0]),
             "contact_angle": psi + math.atan(slope),
             "q": float(q[0]),
             "gap": g + h,
             "s": s,
+            "u": u,
+            "wheel_curvature": _curvature(track.wheel, s),
+            "rail_curvature": -_curvature(track.rail, u),
         }
-        if tag == "":
-            u = float(np.interp(q[0], placed.rail_q, placed.rail_u))
-            values["u"] = u
-            values["wheel_curvature"] = _curvature(track.wheel, s)
-            values["rail_curvature"] = -_curvature(track.rail, u)
-        out[tag] = values
     return out
 
 
@@ -387,15 +395,28 @@ def contact_table(source, ys=None) -> ContactTable:
             cols[f"wheel_curvature_{side}"][i] = first["wheel_curvature"]
             cols[f"rail_curvature_{side}"][i] = first["rail_curvature"]
             second = found.get("2")
-            two = second is not None and second["gap"] <= TWO_POINT_GAP
-            cols[f"two_point_{side}"][i] = float(two)
-            if two:
+            near = second is not None and second["gap"] <= NEAR_GAP
+            cols[f"two_point_{side}"][i] = float(near and second["gap"] <= TWO_POINT_GAP)
+            if near:
                 cols[f"r2_{side}"][i] = second["r"]
                 cols[f"contact_angle2_{side}"][i] = second["contact_angle"]
                 cols[f"contact_y2_{side}"][i] = sign * second["q"]
                 cols[f"gap2_{side}"][i] = second["gap"]
+                cols[f"wheel_s2_{side}"][i] = second["s"]
+                cols[f"wheel_curvature2_{side}"][i] = second["wheel_curvature"]
+                cols[f"rail_curvature2_{side}"][i] = second["rail_curvature"]
     cols["delta_r"] = cols["r_left"] - cols["r_right"]
     return ContactTable(cols, track)
+
+
+FLANGE_ANGLE = 1.0  # rad: a contact steeper than this (57 degrees) is on the flange
+
+
+def flange_contact_shift(table: ContactTable) -> float | None:
+    """The smallest |y| (m) of the table at which a wheel touches its rail on the flange:
+    the profiles' flangeway clearance; None if none does within the table."""
+    on = np.flatnonzero(np.maximum(table.contact_angle_left, table.contact_angle_right) > FLANGE_ANGLE)
+    return float(np.min(np.abs(table.y[on]))) if len(on) else None
 
 
 def wheel_points(table: ContactTable, i: int, side: str, s=None) -> tuple[np.ndarray, np.ndarray]:

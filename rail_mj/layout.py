@@ -83,7 +83,7 @@ class Contact:
 
     young_modulus: float  # Pa, wheel and rail alike
     poisson_ratio: float
-    rail_transverse_radius: float  # m, the rail head's crown
+    rail_transverse_radius: float | None  # m, the rail head's crown; None with [profiles]
     wheel_transverse_radius: float | None  # m; None: a conical tread, flat across
 
 
@@ -97,6 +97,13 @@ class Profiles:
     rail_inclination: float  # tan of each rail's cant towards the track centre
     track_gauge: float  # m, 14 mm below the rail top
     flange_back_spacing: float  # m, between the wheels' inner faces
+    # Switches that keep the classical planar law reachable: the normal forces' lateral
+    # parts, and spin creep (off: f23 = f33 = 0).
+    gravitational_stiffness: bool = True
+    spin_creep: bool = True
+    # Not a layout key: linear analysis sets it to linearise the contact at this lateral
+    # amplitude, mm (rail_mj.tables.linearised); None: the full tables.
+    linearised_at: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -204,6 +211,12 @@ class _Table:
 
     def non_negative(self, key, default=...):
         return self.number(key, default, low=0.0)
+
+    def flag(self, key, default: bool) -> bool:
+        value = self.get(key, default)
+        if not isinstance(value, bool):
+            self.fail(key, f"must be true or false, got {_kind(value)}")
+        return value
 
     def vector3(self, key, *, required=True):
         value = self.get(key, required=required)
@@ -343,11 +356,17 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     _inertia_fits(t, wheelset.mass, wheelset.inertia, math.hypot(b + r0, r0), "wheelset")
     profiles = None
     if has_profiles:
-        profiles, conicity = _profiles(_Table(source, "profiles", top.get("profiles")), wheelset)
+        profiles, conicity, shift = _profiles(_Table(source, "profiles", top.get("profiles")), wheelset)
+        if "flangeway_clearance" in (top.get("wheelset") or {}):
+            warnings.append(f"{source}: wheelset.flangeway_clearance is not used with [profiles]: their "
+                            f"flanges touch at {shift * 1e3:.2f} mm")
+        wheelset = dataclasses.replace(wheelset, flangeway_clearance=shift)
         if wheelset.conicity is None:
             wheelset = dataclasses.replace(wheelset, conicity=conicity)
             _practice(_Table(source, "wheelset", {}), warnings, conicity=conicity)
-        # Both given: wheelset.conicity is kept; the profiles serve contact geometry only.
+        else:
+            warnings.append(f"{source}: wheelset.conicity is not used by the dynamics: a layout with [profiles] "
+                            f"runs on their contact tables (equivalent conicity at 3 mm: {conicity:.4g})")
 
     has_contact = top.get("contact", None, required=False) is not None
     t = _Table(source, "creep", top.get("creep", {} if has_contact else ...))
@@ -357,6 +376,8 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             t.fail(given[0], "given with [contact]: the creep coefficients come from the contact; "
                              "give one of them")
         coefficients = None
+    elif has_profiles and not {"f11", "f22", "f23", "f33"} & set(t.data):
+        coefficients = None  # each contact point's own, from Hertz and Kalker (below)
     else:
         coefficients = dict(f11=t.positive("f11"), f22=t.positive("f22"),
                             f23=t.non_negative("f23", 0.0), f33=t.non_negative("f33", 0.0))
@@ -442,12 +463,31 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
                                          f"body without mass gives no weight to share; give it in N")
     contact = None
     if has_contact:
-        contact, coefficients = _contact(_Table(source, "contact", top.get("contact")), wheelset)
+        contact, coefficients = _contact(_Table(source, "contact", top.get("contact")), wheelset,
+                                         profiled=has_profiles)
+    if has_profiles and wheelset.wheel_load is not None:
+        if coefficients is not None and not has_contact:
+            warnings.append(f"{source}: creep.f11..f33 are not used by the dynamics: with [profiles] each "
+                            f"contact point has its own, from Hertz and Kalker")
+        if law == "linear":
+            warnings.append(f"{source}: creep.law \"linear\" on profiles: on the flanges the creep forces "
+                            f"grow without bound; choose a saturating law for runs")
+        from rail_mj.tables import TableError, centred_coefficients
+
+        try:
+            coefficients = centred_coefficients(profiles, wheelset, contact, law, friction)
+        except TableError as e:
+            top.fail("profiles", str(e))
+    elif has_profiles and coefficients is None:
+        top.fail("wheelset.wheel_load", "missing: the contact on profiles needs the wheel load, and a fixed car "
+                                        "body without mass gives no weight to share; give it in N")
     creep_table.done()
     creep = Creep(**coefficients, law=law, friction=friction, **falling)
     flange = None
     if top.get("flange", None, required=False) is not None:
         t = _Table(source, "flange", top.get("flange"))
+        if has_profiles:
+            t.fail(None, "not used with [profiles]: the profiles give the flange contact; remove [flange]")
         if law == "linear":
             # On the flange the rolling radius rises by tan(70 deg) per metre: unbounded
             # linear creep turns a millimetre of flange contact into hundreds of kN.
@@ -473,9 +513,10 @@ GRAVITY = 9.81  # m/s^2
 STANDARD_PROFILES = {"wheel": ("s1002",), "rail": ("60e1", "uic60")}
 
 
-def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None]:
-    """[profiles], checked: the files read, the wheelset stood on its rails. With
-    wheelset.conicity omitted, also the profiles' equivalent conicity at 3 mm."""
+def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, float]:
+    """[profiles], checked: the files read, the wheelset stood on its rails; the shift at
+    which a flange touches (the profiles' flangeway clearance, m) and with wheelset.conicity
+    omitted, the profiles' equivalent conicity at 3 mm."""
     from rail_mj import profiles as p  # numpy: only for layouts that need it
 
     base = Path(t.source).parent if t.source != "<layout>" else Path(".")
@@ -503,6 +544,8 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None]:
         rail_inclination=t.number("rail_inclination", p.RAIL_INCLINATION, low=0.0, high=0.1),
         track_gauge=t.number("track_gauge", p.GAUGE, low=0.5, high=2.0),
         flange_back_spacing=t.positive("flange_back_spacing", p.BACK_TO_BACK),
+        gravitational_stiffness=t.flag("gravitational_stiffness", True),
+        spin_creep=t.flag("spin_creep", True),
     )
     t.done()
     gauge, back = profiles.track_gauge, profiles.flange_back_spacing
@@ -519,14 +562,17 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None]:
     from rail_mj.geometry import GeometryError
 
     try:
-        conicity = _profiles_conicity(profiles, wheelset.rolling_radius, _stamp(profiles),
-                                      wheelset.conicity is None)
+        conicity, shift = _profiles_conicity(profiles, wheelset.rolling_radius, _stamp(profiles))
     except GeometryError as e:
         t.fail(None, str(e))
     if wheelset.conicity is None and not (conicity is not None and 0.0 < conicity <= 0.5):
         t.fail(None, f"the profiles' equivalent conicity at 3 mm is {conicity:.4g}, outside (0, 0.5]: give "
                      f"wheelset.conicity for the dynamics")
-    return profiles, conicity
+    if shift is None:  # flangeless wheels (a test cone): held only where the table ends
+        from rail_mj.geometry import DEFAULT_YS
+
+        shift = float(-DEFAULT_YS[0])
+    return profiles, conicity, shift
 
 
 def read_profiles(profiles: Profiles):
@@ -555,9 +601,9 @@ TREAD_HALF_WIDTH = 0.025  # m either side of the taping line
 
 
 @functools.lru_cache(maxsize=32)
-def _profiles_conicity(profiles: Profiles, r0: float, _stamp, wanted: bool) -> float | None:
+def _profiles_conicity(profiles: Profiles, r0: float, _stamp) -> tuple[float, float | None]:
     """The profiles' equivalent conicity at 3 mm (EN 15302) from their contact geometry,
-    or with `wanted` false only the wheelset stood on its rails (a check). Once per profiles."""
+    and where a flange first touches. Once per profiles."""
     from rail_mj import geometry
     from rail_mj.conicity import QUOTED_AMPLITUDE, ConicityError
 
@@ -584,24 +630,30 @@ def _profiles_conicity(profiles: Profiles, r0: float, _stamp, wanted: bool) -> f
             raise geometry.GeometryError(
                 f"centred, the {side} wheel touches its rail at the edge of its profile (s = {s * 1e3:.1f} mm): "
                 f"check flange_back_spacing, track_gauge and rail_inclination")
-    if not wanted:
-        return None
     table = geometry.default_table(profiles, r0)
+    shift = geometry.flange_contact_shift(table)
     try:
-        return geometry.equivalent_conicity(table, QUOTED_AMPLITUDE)
+        return geometry.equivalent_conicity(table, QUOTED_AMPLITUDE), shift
     except ConicityError as e:
         raise geometry.GeometryError(f"no equivalent conicity: {e}") from None
 
 
-def _contact(t: _Table, wheelset: Wheelset):
-    """[contact]: Hertz's ellipse and Kalker's coefficients (docs/contact.md)."""
+def _contact(t: _Table, wheelset: Wheelset, profiled: bool = False):
+    """[contact]: Hertz's ellipse and Kalker's coefficients (docs/contact.md). With
+    [profiles] only the steel: the profiles give every point's curvatures."""
+    if profiled:
+        for key in ("rail_transverse_radius", "wheel_transverse_radius"):
+            if key in t.data:
+                t.fail(key, "not used with [profiles]: the profiles give each contact point's curvatures")
     contact = Contact(
         young_modulus=t.positive("young_modulus"),
         poisson_ratio=t.number("poisson_ratio", low=0.0, high=0.5),
-        rail_transverse_radius=t.positive("rail_transverse_radius"),
-        wheel_transverse_radius=t.positive("wheel_transverse_radius", required=False),
+        rail_transverse_radius=None if profiled else t.positive("rail_transverse_radius"),
+        wheel_transverse_radius=None if profiled else t.positive("wheel_transverse_radius", required=False),
     )
     t.done()
+    if profiled:
+        return contact, None
     from rail_mj.contact import ContactError, contact_patch  # scipy: only for layouts that need it
 
     try:

@@ -88,6 +88,7 @@ NUMERIC_WHEEL = "rail_mj/wheel"  # r0, b, conicity, flangeway clearance
 NUMERIC_CREEP = "rail_mj/creep"  # f11, f22, f23, f33
 NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAWS), mu*N per wheel,
 # and Polach's falling friction: mu_infinity/mu0 and its rate, s/m
+NUMERIC_GEOMETRY = "rail_mj/geometry"  # a profiled wheelset's contact table (rail_mj.tables), row-major
 NUMERIC_FLANGE = "rail_mj/flange"  # on (1) or off (0), stiffness, damping, tan(flange angle)
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
@@ -337,6 +338,10 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     f = layout.flange
     spec.add_numeric(name=NUMERIC_FLANGE, data=_g6(1.0, f.stiffness, f.damping, np.tan(f.angle))
                      if f else _g6(0.0, 0.0, 0.0, 0.0))
+    if layout.profiles is not None:
+        from rail_mj.tables import dynamics_table
+
+        spec.add_numeric(name=NUMERIC_GEOMETRY, data=_g6(*dynamics_table(layout).reshape(-1)))
     return spec
 
 

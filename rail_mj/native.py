@@ -47,7 +47,8 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from rail_mj.creep import wheelset_contact
+from rail_mj.creep import ROWS, profiled_contact, wheelset_contact
+from rail_mj.tables import COLUMNS
 from rail_mj.forces import contact_parameters
 from rail_mj.model import NUMERIC_NATIVE
 
@@ -132,22 +133,25 @@ def _offsets() -> tuple[int, ...]:
 
 # --- the numeric block that carries a model's vehicles -----------------------------------
 
-# The block's first number, "this is rail-mj's native block, version 1": six significant
+# The block's first number, "this is rail-mj's native block, version 2": six significant
 # figures, as MuJoCo's MJCF writer keeps them.
-MAGIC = 7043.01
-# Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), then the
-# contact table (ContactParameters.table, row-major), then per wheelset its body and the
-# joints from it to the world: count, then (joint, dof, 1 for a hinge / 0 for a slide).
-VEHICLE_HEADER = 5
+MAGIC = 7043.02
+# Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
+# of rows of its profile contact table (0: coned wheels), then the contact parameters
+# (ContactParameters.table, row-major), the profile contact table (rail_mj.tables,
+# row-major), then per wheelset its body and the joints from it to the world: count, then
+# (joint, dof, 1 for a hinge / 0 for a slide).
+VEHICLE_HEADER = 6
 _SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE)
 SPEED = 0  # offset of the speed within a vehicle's entries
 
 
 def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0) -> np.ndarray:
     """One vehicle's entries of the block: see VEHICLE_HEADER."""
-    table = params.table
-    entries = [speed, len(wheelset_bodies), params.law, float(params.flange), float(params.falling)]
-    entries += list(table.reshape(-1))
+    table, geometry = params.table, params.geometry
+    entries = [speed, len(wheelset_bodies), params.law, float(params.flange), float(params.falling),
+               float(geometry.shape[0])]
+    entries += list(table.reshape(-1)) + list(geometry.reshape(-1))
     for body in wheelset_bodies:
         chain = []
         b = int(body)
@@ -188,8 +192,8 @@ def vehicle_starts(model: mujoco.MjModel) -> list[int]:
     starts, k = [], 2
     for _ in range(int(data[1])):
         starts.append(k)
-        n = int(data[k + 1])
-        k += VEHICLE_HEADER + 14 * n
+        n, rows = int(data[k + 1]), int(data[k + 5])
+        k += VEHICLE_HEADER + ROWS * n + rows * COLUMNS
         for _ in range(n):
             k += 2 + 3 * int(data[k + 1])
     return starts
@@ -271,8 +275,12 @@ def _apply(model, data, off_nnumeric, off_numeric, off_qvel, off_xpos, off_xmat,
     for _ in range(int(block[1])):
         speed, n = block[k], int(block[k + 1])
         law, flange, falling = int(block[k + 2]), block[k + 3] != 0.0, block[k + 4] != 0.0
-        table = numba.carray(block, (k + VEHICLE_HEADER + 14 * n,))[k + VEHICLE_HEADER:].reshape((14, n))
-        k += VEHICLE_HEADER + 14 * n
+        rows = int(block[k + 5])
+        k += VEHICLE_HEADER
+        table = numba.carray(block, (k + ROWS * n,))[k:].reshape((ROWS, n))
+        k += ROWS * n
+        geometry = numba.carray(block, (k + rows * COLUMNS,))[k:].reshape((rows, COLUMNS))
+        k += rows * COLUMNS
         for i in range(n):
             body, count = int(block[k]), int(block[k + 1])
             chain = numba.carray(block, (k + 2 + 3 * count,))[k + 2:]
@@ -282,7 +290,10 @@ def _apply(model, data, off_nnumeric, off_numeric, off_qvel, off_xpos, off_xmat,
             y = xpos[3 * body + 1]
             psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
-            f = wheelset_contact(table[:, i], law, flange, falling, y, psi, y_dot, psi_dot, speed)
+            if rows > 0:
+                f = profiled_contact(geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed)
+            else:
+                f = wheelset_contact(table[:, i], law, flange, falling, y, psi, y_dot, psi_dot, speed)
             fy, mz = f[0] + f[1], f[2] + f[3] + f[4]
             px, pz = xpos[3 * body], xpos[3 * body + 2]
             for c in range(count):

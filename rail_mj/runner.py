@@ -32,7 +32,7 @@ from rail_mj.forces import CreepForces, contact_parameters, installed
 from rail_mj.layout import Layout
 from rail_mj.practice import DERAILMENT_LATERAL
 from rail_mj.linear import modal_roots, state_matrix
-from rail_mj.model import YAW, Vehicle
+from rail_mj.model import NUMERIC_GEOMETRY, YAW, Vehicle
 from rail_mj import native
 from rail_mj.native import set_speed
 
@@ -226,6 +226,12 @@ class _Prepared:
     timestep: float
     n_steps: int
     forces: CreepForces | None = None  # the Python callback, when asked for; None: the native one
+
+    def derailment(self, lateral: float) -> float:
+        """|y| past which a wheelset has left the rails: `lateral`, or on profiles the end of
+        their contact table (10 mm: far up the flange, where a rigid wheel climbs it)."""
+        profiles = self.request.layout.profiles is not None
+        return min(lateral, -float(self.vehicle.model.numeric(NUMERIC_GEOMETRY).data[0])) if profiles else lateral
 
 
 def prepare(request: Request, python_callback: bool = False) -> _Prepared:
@@ -495,7 +501,7 @@ def _step(packs: list[_Pack], progress, derailment_lateral: float, forces, threa
                     place.sensors.poses(mine_all[:mine.stop - done], pos[mine], quat[mine])
                     place.sensors.rates(mine_all[:mine.stop - done], rates[mine])
                     lateral = np.abs(pos[mine][:, p.vehicle.wheelset_ids, 1])
-                    off = np.nonzero(np.max(lateral, axis=1) > derailment_lateral)[0]
+                    off = np.nonzero(np.max(lateral, axis=1) > p.derailment(derailment_lateral))[0]
                     if len(off):
                         derails[a][m] = done + off[0], int(np.argmax(lateral[off[0]]))
                         results[a][m] = partial(a, m, derails[a][m][0] + 1)  # its Derailed is made below
@@ -545,7 +551,9 @@ def _records(vehicle: Vehicle, n_samples: int):
 def _derailed(p: _Prepared, worst: int, j: int, t, derailment_lateral: float, forces, run) -> "Derailed":
     """Why a wheelset left the rails: the speed (a linear mode grows) or the start."""
     r = p.request
-    why = ("the flanges did not hold it" if r.layout.flange else
+    derailment_lateral = p.derailment(derailment_lateral)
+    why = ("its wheel climbed the flange (past the profiles' contact table)" if r.layout.profiles else
+           "the flanges did not hold it" if r.layout.flange else
            "without [flange] contact nothing bounds the motion")
     if _linearly_stable(p.vehicle, forces):
         start = (f"the start (shifted {r.initial_lateral:g} m, yawed {r.initial_yaw:g} rad)"

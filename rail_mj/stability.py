@@ -85,6 +85,7 @@ class CriticalSpeed:
     unstable_ranges: list[list[float]] = dataclasses.field(default_factory=list)
     linear_critical_speed: float | None = None  # m/s (nonlinear method: where it started from)
     step: float | None = None  # nonlinear method: the speed step, a fraction of the speed
+    amplitude_mm: float | None = None  # on profiles: the amplitude the linear analysis linearises at
     # What the search found, for programs: "crossing" (a critical speed), "stable" (stable
     # over the whole range), "unstable" (unstable from its lowest speed), or for the
     # nonlinear method "linear" (no limit cycle below the linear critical speed) and
@@ -93,6 +94,10 @@ class CriticalSpeed:
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
+
+
+# mm: the largest linearisation amplitude, within the contact tables' 10 mm either side.
+LARGEST_AMPLITUDE = 9.0
 
 
 class Stability:
@@ -106,8 +111,23 @@ class Stability:
         ['bogie 1 frame lateral/yaw (primary hunting)']
     """
 
-    def __init__(self, layout: Layout):
+    def __init__(self, layout: Layout, amplitude: float | None = None):
+        """On profiles the contact is linearised at the lateral amplitude `amplitude` (mm;
+        default 3, where EN 15302 quotes the equivalent conicity): rail_mj.tables.linearised."""
         self.layout = layout
+        self.amplitude = None
+        if layout.profiles is not None:
+            from rail_mj.conicity import QUOTED_AMPLITUDE, MIN_AMPLITUDE
+
+            self.amplitude = QUOTED_AMPLITUDE if amplitude is None else float(amplitude)
+            if not (math.isfinite(self.amplitude) and MIN_AMPLITUDE <= self.amplitude <= LARGEST_AMPLITUDE):
+                raise ValueError(f"the amplitude must be from {MIN_AMPLITUDE:g} to {LARGEST_AMPLITUDE:g} mm, "
+                                 f"got {amplitude}")
+            layout = dataclasses.replace(layout, profiles=dataclasses.replace(
+                layout.profiles, linearised_at=self.amplitude))
+        elif amplitude is not None:
+            raise ValueError(f"{layout.source}: an amplitude linearises a profiled contact; this layout's "
+                             f"wheels are cones, the same at every amplitude")
         self.vehicle = Vehicle(layout)
         self._speed_terms = None  # A0, D, G of state_matrix, once fitted
         model = self.vehicle.model
@@ -125,6 +145,23 @@ class Stability:
             self._absolute[name] = (jacp[1].copy(), jacr[2].copy())
         self._mass = {n: (model.body(n).mass[0], model.body(n).inertia[2]) for n in self.bodies}
         self._yaw_arm = {n: self._arm(n) for n in self.bodies}
+
+    @property
+    def equivalent_conicity(self) -> float:
+        """The conicity the linearisation sees: on profiles their equivalent conicity at
+        `amplitude` (EN 15302), otherwise the cone's."""
+        if self.amplitude is None:
+            return self.layout.wheelset.conicity
+        from rail_mj import geometry
+
+        return geometry.equivalent_conicity(geometry.contact_table(self.layout), self.amplitude)
+
+    def describe(self) -> str:
+        """How the contact is linearised, one phrase (empty for cones)."""
+        if self.amplitude is None:
+            return ""
+        return (f"contact linearised at a lateral amplitude of {self.amplitude:g} mm "
+                f"(equivalent conicity {self.equivalent_conicity:.4g})")
 
     # --- linearisation ------------------------------------------------------
 
@@ -269,14 +306,17 @@ class Stability:
             mode = self.least_damped(vmin)
             return CriticalSpeed("eigen", None, None, None, vmin, vmax,
                                  f"unstable already at {vmin:g} m/s: {mode.name} grows at "
-                                 f"{mode.eigenvalue.real:.3g} 1/s", ranges, outcome="unstable")
+                                 f"{mode.eigenvalue.real:.3g} 1/s", ranges, outcome="unstable",
+                                 amplitude_mm=self.amplitude)
         if ranges:
             vc = ranges[0][0]
             mode = self.least_damped(vc)
             return CriticalSpeed("eigen", vc, mode.frequency, mode.name, vmin, vmax,
-                                 "the least-damped root crosses the imaginary axis", ranges)
+                                 "the least-damped root crosses the imaginary axis", ranges,
+                                 amplitude_mm=self.amplitude)
         return CriticalSpeed("eigen", None, None, None, vmin, vmax,
-                             f"stable over the whole range {vmin:g}-{vmax:g} m/s", ranges, outcome="stable")
+                             f"stable over the whole range {vmin:g}-{vmax:g} m/s", ranges, outcome="stable",
+                             amplitude_mm=self.amplitude)
 
 
 def _crossing(f, lo: float, hi: float) -> float:

@@ -200,7 +200,7 @@ def test_nonlinear_critical_speed_is_below_the_linear_one(tmp_path):
 def test_cli_nonlinear_needs_flange_contact(capsys):
     assert main(["critical-speed", str(MODELS / "wagon" / "wagon.toml"), "--method", "nonlinear"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "needs [flange] and a saturating creep law" in err
+    assert len(err.splitlines()) == 1 and "needs flange contact ([flange] or [profiles]) and a saturating creep law" in err
 
 
 def test_sliding_rms_matches_a_direct_sum():

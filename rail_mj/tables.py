@@ -1,0 +1,271 @@
+"""Contact tables: a profiled wheelset's contact, ready for the compiled creep law.
+
+`rail_mj.geometry` finds where a rigid wheelset touches its rails at each lateral shift y.
+This module turns that into one array the compiled law (`rail_mj.creep.profiled_contact`)
+interpolates at every step: per row y, the roll, and per wheel two contact
+slots, the tread and the flange, each with its share of the wheel's load, rolling radius,
+contact angle, lateral lever, and the Hertz ellipse and Kalker coefficients of that point
+per unit load. The physics is in docs/dynamics-on-profiles.md.
+
+Two switches in the header keep the classical planar law reachable: gravitational stiffness
+(the normal forces' lateral parts) and spin creep (with it off, f23 = f33 = 0).
+
+Why two slots: on a new S1002 wheel on a 60E1 rail the contact jumps from the tread to the
+flange root as the flange closes (at 6.26 mm on standard track). Rigidly, tread and flange
+touch together at one shift only; under load the elastic approach of wheel and rail
+(~0.07 mm at 50 kN) closes a nearby second gap too, and the wheel's load is shared between
+the points as Hertz's law shares it: N_k proportional to (approach_k)^(3/2). Each slot keeps
+its own point across the rows, so interpolating between rows moves load from tread to
+flange instead of dragging one point across the gap.
+
+Layout of the array (float64, shape (1 + rows, COLUMNS)): row 0 is a header (HEADER_*),
+rows 1.. are the uniform y grid.
+
+Example, S1002 on 60E1 at 1:40 near the centre, a 110 kN axle, the Polach law's mu:
+
+    >>> import numpy as np
+    >>> from rail_mj.geometry import Track, contact_table
+    >>> from rail_mj.profiles import rail_60e1, s1002
+    >>> geo = contact_table(Track(s1002(), rail_60e1()), ys=np.linspace(-1e-3, 1e-3, 41))
+    >>> t = build(geo, 110e3, 210e9, 0.28, 0.3)
+    >>> t.shape == (42, COLUMNS), round(float(t[21, point_column(0, TREAD, ANGLE)]), 4)
+    (True, 0.0244)
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+# Header entries (row 0).
+HEADER_Y0, HEADER_DY, HEADER_ROWS, HEADER_AXLE_LOAD, HEADER_SHEAR_MODULUS, HEADER_FRICTION, \
+    HEADER_R0, HEADER_GRAVITY, HEADER_SPIN = range(9)
+# Per row: y, roll (rad, left side up), then per side (left, right) per slot POINT entries.
+Y, ROLL = range(2)
+FIRST_POINT = 2
+# Per point: load share, rolling radius less r0 (m: what MJCF's 6 significant figures keep
+# to 1e-12 m near the centre), contact angle (rad, leaning towards the track
+# centre), lateral lever (m, the contact's y less the wheelset's), Hertz semi-axes per
+# unit load (m/N^(1/3), a along the rolling direction), Kalker's C11, C22, C23, C33.
+WEIGHT, RADIUS, ANGLE, LEVER, SEMI_A, SEMI_B, C11, C22, C23, C33 = range(10)
+POINT = 10
+SLOTS = 2  # tread, flange
+COLUMNS = FIRST_POINT + 2 * SLOTS * POINT
+TREAD, FLANGE = 0, 1
+_JUMP = 2e-3  # m across the wheel: a jump of the contact point this long is tread -> flange
+
+
+def point_column(side: int, slot: int, field: int) -> int:
+    """The column of `field` for side 0 (left) / 1 (right) and slot TREAD / FLANGE."""
+    return FIRST_POINT + (side * SLOTS + slot) * POINT + field
+
+
+class TableError(ValueError):
+    """A contact table that cannot be made; the message is one line."""
+
+
+def _hertz_per_unit_load(A, B, young, poisson):
+    """Semi-axes at 1 N, Kalker's coefficients (ratio clamped to his table) and the
+    approach coefficient c (approach = c*N^(2/3)) of a point with curvature sums A, B."""
+    from rail_mj.contact import KALKER_S, hertz_ellipse, kalker_coefficients
+
+    # A conformal point (B near 0 or below: a worn tread on a rail of nearly its shape)
+    # has a long, narrow ellipse across; Hertz needs B > 0, so it is held at A/1000.
+    B = max(B, 1e-3 * A)
+    a, b = hertz_ellipse(1.0, A, B, young, poisson)
+    ratio = a / b
+    low, high = KALKER_S[0], 1.0 / (2.0 - KALKER_S[-1])
+    C = kalker_coefficients(min(max(ratio, low), high), poisson)
+    estar = young / (2.0 * (1.0 - poisson**2))
+    # Johnson (1985, eq. 4.25): an ellipse's approach as the equivalent sphere's, radius
+    # 1/(2*sqrt(A*B)); only used to share a wheel's load between two points.
+    approach = (9.0 * 2.0 * math.sqrt(A * B) / (16.0 * estar**2)) ** (1.0 / 3.0)
+    return a, b, C, approach
+
+
+def _share(points, load, young, poisson):
+    """Load shares of a wheel's points [(gap, angle, A, B), ...] (vertical gaps, the first
+    0) under the vertical wheel load `load`: the common vertical approach zeta solves
+    sum N_k*cos(angle_k) = load with N_k = ((zeta - gap_k)*cos(angle_k)/c_k)^(3/2)."""
+    from scipy.optimize import brentq
+
+    coeff = [_hertz_per_unit_load(A, B, young, poisson)[3] for _, _, A, B in points]
+
+    def normal(zeta):
+        return [max((zeta - g) * math.cos(gamma), 0.0) ** 1.5 / c**1.5
+                for (g, gamma, _, _), c in zip(points, coeff)]
+
+    def excess(zeta):
+        return sum(n * math.cos(p[1]) for n, p in zip(normal(zeta), points)) - load
+
+    hi = 1e-4
+    while excess(hi) < 0:
+        hi *= 2
+    zeta = brentq(excess, 0.0, hi, xtol=1e-15)
+    n = normal(zeta)
+    return [v / sum(n) for v in n]
+
+
+def _side_points(cols, side: str, i: int):
+    """The contact points of one side at row i: [(gap, s, r, angle, y, kw, kr), ...]."""
+    out = [(0.0, cols[f"wheel_s_{side}"][i], cols[f"r_{side}"][i], cols[f"contact_angle_{side}"][i],
+            cols[f"contact_y_{side}"][i], cols[f"wheel_curvature_{side}"][i],
+            cols[f"rail_curvature_{side}"][i])]
+    if np.isfinite(cols[f"r2_{side}"][i]):
+        out.append((max(cols[f"gap2_{side}"][i], 0.0), cols[f"wheel_s2_{side}"][i], cols[f"r2_{side}"][i],
+                    cols[f"contact_angle2_{side}"][i], cols[f"contact_y2_{side}"][i],
+                    cols[f"wheel_curvature2_{side}"][i], cols[f"rail_curvature2_{side}"][i]))
+    return out
+
+
+def _split(s_primary) -> float:
+    """The wheel coordinate that separates tread from flange: the middle of the longest
+    jump of the contact point between neighbouring rows, if one is longer than _JUMP;
+    -inf (all tread) for a profile whose contact moves continuously (a cone, a worn tread)."""
+    jumps = np.abs(np.diff(s_primary))
+    k = int(np.argmax(jumps))
+    return 0.5 * (s_primary[k] + s_primary[k + 1]) if jumps[k] > _JUMP else -math.inf
+
+
+def build(geometry, axle_load: float, young: float, poisson: float, friction: float) -> np.ndarray:
+    """The table from a rail_mj.geometry.ContactTable (uniform y), for an axle load (N, the
+    vertical load the two wheels carry together), steel of Young's modulus `young` and
+    Poisson's ratio `poisson`, and the friction coefficient (0 for the linear law)."""
+    cols = geometry.columns
+    ys = np.asarray(cols["y"], float)
+    steps = np.diff(ys)
+    if len(ys) < 3 or not np.allclose(steps, steps[0], rtol=0, atol=1e-12):
+        raise TableError("the contact geometry must be tabulated on a uniform grid of at least 3 shifts")
+    rows = len(ys)
+    table = np.zeros((rows + 1, COLUMNS))
+    r0 = 0.5 * float(np.interp(0.0, ys, cols["r_left"]) + np.interp(0.0, ys, cols["r_right"]))
+    table[0, :9] = ys[0], steps[0], rows, axle_load, young / (2.0 * (1.0 + poisson)), friction, r0, 1.0, 1.0
+    body = table[1:]
+    body[:, Y] = ys
+    body[:, ROLL] = cols["roll"]
+    for k, side in enumerate(("left", "right")):
+        split = _split(np.asarray(cols[f"wheel_s_{side}"], float))
+        for i in range(rows):
+            points = _side_points(cols, side, i)
+            shapes = []
+            for gap, s, r, gamma, y_c, kw, kr in points:
+                A = math.cos(gamma) / (2.0 * r)  # the wheel's circumferential curvature (Meusnier)
+                B = 0.5 * (kw + kr)
+                shapes.append((gap, gamma, A, B))
+            weights = [1.0] if len(points) == 1 else _share(shapes, axle_load / 2.0, young, poisson)
+            if len(points) == 1:
+                slots = [FLANGE if points[0][1] < split else TREAD]
+            else:  # the point further in across the wheel is on the flange
+                slots = [FLANGE, TREAD] if points[0][1] < points[1][1] else [TREAD, FLANGE]
+            for (gap, s, r, gamma, y_c, kw, kr), (_, _, A, B), w, slot in zip(points, shapes, weights, slots):
+                a, b, C, _ = _hertz_per_unit_load(A, B, young, poisson)
+                values = (w, r - r0, gamma, y_c - ys[i], a, b, C["C11"], C["C22"], C["C23"], C["C33"])
+                for field, v in enumerate(values):
+                    body[i, point_column(k, slot, field)] = v
+            if len(points) == 1:  # the empty slot copies the point, at no load
+                full, empty = slots[0], 1 - slots[0]
+                start = point_column(k, full, 0)
+                body[i, point_column(k, empty, 0):point_column(k, empty, 0) + POINT] = body[i, start:start + POINT]
+                body[i, point_column(k, empty, WEIGHT)] = 0.0
+    if not np.all(np.isfinite(table)):
+        raise TableError("the contact table has undefined entries (a profile's curvature at its end?)")
+    return table
+
+
+def linearised(table: np.ndarray, geometry, amplitude: float) -> np.ndarray:
+    """The table linearised about the centred state at a lateral amplitude (mm), as
+    practitioners linearise: the rolling radii as the cone of the equivalent conicity
+    there (EN 15302, so that Δr = 2*λe*y), every other entry as its value at y = 0 plus
+    the first-harmonic slope of its odd part at that amplitude. Three rows, one grid step apart."""
+    from rail_mj import geometry as g
+
+    lam = g.equivalent_conicity(geometry, amplitude)
+    body = table[1:]
+    ys = body[:, Y]
+    centre = np.array([np.interp(0.0, ys, body[:, c]) for c in range(COLUMNS)])
+    theta = np.linspace(0.0, 2.0 * math.pi, 721)[:-1]
+    yh = amplitude * 1e-3 * np.sin(theta)
+    slope = np.array([np.mean(np.interp(yh, ys, body[:, c]) * np.sin(theta)) * 2.0 / (amplitude * 1e-3)
+                      for c in range(COLUMNS)])
+    for side, sign in ((0, 1.0), (1, -1.0)):
+        for slot in (TREAD, FLANGE):
+            slope[point_column(side, slot, RADIUS)] = sign * lam
+    dy = table[0, HEADER_DY]
+    out = np.zeros((4, COLUMNS))
+    out[0] = table[0]
+    out[0, HEADER_Y0], out[0, HEADER_ROWS] = -dy, 3
+    for i, y in enumerate((-dy, 0.0, dy)):
+        out[i + 1] = centre + slope * y
+    out[1:, Y] = (-dy, 0.0, dy)
+    return out
+
+
+def dynamics_table(layout, amplitude: float | None = None) -> np.ndarray:
+    """The table of a Layout with [profiles]: its default contact geometry, the wheel load
+    from the layout, steel from [contact] (or 210 GPa and 0.28), the creep law's friction.
+    Linearised at `amplitude` (mm; default the profiles' own `linearised_at`), if any."""
+    c = layout.creep
+    return table_for(layout.profiles, layout.wheelset, layout.contact, c.law, c.friction, amplitude)
+
+
+def table_for(profiles, wheelset, contact, law: str, friction, amplitude: float | None = None) -> np.ndarray:
+    """`dynamics_table` from the layout's parts (the layout checks itself with it)."""
+    from rail_mj import geometry as g
+
+    if wheelset.wheel_load is None:
+        raise TableError("wheelset.wheel_load: missing: the contact on profiles needs the wheel load, and a "
+                         "fixed car body without mass gives no weight to share; give it in N")
+    amplitude = profiles.linearised_at if amplitude is None else amplitude
+    geo = g.default_table(_geometry_key(profiles), wheelset.rolling_radius)
+    young, poisson = (contact.young_modulus, contact.poisson_ratio) if contact \
+        else (STEEL_YOUNG_MODULUS, STEEL_POISSON_RATIO)
+    mu = friction if law != "linear" and friction is not None else 0.0
+    table = _build(geo, 2.0 * wheelset.wheel_load, young, poisson, mu)
+    table = table if amplitude is None else linearised(table, geo, amplitude)
+    if not (profiles.gravitational_stiffness and profiles.spin_creep):
+        table = table.copy()
+        table[0, HEADER_GRAVITY], table[0, HEADER_SPIN] = profiles.gravitational_stiffness, profiles.spin_creep
+    return table
+
+
+def _geometry_key(profiles):
+    """The profiles as far as the rigid geometry goes: the default table is made once for them."""
+    import dataclasses
+
+    return dataclasses.replace(profiles, linearised_at=None, gravitational_stiffness=True, spin_creep=True)
+
+
+def centred_coefficients(profiles, wheelset, contact, law: str, friction) -> dict:
+    """Kalker's f11, f22 (N), f23 (N m), f33 (N m^2) of one wheel of the centred wheelset
+    under its static load, summed over its contact points: what a coned model of the same
+    wheelset would take."""
+    table = table_for(profiles, wheelset, contact, law, friction)
+    body = table[1:]
+    row = np.array([np.interp(0.0, body[:, Y], body[:, c]) for c in range(COLUMNS)])
+    shear, out = table[0, HEADER_SHEAR_MODULUS], dict(f11=0.0, f22=0.0, f23=0.0, f33=0.0)
+    for slot in range(SLOTS):
+        w = row[point_column(0, slot, WEIGHT)]
+        if w <= 0:
+            continue
+        cube = (w * wheelset.wheel_load) ** (1.0 / 3.0)
+        ab = cube**2 * row[point_column(0, slot, SEMI_A)] * row[point_column(0, slot, SEMI_B)]
+        out["f11"] += shear * ab * row[point_column(0, slot, C11)]
+        out["f22"] += shear * ab * row[point_column(0, slot, C22)]
+        out["f23"] += shear * ab**1.5 * row[point_column(0, slot, C23)]
+        out["f33"] += shear * ab**2 * row[point_column(0, slot, C33)]
+    return {k: float(v) for k, v in out.items()}
+
+
+STEEL_YOUNG_MODULUS = 210e9  # Pa, wheel and rail steel
+STEEL_POISSON_RATIO = 0.28
+
+
+@functools.lru_cache(maxsize=16)
+def _build(geo, axle_load, young, poisson, friction):
+    """`build` once per geometry (ContactTables hash by identity; the default one is itself
+    made once per profiles) and load."""
+    table = build(geo, axle_load, young, poisson, friction)
+    table.setflags(write=False)
+    return table

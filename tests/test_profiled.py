@@ -1,0 +1,207 @@
+"""The dynamics on wheel and rail profiles: the contact tables (rail_mj/tables.py) and the
+compiled law that interpolates them (rail_mj.creep.profiled_contact), docs/dynamics-on-profiles.md."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from rail_mj import geometry, native, tables
+from rail_mj.cli import main
+from rail_mj.creep import ContactParameters, contact_forces
+from rail_mj.forces import CreepForces, installed
+from rail_mj.layout import LayoutError, load_layout
+from rail_mj.model import Vehicle
+from rail_mj.runner import simulate
+from rail_mj.stability import Stability
+
+MODELS = Path(__file__).resolve().parent.parent / "models"
+PROFILES = """
+[profiles]
+wheel = "s1002"
+rail = "60e1"
+rail_inclination = 0.025
+track_gauge = 1.435
+flange_back_spacing = 1.360
+"""
+COACH = ((MODELS / "manchester-coach" / "manchester-coach.toml").read_text()
+         .replace("conicity = 0.15", "").replace("flangeway_clearance = 0.008", "")
+         .replace("[flange]", "") + PROFILES)
+for key in ("f11", "f22", "f23", "f33"):
+    COACH = "\n".join(line for line in COACH.splitlines() if not line.startswith(key))
+
+
+@pytest.fixture(scope="module")
+def coach(tmp_path_factory):
+    path = tmp_path_factory.mktemp("profiled") / "coach.toml"
+    path.write_text(COACH)
+    return load_layout(path)
+
+
+def forces_at(table, y, psi=0.0, y_dot=0.0, psi_dot=0.0, speed=30.0, law=0):
+    p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.1, f11=1.0, f22=1.0, law=law,
+                                    friction_limit=1.0, geometry=table)
+    return contact_forces(p, np.array([y]), np.array([psi]), np.array([y_dot]), np.array([psi_dot]), speed)
+
+
+def test_the_coach_on_profiles_takes_everything_from_them(coach):
+    assert coach.flange is None and coach.profiles is not None
+    # The flangeway clearance is where a flange first touches (contact-geometry's number).
+    assert coach.wheelset.flangeway_clearance == pytest.approx(
+        geometry.flange_contact_shift(geometry.contact_table(coach)), abs=0)
+    # Kalker's coefficients of the centred contact, from Hertz at each point: of the order of
+    # 10 MN for a 5.5 t wheel (docs/contact.md's 10 t reference case gives 14.3 and 13.1 MN).
+    assert 5e6 < coach.creep.f22 < coach.creep.f11 < 20e6
+
+
+@pytest.mark.parametrize("y_mm", [0.5, 1.0, 2.0, 3.0, 4.5, 5.5, 5.8, -3.0])
+def test_normal_forces_do_the_virtual_work_of_the_axle_load(coach, y_mm):
+    """Gravitational stiffness from equilibrium: the lateral resultant of the normal forces
+    that balance the axle load W in vertical and roll equilibrium equals -W*dz/dy, z(y) the
+    rigid wheelset's height from the geometry (virtual work: the contact forces of a rigid
+    constraint do none). Independent: z is never used by the law. 1e-3 relative: the
+    central difference of z over +/- 0.05 mm and the interpolation between rows."""
+    table = tables.dynamics_table(coach)
+    geo = geometry.contact_table(coach)
+    y = y_mm * 1e-3
+    i = int(round((y - geo.y[0]) / (geo.y[1] - geo.y[0])))
+    dz_dy = (geo.z[i + 1] - geo.z[i - 1]) / (geo.y[i + 1] - geo.y[i - 1])
+    w = table[0, tables.HEADER_AXLE_LOAD]
+    got = float(forces_at(table, geo.y[i]).flange_lateral[0])
+    assert got == pytest.approx(-w * dz_dy, rel=1e-3)
+    assert got * y < 0  # it pushes the wheelset back to the centre
+
+
+def test_forces_are_odd_on_a_symmetric_track(coach):
+    """Mirror the state, mirror the forces: the two sides are worked alike (1e-7 of the
+    largest force, the geometry's rows at -y and +y are found independently)."""
+    table = tables.dynamics_table(coach)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        state = rng.normal(scale=[0.003, 0.003, 0.05, 0.05])
+        a = forces_at(table, *state, law=2)
+        b = forces_at(table, *(-state), law=2)
+        scale = max(abs(float(a.lateral[0])), abs(float(a.yaw[0])), 1.0)
+        assert float(b.lateral[0]) == pytest.approx(-float(a.lateral[0]), abs=1e-7 * scale)
+        assert float(b.yaw[0]) == pytest.approx(-float(a.yaw[0]), abs=1e-7 * scale)
+    centred = forces_at(table, 0.0)
+    assert abs(float(centred.lateral[0])) < 1e-9 * table[0, tables.HEADER_AXLE_LOAD]
+
+
+def cone_on_knives(tmp_path, lam):
+    """A restrained wheelset (models/wheelset, a 50 kN wheel load, its yaw spring softened
+    to 0.2 MN m/rad: on knife edges the ellipse is small and f11, f22 are ~1.4 MN) on a
+    straight-tread cone of conicity lam and knife-edge rails, gravitational stiffness and
+    spin creep off."""
+    (tmp_path / "cone.csv").write_text("y_mm,z_mm\n-60,%r\n60,%r\n" % (-60 * lam, 60 * lam))
+    (tmp_path / "knife.csv").write_text("y_mm,z_mm\n-20,-20\n0,0\n20,-20\n")
+    text = ((MODELS / "wheelset" / "wheelset.toml").read_text().replace("conicity = 0.1", "wheel_load = 50.0e3")
+            .replace("yaw_stiffness = 2.0e6", "yaw_stiffness = 2.0e5"))
+    text = "\n".join(line for line in text.splitlines() if not line.startswith(("f11", "f22")))
+    text += ('\n[profiles]\nwheel = "cone.csv"\nrail = "knife.csv"\nrail_inclination = 0.0\n'
+             'gravitational_stiffness = false\nspin_creep = false\n')
+    path = tmp_path / "cone.toml"
+    path.write_text(text)
+    return load_layout(path)
+
+
+def test_a_cone_on_knife_edges_is_the_classical_restrained_wheelset(tmp_path):
+    """With gravitational stiffness and spin creep off, a coned wheelset on knife-edge
+    rails linearised at any amplitude is the classical wheelset of docs/creep.md: its
+    critical speed is the closed form Vc^2 = P*Q/(P^2*lam/(b*r0) - (m*kpsi - Iz*ky)^2/4)
+    with lam the table's conicity (Δr = 2*lam*y exactly on knives), b the contacts' lever
+    and f11, f22 Hertz's and Kalker's at the centred contact. 5e-4 relative: the contact
+    plane's tilt atan(lam) enters the lateral creepage as cos(gamma) = 1 - 3.1e-4 at 1:40,
+    which moves Vc by as much (measured 3.15e-4)."""
+    layout = cone_on_knives(tmp_path, 0.025)
+    stability = Stability(layout, amplitude=2.0)
+    table = tables.dynamics_table(layout)
+    centre = table[1:][np.argmin(np.abs(table[1:, tables.Y]))]
+    b = centre[tables.point_column(0, tables.TREAD, tables.LEVER)]
+    lam = stability.equivalent_conicity
+    # Δr of the knives is linear: the same conicity at every amplitude (1e-6).
+    assert Stability(layout, amplitude=6.0).equivalent_conicity == pytest.approx(lam, rel=1e-6)
+    w, c = layout.wheelset, layout.creep
+    # r0: the centred contact's rolling radius (the knives touch 18.5 mm inside the taping line)
+    m, iz, r0, kpsi = w.mass, w.inertia[2], table[0, tables.HEADER_R0], layout.primary.yaw_stiffness
+    p = m * c.f11 * b**2 + iz * c.f22
+    q = c.f22 * kpsi
+    closed = math.sqrt(p * q / (p**2 * lam / (b * r0) - (m * kpsi) ** 2 / 4))
+    got = stability.critical_speed(5.0, 150.0).critical_speed
+    assert got == pytest.approx(closed, rel=5e-4)
+
+
+def test_native_and_python_callbacks_agree_on_profiles(coach):
+    """On the tread, across the jump to the flange and up it: qfrc_passive agrees to 1e-9."""
+    vehicle = Vehicle(coach)
+    model = vehicle.model
+    native.set_speed(model, 61.0)
+    python = CreepForces(model, vehicle.wheelset_names, 61.0)
+    rng = np.random.default_rng(11)
+    for _ in range(15):
+        qpos, qvel = rng.normal(scale=0.005, size=model.nq), rng.normal(scale=0.2, size=model.nv)
+        out = []
+        for callback in (python, native.callback()):
+            data = mujoco.MjData(model)
+            data.qpos[:], data.qvel[:] = qpos, qvel
+            with installed(callback):
+                mujoco.mj_forward(model, data)
+            out.append(data.qfrc_passive.copy())
+        scale = np.max(np.abs(out[0]))
+        assert scale > 0
+        np.testing.assert_allclose(out[1], out[0], rtol=0, atol=1e-9 * scale)
+
+
+def test_equivalent_conicity_sets_the_linear_critical_speed(coach):
+    """Linearised at 1 mm the S1002/60E1 pair is far steeper than at 3 mm (λe 0.36 against
+    0.18): the coach hunts from a lower speed, as the seed's kinematic argument says."""
+    small, quoted = Stability(coach, amplitude=1.0), Stability(coach)
+    assert quoted.amplitude == 3.0
+    assert small.equivalent_conicity > 1.5 * quoted.equivalent_conicity
+    v_small = small.critical_speed(20.0, 150.0).critical_speed
+    v_quoted = quoted.critical_speed(20.0, 150.0).critical_speed
+    assert v_small < 0.85 * v_quoted
+
+
+def test_the_profiled_coach_decays_below_and_hunts_on_its_flanges_above(coach):
+    """Below the linear critical speed a 2 mm start dies away; well above it the motion
+    grows onto a limit cycle that the flanges bound: no further than a little past where
+    they touch (rigid profiles: the contact climbs the flange root, a wall of ~2W)."""
+    vc = Stability(coach).critical_speed(20.0, 150.0).critical_speed
+    slow = simulate(coach, 0.6 * vc, 400.0, 0.002)
+    assert np.max(np.abs(slow.y[-100:])) < 1e-4
+    fast = simulate(coach, 1.15 * vc, 1200.0, 0.002)
+    late = np.max(np.abs(fast.y[len(fast.y) // 2:]))
+    clearance = coach.wheelset.flangeway_clearance
+    assert 0.8 * clearance < late < clearance + 0.5e-3
+
+
+def test_profiles_take_the_place_of_flange_and_cone(tmp_path):
+    path = tmp_path / "both.toml"
+    path.write_text((MODELS / "manchester-coach" / "manchester-coach.toml").read_text() + PROFILES)
+    with pytest.raises(LayoutError, match=r"flange: not used with \[profiles\]"):
+        load_layout(path)
+    path.write_text(COACH.replace("flange_back_spacing = 1.360", "flange_back_spacing = 1.360\nspin_creep = 1"))
+    with pytest.raises(LayoutError, match="spin_creep: must be true or false"):
+        load_layout(path)
+    path.write_text(COACH.replace('law = "polach"', 'law = "polach"\nf11 = 1.0e7\nf22 = 1.0e7'))
+    assert any("f11..f33 are not used" in w for w in load_layout(path).warnings)
+
+
+def test_cli_states_the_linearisation_amplitude(coach, capsys):
+    assert main(["eigen", coach.source, "--speed", "40", "--json", "--amplitude", "2"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["amplitude_mm"] == 2.0
+    assert out["equivalent_conicity"] == pytest.approx(
+        geometry.equivalent_conicity(geometry.contact_table(coach), 2.0), rel=1e-12)
+    status = main(["critical-speed", str(MODELS / "wheelset" / "wheelset.toml"), "--amplitude", "2"])
+    err = capsys.readouterr().err
+    assert status == 2 and len(err.strip().splitlines()) == 1 and "cones" in err
+    status = main(["eigen", coach.source, "--speed", "40", "--amplitude", "20"])
+    err = capsys.readouterr().err
+    assert status == 2 and "--amplitude" in err.strip().splitlines()[-1]
