@@ -47,7 +47,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from rail_mj.creep import wheelset_contact
+from rail_mj.creep import ROWS, wheelset_contact
 from rail_mj.forces import contact_parameters
 from rail_mj.model import NUMERIC_NATIVE
 
@@ -189,7 +189,7 @@ def vehicle_starts(model: mujoco.MjModel) -> list[int]:
     for _ in range(int(data[1])):
         starts.append(k)
         n = int(data[k + 1])
-        k += VEHICLE_HEADER + 14 * n
+        k += VEHICLE_HEADER + ROWS * n
         for _ in range(n):
             k += 2 + 3 * int(data[k + 1])
     return starts
@@ -271,8 +271,8 @@ def _apply(model, data, off_nnumeric, off_numeric, off_qvel, off_xpos, off_xmat,
     for _ in range(int(block[1])):
         speed, n = block[k], int(block[k + 1])
         law, flange, falling = int(block[k + 2]), block[k + 3] != 0.0, block[k + 4] != 0.0
-        table = numba.carray(block, (k + VEHICLE_HEADER + 14 * n,))[k + VEHICLE_HEADER:].reshape((14, n))
-        k += VEHICLE_HEADER + 14 * n
+        table = numba.carray(block, (k + VEHICLE_HEADER + ROWS * n,))[k + VEHICLE_HEADER:].reshape((ROWS, n))
+        k += VEHICLE_HEADER + ROWS * n
         for i in range(n):
             body, count = int(block[k]), int(block[k + 1])
             chain = numba.carray(block, (k + 2 + 3 * count,))[k + 2:]
