@@ -20,7 +20,7 @@ from pathlib import Path
 import click
 
 from rail_mj.files import STDOUT, is_special, staged
-from rail_mj.layout import Layout, LayoutError, load_layout
+from rail_mj.layout import LAWS, MAX_MAGNITUDE, Layout, LayoutError, load_layout
 from rail_mj.practice import RANGES, max_initial_yaw
 
 EXIT_BAD_INPUT = 2
@@ -50,12 +50,18 @@ def _warn(text: str) -> None:
 
 def _speed(option: str, value: float) -> float:
     """A forward speed from the command line: positive, and not beyond any railway."""
+    return _positive(option, value, "speed")
+
+
+def _positive(option: str, value: float, key: str) -> float:
+    """A positive number from the command line within RANGES[key], with a warning outside
+    railway practice."""
     if not (math.isfinite(value) and value > 0):
         raise Failure(f"{option} must be a positive number, got {value}", EXIT_BAD_INPUT)
-    error = RANGES["speed"].check(value)
+    error = RANGES[key].check(value)
     if error:
         raise Failure(f"{option} {error}", EXIT_BAD_INPUT)
-    warning = RANGES["speed"].warning(value)
+    warning = RANGES[key].warning(value)
     if warning:
         _warn(f"{option}: {warning}")
     return value
@@ -728,6 +734,104 @@ def contact_cmd(layout, as_json):
     click.echo(f"Kalker: C11 {r['C11']:.3f}, C22 {r['C22']:.3f}, C23 {r['C23']:.3f}, C33 {r['C33']:.3f}")
     click.echo(f"creep coefficients: f11 {r['f11'] / 1e6:.3f} MN, f22 {r['f22'] / 1e6:.3f} MN, "
                f"f23 {r['f23'] / 1e3:.3f} kN m, f33 {r['f33']:.2f} N m^2")
+
+
+# `rail-mj creep`: what a contact can be, and what it usually is (SI units).
+SEMI_AXIS_RANGE = (1e-6, 1.0)  # m: far beyond any rolling contact either way
+SEMI_AXIS_USUAL = (0.5e-3, 30e-3)  # m: wheel-rail contacts, tread to flange
+MAX_CREEPAGE = 1.0  # beyond, the surfaces slide faster than they roll
+MAX_SPIN = 1000.0  # rad/m: a radian per millimetre rolled
+
+
+@cli.command("creep")
+@click.option("--semi-axes", nargs=2, type=float, required=True, metavar="A B",
+              help="The contact ellipse's semi-axes, m: A along the rolling direction, B across it.")
+@click.option("--normal-force", type=float, required=True, help="The wheel's normal load N, newtons.")
+@click.option("--creepages", nargs=3, type=float, required=True, metavar="XI ETA PHI",
+              help="Longitudinal and lateral creepage (dimensionless) and spin (rad/m).")
+@click.option("--friction", type=float, help="The friction coefficient mu (every law but linear).")
+@click.option("--shear-modulus", type=float, required=True, help="G, Pa (steel: about 80e9).")
+@click.option("--poisson", type=float, required=True, help="Poisson's ratio, 0 to 0.5 (steel: about 0.28).")
+@click.option("--law", type=click.Choice(list(LAWS)), required=True,
+              help="The creep law (docs/creep.md).")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poisson, law, as_json):
+    """The creep force and spin moment of one contact ellipse, by a creep law: Fx, Fy (N)
+    and Mz (N m) of the rail on the wheel, Kalker's signs (Fx = -f11*xi for small xi).
+
+    Kalker's coefficients C11..C33 come from his table at A/B and the Poisson's ratio, the
+    linear coefficients as f11 = G*A*B*C11 and so on (docs/contact.md); fastsim is Kalker's
+    FASTSIM on the ellipse, with his parabolic pressure (docs/creep.md)."""
+    a, b = semi_axes
+    xi, eta, phi = creepages
+    _finite("--semi-axes", a, b)
+    _finite("--creepages", xi, eta, phi)
+    for option, value in (("--normal-force", normal_force), ("--shear-modulus", shear_modulus)):
+        _finite(option, value)
+        if not 0.0 < value <= MAX_MAGNITUDE:
+            raise Failure(f"{option} must be positive and at most {MAX_MAGNITUDE:g}, got {value:g}", EXIT_BAD_INPUT)
+    lo, hi = SEMI_AXIS_RANGE
+    for value in (a, b):
+        if not lo <= value <= hi:
+            raise Failure(f"--semi-axes must be between {lo:g} and {hi:g} m, got {value:g}; check the units (m)",
+                          EXIT_BAD_INPUT)
+    unusual = [f"{v:g}" for v in dict.fromkeys((a, b)) if not SEMI_AXIS_USUAL[0] <= v <= SEMI_AXIS_USUAL[1]]
+    if unusual:
+        _warn(f"--semi-axes: {' and '.join(unusual)} m outside wheel-rail contacts, {SEMI_AXIS_USUAL[0]:g}-"
+              f"{SEMI_AXIS_USUAL[1]:g} m")
+    if not (abs(xi) <= MAX_CREEPAGE and abs(eta) <= MAX_CREEPAGE):
+        raise Failure(f"--creepages XI and ETA must be within +/-{MAX_CREEPAGE:g} (beyond, the surfaces slide "
+                      f"faster than they roll), got {xi:g} and {eta:g}", EXIT_BAD_INPUT)
+    if not abs(phi) <= MAX_SPIN:
+        raise Failure(f"--creepages PHI must be within +/-{MAX_SPIN:g} rad/m, got {phi:g}", EXIT_BAD_INPUT)
+    _finite("--poisson", poisson)
+    if not 0.0 <= poisson <= 0.5:
+        raise Failure(f"--poisson must be between 0 and 0.5, got {poisson:g}", EXIT_BAD_INPUT)
+    if friction is None:
+        if law != "linear":
+            raise Failure(f"--friction: missing: the {law} law needs the friction coefficient", EXIT_BAD_INPUT)
+    else:
+        _positive("--friction", friction, "creep.friction")
+    from rail_mj.contact import ContactError, ellipse_patch
+    from rail_mj.creep import FASTSIM_ELEMENTS, FASTSIM_STRIPS, patch_forces
+
+    try:
+        patch = ellipse_patch(normal_force, a, b, shear_modulus=shear_modulus, poisson_ratio=poisson)
+    except ContactError as e:
+        raise Failure(f"--semi-axes: {e}", EXIT_BAD_INPUT) from None
+    fx, fy, mz = patch_forces(patch, law, xi, eta, phi, friction)
+    if not all(math.isfinite(v) for v in (fx, fy, mz)):
+        raise Failure("these inputs give no finite force: check their units", EXIT_BAD_INPUT)
+    limit = None if friction is None else friction * normal_force
+    coefficients = patch.creep_coefficients
+    result = {
+        "law": law, "semi_axis_a_m": a, "semi_axis_b_m": b, "a_over_b": a / b, "normal_force_n": normal_force,
+        "friction": friction, "shear_modulus_pa": shear_modulus, "poisson_ratio": poisson,
+        "xi": xi, "eta": eta, "phi_rad_per_m": phi, **patch.C, **coefficients,
+        "fx_n": fx, "fy_n": fy, "mz_nm": mz,
+        "resultant_over_mu_n": None if limit is None else math.hypot(fx, fy) / limit,
+    }
+    if law == "fastsim":
+        result["fastsim_grid"] = [FASTSIM_STRIPS, FASTSIM_ELEMENTS]  # strips, elements per strip
+    if as_json:
+        click.echo(json.dumps(result, indent=2))
+        return
+    mu = "" if friction is None else f", mu {friction:g} (mu*N {limit / 1e3:.4g} kN)"
+    click.echo(f"{law}: ellipse a = {a * 1e3:.4g} mm (rolling) x b = {b * 1e3:.4g} mm (a/b {a / b:.4g}), "
+               f"N = {normal_force / 1e3:.4g} kN{mu}, G = {shear_modulus / 1e9:.4g} GPa, nu = {poisson:g}")
+    click.echo(f"creepages: xi {xi:g}, eta {eta:g}, spin {phi:g} rad/m")
+    c = coefficients
+    click.echo(f"Kalker: C11 {patch.C['C11']:.4g}, C22 {patch.C['C22']:.4g}, C23 {patch.C['C23']:.4g}, "
+               f"C33 {patch.C['C33']:.4g}; f11 {c['f11'] / 1e6:.4g} MN, f22 {c['f22'] / 1e6:.4g} MN, "
+               f"f23 {c['f23'] / 1e3:.4g} kN m, f33 {c['f33']:.4g} N m^2")
+    share = "" if limit is None else f"  (|(Fx, Fy)| = {result['resultant_over_mu_n']:.4g} mu*N)"
+    click.echo(f"Fx = {fx:.6g} N, Fy = {fy:.6g} N, Mz = {mz:.6g} N m{share}")
+
+
+def _finite(option: str, *values: float) -> None:
+    if not all(math.isfinite(v) for v in values):
+        shown = " ".join(f"{v:g}" for v in values)
+        raise Failure(f"{option} must be finite, got {shown}", EXIT_BAD_INPUT)
 
 
 @cli.command("profile")

@@ -146,6 +146,13 @@ def contact_patch(normal_load: float, wheel_rolling_radius: float, rail_transver
     A = (_curvature(wheel_rolling_radius) + _curvature(rail_longitudinal_radius)) / 2
     B = (_curvature(wheel_transverse_radius) + _curvature(rail_transverse_radius)) / 2
     a, b = hertz_ellipse(normal_load, A, B, young_modulus, poisson_ratio)
+    return ellipse_patch(normal_load, a, b, shear_modulus=young_modulus / (2.0 * (1.0 + poisson_ratio)),
+                         poisson_ratio=poisson_ratio)
+
+
+def ellipse_patch(normal_load: float, a: float, b: float, *, shear_modulus: float,
+                  poisson_ratio: float) -> ContactPatch:
+    """The contact patch of a given ellipse (a along the rolling direction, b across, m):
+    Kalker's coefficients at a/b and nu, Hertz's peak pressure 3*N/(2*pi*a*b)."""
     C = kalker_coefficients(a / b, poisson_ratio)
-    G = young_modulus / (2.0 * (1.0 + poisson_ratio))
-    return ContactPatch(normal_load, a, b, 3.0 * normal_load / (2.0 * math.pi * a * b), C, G)
+    return ContactPatch(normal_load, a, b, 3.0 * normal_load / (2.0 * math.pi * a * b), C, shear_modulus)

@@ -1,4 +1,4 @@
-"""Wheel-rail contact and creep: Kalker's law on coned wheels, saturation, flanges.
+"""Wheel-rail contact and creep: Kalker's law on coned wheels, saturation, FASTSIM, flanges.
 
 One wheelset at a time, written as plain scalar arithmetic and compiled with numba
 (the per-step force callback calls it four times a step: numpy's per-operation cost
@@ -30,14 +30,14 @@ import numba
 import numpy as np
 
 from rail_mj import tables as _t
-from rail_mj.layout import LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
+from rail_mj.layout import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
 
 
 @dataclasses.dataclass(frozen=True)
 class ContactParameters:
     """Contact geometry and Kalker coefficients, one entry per wheelset (arrays of shape (n,)),
     the creep law with its friction limit mu*N per wheel and Polach's falling friction,
-    and the flange contact."""
+    the flange contact, and the contact ellipse FASTSIM works on."""
 
     r0: np.ndarray  # rolling radius, m
     b: np.ndarray  # half the distance between the contact points, m
@@ -53,10 +53,25 @@ class ContactParameters:
     flange_stiffness: np.ndarray  # N/m, the rail's lateral stiffness under the flange
     flange_damping: np.ndarray  # N s/m
     flange_slope: np.ndarray  # tan(flange angle), the radius rise per metre on the flange; lam if no flange
+    # The contact ellipse, for FASTSIM (unused by the other laws; zero where there is none):
+    semi_axis_a: np.ndarray  # m, along the rolling direction
+    semi_axis_b: np.ndarray  # m, across it
+    normal_force: np.ndarray  # N per wheel (FASTSIM's pressure; mu*N is friction_limit)
+    shear_modulus: np.ndarray  # Pa
+    c11: np.ndarray  # Kalker's coefficients at a/b and nu, dimensionless
+    c22: np.ndarray
+    c23: np.ndarray
     law: int = LINEAR
     flange: bool = False  # flange contact on
     # A profiled wheelset's contact table (rail_mj.tables); empty: coned wheels.
     geometry: np.ndarray = dataclasses.field(default_factory=lambda: NO_GEOMETRY)
+
+    def __post_init__(self):
+        if self.law == FASTSIM and len(self.geometry) == 0:  # on profiles: each point's own ellipse
+            for name in _FASTSIM_NEEDS:
+                value = np.asarray(getattr(self, name))
+                if not np.all(np.isfinite(value) & (value > 0.0)):
+                    raise ValueError(f"the fastsim law needs {name} finite and > 0 for every wheelset, got {value}")
 
     @functools.cached_property
     def falling(self) -> bool:
@@ -73,24 +88,31 @@ class ContactParameters:
     def broadcast(cls, n: int, *, r0, b, conicity, f11, f22, f23=0.0, f33=0.0,
                   friction_limit=np.inf, falling_friction_ratio=1.0, falling_friction_rate=0.0,
                   law=LINEAR, clearance=0.008, flange_stiffness=0.0, flange_damping=0.0,
-                  flange_slope=None, geometry=None):
+                  flange_slope=None, semi_axis_a=0.0, semi_axis_b=0.0, normal_force=0.0,
+                  shear_modulus=0.0, c11=0.0, c22=0.0, c23=0.0, geometry=None):
         full = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy()  # noqa: E731
         flange = flange_slope is not None
         return cls(full(r0), full(b), full(conicity), full(f11), full(f22), full(f23), full(f33),
                    full(friction_limit), full(falling_friction_ratio), full(falling_friction_rate),
                    full(clearance), full(flange_stiffness),
-                   full(flange_damping), full(flange_slope if flange else conicity), int(law), flange,
+                   full(flange_damping), full(flange_slope if flange else conicity),
+                   full(semi_axis_a), full(semi_axis_b), full(normal_force), full(shear_modulus),
+                   full(c11), full(c22), full(c23), int(law), flange,
                    NO_GEOMETRY if geometry is None else np.ascontiguousarray(geometry, dtype=np.float64))
 
 
 NO_GEOMETRY = np.zeros((0, _t.COLUMNS))
 
-# The rows of ContactParameters.table, in order.
+# The rows of ContactParameters.table, in order. The native callback's numeric block carries
+# ROWS numbers per wheelset (rail_mj.native).
+_FASTSIM_ROWS = ("semi_axis_a", "semi_axis_b", "normal_force", "shear_modulus", "c11", "c22", "c23")
+_FASTSIM_NEEDS = ("friction_limit", *_FASTSIM_ROWS)
 _ROWS = ("r0", "b", "conicity", "f11", "f22", "f23", "f33", "friction_limit", "falling_friction_ratio",
-         "falling_friction_rate", "clearance", "flange_stiffness", "flange_damping", "flange_slope")
-(_R0, _B, _LAM, _F11, _F22, _F23, _F33, _LIMIT, _FALL_RATIO, _FALL_RATE, _CLEARANCE, _K_FLANGE,
- _C_FLANGE, _SLOPE) = range(len(_ROWS))
+         "falling_friction_rate", "clearance", "flange_stiffness", "flange_damping", "flange_slope",
+         *_FASTSIM_ROWS)
 ROWS = len(_ROWS)
+(_R0, _B, _LAM, _F11, _F22, _F23, _F33, _LIMIT, _FALL_RATIO, _FALL_RATE, _CLEARANCE, _K_FLANGE,
+ _C_FLANGE, _SLOPE, _SEMI_A, _SEMI_B, _NORMAL, _SHEAR, _C11, _C22, _C23) = range(ROWS)
 
 
 # The scalar laws are compiled functions for the kernel (`_saturation`, ...), each with an
@@ -131,6 +153,143 @@ def _saturation(law, resultant, limit):
 
 
 saturation = _elementwise(_saturation)
+
+
+# FASTSIM's default grid: strips across the ellipse, elements along each strip. The
+# small-creepage slopes are Kalker's C11, C22 to 0.125 % and C23 to 0.15 % (docs/creep.md, FASTSIM).
+FASTSIM_STRIPS = 20
+FASTSIM_ELEMENTS = 20
+
+
+@_compiled
+def _fastsim(a, b, normal_force, friction, shear_modulus, c11, c22, c23, xi, eta, phi, n_strips, n_elements):
+    """Kalker's FASTSIM (1982): the rail's force Fx, Fy (N) and spin moment Mz (N m) on the
+    wheel through one contact ellipse (semi-axes a along the rolling direction, b across, m),
+    for creepages xi, eta and spin phi (rad/m). Signs as the linear law: small creepages give
+    Fx = -f11*xi, Fy = -f22*eta - f23*phi (docs/creep.md, FASTSIM).
+
+    The surface is a bed of springs of flexibility L1 = 8a/(3*C11*G) for xi, L2 = 8a/(3*C22*G)
+    for eta and L3 = pi*a*sqrt(a/b)/(4*C23*G) for spin. The ellipse is cut into n_strips
+    strips of equal width along the rolling direction, each into n_elements elements of
+    equal length; the traction is sampled at their centres. Marching from a strip's
+    leading edge x = +a*sqrt(1 - y^2/b^2), the traction changes over a step dx by
+    -(xi/L1 - phi*y/L3)*dx along x and -(eta/L2 + phi*x/L3)*dx across (x at the step's
+    middle), and is scaled back onto mu*p(x, y) where it exceeds it, with Kalker's
+    parabolic pressure p ~ 1 - x^2/a^2 - y^2/b^2 scaled so that its sum over the grid is N.
+    Allocation-free: the native callback calls it inside MuJoCo's step.
+    """
+    if xi == 0.0 and eta == 0.0 and phi == 0.0:
+        return 0.0, 0.0, 0.0
+    k1 = 3.0 * c11 * shear_modulus / (8.0 * a)  # 1/L1, Pa/m
+    k2 = 3.0 * c22 * shear_modulus / (8.0 * a)  # 1/L2
+    k3 = 4.0 * c23 * shear_modulus / (math.pi * a * math.sqrt(a / b))  # 1/L3, Pa/m^2
+    dy = 2.0 * b / n_strips
+    # The grid's sum of (1 - x^2/a^2 - y^2/b^2)*dx*dy: per strip exactly
+    # a*s^3*(4/3)*(1 + 1/(2*n_elements^2)) at the element centres, s = sqrt(1 - y^2/b^2).
+    cubes = 0.0
+    for j in range(n_strips):
+        y = -b + (j + 0.5) * dy
+        s2 = 1.0 - (y / b) * (y / b)
+        cubes += s2 * math.sqrt(s2)
+    shape_sum = a * dy * cubes * (4.0 / 3.0) * (1.0 + 0.5 / (n_elements * n_elements))
+    bound_scale = friction * normal_force / shape_sum  # mu*p = bound_scale*(1 - x^2/a^2 - y^2/b^2)
+    inverse_a2 = 1.0 / (a * a)
+    fx = 0.0
+    fy = 0.0
+    mz = 0.0
+    # Strips in mirrored pairs, at y and -y: the same length, elements and bound, so one loop
+    # marches both (two independent chains of arithmetic: twice as fast when they slip).
+    for j in range((n_strips + 1) // 2):
+        y = b - (j + 0.5) * dy  # > 0; 0 for the middle strip of an odd count
+        weight = 1.0 if 2 * j + 1 < n_strips else 0.5  # the middle strip is its own mirror
+        s2 = 1.0 - (y / b) * (y / b)
+        half = a * math.sqrt(s2)  # the strip's half-length
+        dx = 2.0 * half / n_elements
+        slope_up = xi * k1 - phi * y * k3  # along x the rigid slip is constant in a strip
+        slope_down = xi * k1 + phi * y * k3  # the mirror strip's, at -y
+        slope_y = eta * k2
+        px_up = py_up = px_down = py_down = 0.0
+        sum_px_up = sum_py_up = sum_xpy_up = sum_px_down = sum_py_down = sum_xpy_down = 0.0
+        x = half
+        step = 0.5 * dx  # the leading edge to the first centre
+        for _ in range(n_elements):
+            lateral = (slope_y + phi * (x - 0.5 * step) * k3) * step  # slip at the step's middle
+            px_up -= slope_up * step
+            py_up -= lateral
+            px_down -= slope_down * step
+            py_down -= lateral
+            x -= step
+            bound = bound_scale * (s2 - x * x * inverse_a2)
+            bound2 = bound * bound
+            # Slip: onto the traction bound, in the direction the traction points.
+            t2 = px_up * px_up + py_up * py_up
+            if t2 > bound2:
+                scale = bound / math.sqrt(t2)
+                px_up *= scale
+                py_up *= scale
+            t2 = px_down * px_down + py_down * py_down
+            if t2 > bound2:
+                scale = bound / math.sqrt(t2)
+                px_down *= scale
+                py_down *= scale
+            sum_px_up += px_up
+            sum_py_up += py_up
+            sum_xpy_up += x * py_up
+            sum_px_down += px_down
+            sum_py_down += py_down
+            sum_xpy_down += x * py_down
+            step = dx
+        area = weight * dx * dy
+        fx += (sum_px_up + sum_px_down) * area
+        fy += (sum_py_up + sum_py_down) * area
+        mz += (sum_xpy_up + sum_xpy_down - y * (sum_px_up - sum_px_down)) * area
+    return fx, fy, mz
+
+
+def fastsim(a, b, normal_force, friction, shear_modulus, c11, c22, c23, xi, eta, phi,
+            n_strips: int = FASTSIM_STRIPS, n_elements: int = FASTSIM_ELEMENTS):
+    """Kalker's FASTSIM (see `_fastsim`) element-wise over numpy arrays (broadcast):
+    (Fx, Fy, Mz) in N and N m, the rail's force and spin moment on the wheel."""
+    for name, value in (("a", a), ("b", b), ("normal_force", normal_force), ("friction", friction),
+                        ("shear_modulus", shear_modulus), ("c11", c11), ("c22", c22), ("c23", c23)):
+        value = np.asarray(value, dtype=float)
+        if not np.all(np.isfinite(value) & (value > 0.0)):
+            raise ValueError(f"fastsim: {name} must be a positive number, got {value}")
+    if not (int(n_strips) == n_strips >= 1 and int(n_elements) == n_elements >= 1):
+        raise ValueError(f"fastsim: n_strips and n_elements must be positive integers, got {n_strips}, "
+                         f"{n_elements}")
+    return _FASTSIM_ELEMENTWISE(a, b, normal_force, friction, shear_modulus, c11, c22, c23, xi, eta, phi,
+                                int(n_strips), int(n_elements))
+
+
+_FASTSIM_ELEMENTWISE = np.vectorize(_fastsim, otypes=[np.float64] * 3)
+
+
+def patch_forces(patch, law, xi: float, eta: float, phi: float, friction: float | None = None):
+    """One wheel's (Fx, Fy, Mz), N and N m, on one contact patch by `law` (a name of LAWS
+    or its number), for creepages xi, eta and spin phi (rad/m); what `rail-mj creep` prints.
+
+    `patch` is a `rail_mj.contact.ContactPatch` (ellipse, load, shear modulus, Kalker's
+    coefficients); `friction` is mu, needed by every law but the linear one. The linear and
+    saturating laws are Kalker's Fx = -f11*xi, Fy = -f22*eta - f23*phi, Mz = f23*eta - f33*phi,
+    scaled together onto the law as in a run (`contact_forces`; Polach with constant mu);
+    fastsim is `fastsim` on the default grid.
+    """
+    law = LAWS[law] if isinstance(law, str) else int(law)
+    if law != LINEAR and not (friction is not None and friction > 0.0):
+        raise ValueError(f"the {_LAW_NAMES[law]} law needs a friction coefficient > 0, got {friction}")
+    if law == FASTSIM:
+        forces = fastsim(patch.a, patch.b, patch.normal_load, friction, patch.shear_modulus, patch.C["C11"],
+                         patch.C["C22"], patch.C["C23"], xi, eta, phi)
+    else:
+        f = patch.creep_coefficients
+        fx, fy, mz = -f["f11"] * xi, -f["f22"] * eta - f["f23"] * phi, f["f23"] * eta - f["f33"] * phi
+        scale = 1.0 if law == LINEAR else _saturation_factor(law, fx, fy, friction * patch.normal_load)
+        forces = scale * fx, scale * fy, scale * mz
+    return tuple(float(v) + 0.0 for v in forces)  # + 0.0: no -0.0
+
+
+_LAW_NAMES = {number: name for name, number in LAWS.items()}
 
 
 @_compiled
@@ -201,7 +360,8 @@ class ContactForces(NamedTuple):
     creep_lateral: np.ndarray  # Fy of both wheels' creep forces
     flange_lateral: np.ndarray  # the flange's lateral force, zero off the flange
     creep_couple: np.ndarray  # b*(Fx_right - Fx_left): the longitudinal creep forces' yaw moment
-    spin_moment: np.ndarray  # Kalker's f23*xi_y - f33*xi_sp of both wheels, saturated as their forces
+    spin_moment: np.ndarray  # Kalker's f23*xi_y - f33*xi_sp of both wheels, saturated as their forces;
+    # with the fastsim law FASTSIM's own Mz
     flange_moment: np.ndarray  # the flange force acting at the flange contact's lead
     lateral: np.ndarray  # Sigma Y: everything lateral, creep and flange
     yaw: np.ndarray  # every yaw moment
@@ -216,23 +376,9 @@ def _saturation_factor(law, fx, fy, limit):
 
 
 @numba.njit(cache=True)
-def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
-    """The rails' forces on one wheelset, by origin: (creep lateral, flange lateral, creep
-    couple, spin moment, flange moment), N and N m (see `ContactForces`). `p`: its column
-    of `ContactParameters.table`. The one implementation of the contact law: the array
-    kernel below and the native passive-force callback (rail_mj.native) both call it."""
-    # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and
-    # xi_x_right is its negative; the lateral creepage is the same on both wheels, and the
-    # spin differs between them only by the constant contact-angle term, which cancels
-    # between the two wheels' linear forces and is left out. Without flange contact
-    # flange_slope is the conicity: no rise.
-    rise_left = _radius_rise(y, p[_LAM], p[_SLOPE], p[_CLEARANCE])
-    rise_right = _radius_rise(-y, p[_LAM], p[_SLOPE], p[_CLEARANCE])
-    turning = p[_B] * psi_dot / speed
-    xi_left = -turning - rise_left / p[_R0]
-    xi_right = turning - rise_right / p[_R0]
-    xi_y = y_dot / speed - psi
-    xi_sp = psi_dot / speed
+def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed):
+    """Both wheels' creep forces by Kalker's linear law, saturated by `law` (not FASTSIM):
+    (creep lateral, creep couple, spin moment), as `wheelset_contact` returns them."""
     # Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
     fx_left, fx_right = -p[_F11] * xi_left, -p[_F11] * xi_right
     fy, mz = -p[_F22] * xi_y - p[_F23] * xi_sp, p[_F23] * xi_y - p[_F33] * xi_sp
@@ -251,6 +397,44 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     creep_lateral = (scale_left + scale_right) * fy
     couple = p[_B] * (scale_right * fx_right - scale_left * fx_left)  # Fx_left at y = +b
     spin = (scale_left + scale_right) * mz
+    return creep_lateral, couple, spin
+
+
+@numba.njit(cache=True)
+def _fastsim_wheel(p, xi_x, xi_y, xi_sp):
+    """One wheel's (Fx, Fy, Mz) by FASTSIM on the default grid, from its column `p` of
+    `ContactParameters.table`; mu*N is the table's friction limit."""
+    return _fastsim(p[_SEMI_A], p[_SEMI_B], p[_NORMAL], p[_LIMIT] / p[_NORMAL], p[_SHEAR], p[_C11], p[_C22],
+                    p[_C23], xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS)
+
+
+@numba.njit(cache=True)
+def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
+    """The rails' forces on one wheelset, by origin: (creep lateral, flange lateral, creep
+    couple, spin moment, flange moment), N and N m (see `ContactForces`). `p`: its column
+    of `ContactParameters.table`. The one implementation of the contact law: the array
+    kernel below and the native passive-force callback (rail_mj.native) both call it."""
+    # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and
+    # xi_x_right is its negative; the lateral creepage is the same on both wheels, and the
+    # spin differs between them only by the constant contact-angle term, which cancels
+    # between the two wheels' linear forces and is left out (with a saturating law or FASTSIM
+    # it would not cancel exactly: docs/creep.md, section 6). Without flange contact
+    # flange_slope is the conicity: no rise.
+    rise_left = _radius_rise(y, p[_LAM], p[_SLOPE], p[_CLEARANCE])
+    rise_right = _radius_rise(-y, p[_LAM], p[_SLOPE], p[_CLEARANCE])
+    turning = p[_B] * psi_dot / speed
+    xi_left = -turning - rise_left / p[_R0]
+    xi_right = turning - rise_right / p[_R0]
+    xi_y = y_dot / speed - psi
+    xi_sp = psi_dot / speed
+    if law == FASTSIM:  # each wheel's contact ellipse through Kalker's FASTSIM
+        fx_left, fy_left, mz_left = _fastsim_wheel(p, xi_left, xi_y, xi_sp)
+        fx_right, fy_right, mz_right = _fastsim_wheel(p, xi_right, xi_y, xi_sp)
+        creep_lateral = fy_left + fy_right
+        couple = p[_B] * (fx_right - fx_left)  # Fx_left at y = +b
+        spin = mz_left + mz_right
+    else:
+        creep_lateral, couple, spin = _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed)
     flange_lateral = flange_moment = 0.0
     if flange:
         flange_lateral = _flange_force(y, y_dot, p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
@@ -331,19 +515,24 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
             ab = a * b
             f11 = shear * ab * (lo[c + _t.C11] + t * (hi[c + _t.C11] - lo[c + _t.C11]))
             f22 = shear * ab * (lo[c + _t.C22] + t * (hi[c + _t.C22] - lo[c + _t.C22]))
+            c23 = lo[c + _t.C23] + t * (hi[c + _t.C23] - lo[c + _t.C23])
             f23 = f33 = 0.0
             if spinning:
-                f23 = shear * ab * math.sqrt(ab) * (lo[c + _t.C23] + t * (hi[c + _t.C23] - lo[c + _t.C23]))
+                f23 = shear * ab * math.sqrt(ab) * c23
                 f33 = shear * ab * ab * (lo[c + _t.C33] + t * (hi[c + _t.C33] - lo[c + _t.C33]))
             cos_g, sin_g = math.cos(g), math.sin(g)
             xi_x = -rise / r0 - lever * psi_dot / speed
             xi_y = y_dot / (speed * cos_g) - psi * cos_g
-            xi_sp = psi_dot * cos_g / speed - s * sin_g / r
-            fx = -f11 * xi_x
-            fy = -f22 * xi_y - f23 * xi_sp
-            mz = f23 * xi_y - f33 * xi_sp
+            xi_sp = psi_dot * cos_g / speed - s * sin_g / r if spinning else 0.0
             scale = 1.0
-            if law != LINEAR:
+            if law == FASTSIM:  # this point's ellipse through Kalker's FASTSIM
+                fx, fy, mz = _fastsim(a, b, normal, mu, shear, f11 / (shear * ab), f22 / (shear * ab), c23,
+                                      xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS)
+            else:
+                fx = -f11 * xi_x
+                fy = -f22 * xi_y - f23 * xi_sp
+                mz = f23 * xi_y - f33 * xi_sp
+            if law != LINEAR and law != FASTSIM:
                 limit = mu * normal
                 if falling:
                     limit = _falling_friction(limit, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_x, xi_y))
@@ -395,9 +584,10 @@ def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float) -
 
     Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
     A saturating law scales each wheel's Fx, Fy and Mz by one factor, which brings the
-    resultant of (Fx, Fy) onto the law. The longitudinal forces, Fx_left at y = +b and Fx_right at y = -b, make the
-    yaw moment b*(Fx_right - Fx_left). On the flange the rail adds its lateral force,
-    applied at the contact's lead (`flange_lead`).
+    resultant of (Fx, Fy) onto the law; the fastsim law computes each wheel's Fx, Fy, Mz by
+    FASTSIM on its contact ellipse instead (`fastsim`). The longitudinal forces, Fx_left at
+    y = +b and Fx_right at y = -b, make the yaw moment b*(Fx_right - Fx_left). On the flange
+    the rail adds its lateral force, applied at the contact's lead (`flange_lead`).
     """
     return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed))
 

@@ -31,7 +31,8 @@ import mujoco
 import numpy as np
 
 from rail_mj.creep import ContactParameters, wheelset_forces
-from rail_mj.model import NUMERIC_CREEP, NUMERIC_FLANGE, NUMERIC_GEOMETRY, NUMERIC_SATURATION, NUMERIC_WHEEL
+from rail_mj.model import (NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE, NUMERIC_GEOMETRY, NUMERIC_SATURATION,
+                           NUMERIC_WHEEL)
 from rail_mj.tables import COLUMNS
 
 
@@ -41,14 +42,19 @@ def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParame
     law, limit, falling_ratio, falling_rate = model.numeric(NUMERIC_SATURATION).data
     flange, stiffness, damping, slope = model.numeric(NUMERIC_FLANGE).data
     try:
+        a, semi_b, normal, shear, c11, c22, c23 = model.numeric(NUMERIC_ELLIPSE).data
+    except KeyError:  # an MJCF written before the ellipse was carried: no fastsim law
+        a = semi_b = normal = shear = c11 = c22 = c23 = 0.0
+    try:
         geometry = model.numeric(NUMERIC_GEOMETRY).data.reshape(-1, COLUMNS).copy()
-    except KeyError:
+    except KeyError:  # coned wheels
         geometry = None
     return ContactParameters.broadcast(
         n_wheelsets, r0=r0, b=b, conicity=conicity, f11=f11, f22=f22, f23=f23, f33=f33,
         friction_limit=limit, falling_friction_ratio=falling_ratio, falling_friction_rate=falling_rate,
         law=int(law), clearance=clearance, flange_stiffness=stiffness,
         flange_damping=damping, flange_slope=slope if flange else None, geometry=geometry,
+        semi_axis_a=a, semi_axis_b=semi_b, normal_force=normal, shear_modulus=shear, c11=c11, c22=c22, c23=c23,
     )
 
 

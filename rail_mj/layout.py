@@ -34,8 +34,8 @@ MAX_POSITION = 1000.0  # m from the body centre
 
 
 # Creep laws (docs/creep.md, saturation), by the number the model stores for the compiled law.
-LINEAR, SHEN_HEDRICK_ELKINS, POLACH = 0, 1, 2
-LAWS = {"linear": LINEAR, "shen-hedrick-elkins": SHEN_HEDRICK_ELKINS, "polach": POLACH}
+LINEAR, SHEN_HEDRICK_ELKINS, POLACH, FASTSIM = 0, 1, 2, 3
+LAWS = {"linear": LINEAR, "shen-hedrick-elkins": SHEN_HEDRICK_ELKINS, "polach": POLACH, "fastsim": FASTSIM}
 
 
 class LayoutError(ValueError):
@@ -384,6 +384,10 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     law = t.get("law", "linear")
     if law not in LAWS:
         t.fail("law", f"must be one of {', '.join(LAWS)}, got {law!r}")
+    if law == "fastsim" and not (has_contact or has_profiles):
+        # FASTSIM works on the contact ellipse itself, which f11..f33 do not give (docs/creep.md).
+        t.fail("law", "\"fastsim\" needs a [contact] table: FASTSIM works on the Hertz contact ellipse, "
+                      "which f11..f33 alone do not give (docs/creep.md)")
     friction = t.number("friction", low=0.0, low_open=True, high=2.0, required=law != "linear")
     _practice(t, warnings, friction=friction)
     falling = {k: t.get(k, None, required=False) for k in ("falling_friction_ratio", "falling_friction_rate")}
@@ -492,7 +496,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             # On the flange the rolling radius rises by tan(70 deg) per metre: unbounded
             # linear creep turns a millimetre of flange contact into hundreds of kN.
             t.fail(None, "flange contact needs a saturating creep law: set creep.law to "
-                         "\"shen-hedrick-elkins\" or \"polach\" and creep.friction")
+                         "\"shen-hedrick-elkins\", \"polach\" or \"fastsim\" and creep.friction")
         default = Flange()
         flange = Flange(
             stiffness=t.positive("stiffness", default.stiffness),

@@ -90,6 +90,9 @@ NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAW
 # and Polach's falling friction: mu_infinity/mu0 and its rate, s/m
 NUMERIC_GEOMETRY = "rail_mj/geometry"  # a profiled wheelset's contact table (rail_mj.tables), row-major
 NUMERIC_FLANGE = "rail_mj/flange"  # on (1) or off (0), stiffness, damping, tan(flange angle)
+# The contact ellipse, for the fastsim law: semi-axes a (rolling) and b, m, wheel load N, shear
+# modulus G, Pa, and Kalker's C11, C22, C23; zeros for a layout without [contact].
+NUMERIC_ELLIPSE = "rail_mj/ellipse"
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
 LATERAL, YAW = "lateral", "yaw"
@@ -338,11 +341,24 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     f = layout.flange
     spec.add_numeric(name=NUMERIC_FLANGE, data=_g6(1.0, f.stiffness, f.damping, np.tan(f.angle))
                      if f else _g6(0.0, 0.0, 0.0, 0.0))
+    spec.add_numeric(name=NUMERIC_ELLIPSE, data=_g6(*_ellipse(layout)))
     if layout.profiles is not None:
         from rail_mj.tables import dynamics_table
 
         spec.add_numeric(name=NUMERIC_GEOMETRY, data=_g6(*dynamics_table(layout).reshape(-1)))
     return spec
+
+
+def _ellipse(layout: Layout) -> tuple[float, ...]:
+    """NUMERIC_ELLIPSE's numbers: the Hertz ellipse of [contact], or zeros (also on
+    profiles, whose contact table carries each point's ellipse)."""
+    if layout.contact is None or layout.profiles is not None:
+        return (0.0,) * 7
+    from rail_mj.layout import contact_patch_of  # scipy: only for layouts with [contact]
+
+    patch = contact_patch_of(layout)
+    return (patch.a, patch.b, patch.normal_load, patch.shear_modulus, patch.C["C11"], patch.C["C22"],
+            patch.C["C23"])
 
 
 def compile_spec(spec: mujoco.MjSpec, layout: Layout) -> mujoco.MjModel:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import mujoco
+import numpy as np
 import pytest
 
 from rail_mj.layout import layout_from_dict
@@ -47,6 +49,18 @@ def free_truck(positions, lam=0.15, f11=10e6, f22=9e6, primary=1e9):
         "secondary": {"lateral_stiffness": 0.0, "yaw_stiffness": 0.0},
         "carbody": {"fixed": True, "bogie_positions": [0.0]},
     })
+
+
+def passive_forces(model, callback, qpos, qvel) -> np.ndarray:
+    """qfrc_passive of `model` at (qpos, qvel) with `callback` installed (a Python creep
+    callback or the native one): the creep forces, plus the suspension springs and dampers."""
+    from rail_mj.forces import installed
+
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = qpos, qvel
+    with installed(callback):
+        mujoco.mj_forward(model, data)
+    return data.qfrc_passive.copy()
 
 
 @pytest.fixture(autouse=True)

@@ -10,12 +10,12 @@ import pytest
 from mujoco import rollout
 
 from rail_mj import native
-from rail_mj.forces import CreepForces, installed
+from rail_mj.forces import CreepForces
 from rail_mj.layout import load_layout
 from rail_mj.model import Vehicle, generate
 from rail_mj.runner import simulate
 
-from conftest import SHIPPED
+from conftest import SHIPPED, passive_forces
 
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
@@ -29,13 +29,7 @@ def test_native_and_python_callbacks_give_the_same_forces(layout_path):
     rng = np.random.default_rng(7)
     for _ in range(25):
         qpos, qvel = rng.normal(scale=0.012, size=model.nq), rng.normal(scale=0.3, size=model.nv)
-        forces = []
-        for callback in (python, native.callback()):
-            data = mujoco.MjData(model)
-            data.qpos[:], data.qvel[:] = qpos, qvel
-            with installed(callback):
-                mujoco.mj_forward(model, data)
-            forces.append(data.qfrc_passive.copy())
+        forces = [passive_forces(model, callback, qpos, qvel) for callback in (python, native.callback())]
         scale = np.max(np.abs(forces[0]))
         assert scale > 0
         np.testing.assert_allclose(forces[1], forces[0], rtol=0, atol=1e-9 * scale)

@@ -3,6 +3,7 @@ compiled law that interpolates them (rail_mj.creep.profiled_contact), docs/dynam
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -136,9 +137,11 @@ def test_a_cone_on_knife_edges_is_the_classical_restrained_wheelset(tmp_path):
     assert got == pytest.approx(closed, rel=5e-4)
 
 
-def test_native_and_python_callbacks_agree_on_profiles(coach):
-    """On the tread, across the jump to the flange and up it: qfrc_passive agrees to 1e-9."""
-    vehicle = Vehicle(coach)
+@pytest.mark.parametrize("law", ["polach", "fastsim"])
+def test_native_and_python_callbacks_agree_on_profiles(coach, law):
+    """On the tread, across the jump to the flange and up it, with Polach's law and with
+    FASTSIM at each contact point: qfrc_passive agrees to 1e-9."""
+    vehicle = Vehicle(dataclasses.replace(coach, creep=dataclasses.replace(coach.creep, law=law)))
     model = vehicle.model
     native.set_speed(model, 61.0)
     python = CreepForces(model, vehicle.wheelset_names, 61.0)

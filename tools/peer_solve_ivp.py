@@ -43,7 +43,7 @@ def creep_forces(contact: np.ndarray, law: int, flange: bool, falling: bool, y, 
     if law != POLACH:
         raise ValueError("this peer writes Polach's law only, the coach's")
     (r0, b, lam, f11, f22, f23, f33, limit, fall_ratio, fall_rate, clearance, k_flange, c_flange,
-     slope) = contact
+     slope, *_ellipse) = contact  # the contact ellipse's rows serve the fastsim law only
 
     def rise(y):  # a wheel's rolling radius over r0 when the wheelset moves y towards it
         return lam * y + (slope - lam) * np.maximum(y - clearance, 0.0)

@@ -71,7 +71,7 @@ class Coach:
     stiffness: np.ndarray  # (2*bodies,) of each joint: N/m (lateral), N m/rad (yaw)
     damping: np.ndarray  # (2*bodies,) N s/m, N m s/rad
     wheelsets: np.ndarray  # (4,) the wheelsets' body indices, wheelset 1 first
-    contact: np.ndarray  # (14, 4) rail_mj.creep.ContactParameters.table: one column a wheelset
+    contact: np.ndarray  # (ROWS, 4) rail_mj.creep.ContactParameters.table: one column a wheelset
     law: int  # rail_mj.creep's law number (POLACH for the coach)
     flange: bool  # flange contact on
     falling: bool  # Polach's falling friction on
