@@ -720,6 +720,9 @@ def contact_cmd(layout, as_json):
     from rail_mj.layout import contact_patch_of
 
     lay = _layout(layout)
+    if lay.profiles is not None:
+        raise Failure(f"{layout}: contact: on [profiles] each contact point has its own ellipse; "
+                      f"rail-mj contact-geometry tabulates the points", EXIT_BAD_INPUT)
     if lay.contact is None:
         raise Failure(f"{layout}: contact: no [contact] table; the layout gives f11..f33 itself",
                       EXIT_BAD_INPUT)

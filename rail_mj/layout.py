@@ -143,8 +143,9 @@ class Layout:
     secondary: Suspension | None = None
     contact: Contact | None = None  # when given, `creep` was computed from it
     flange: Flange | None = None  # None: no flange contact (the classical linear model)
-    # Wheel and rail profiles. The dynamics still run on a cone of wheelset.conicity, which
-    # defaults to the profiles' equivalent conicity at 3 mm (docs/geometry.md).
+    # Wheel and rail profiles: with them the dynamics run on their contact tables
+    # (rail_mj.tables); wheelset.conicity is their equivalent conicity at 3 mm, creep.f11..f33
+    # the centred contact's (docs/dynamics-on-profiles.md).
     profiles: Profiles | None = None
     source: str = "<layout>"
     # Legal values far outside railway practice (rail_mj.practice), one line each.
