@@ -444,7 +444,7 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     return creep_lateral, flange_lateral, couple, spin, flange_moment
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
     """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
     them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
@@ -464,9 +464,10 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
       the normal force's lateral part -s*N*sin(g): gravitational stiffness and the flange.
     The table's header switches gravitational stiffness and spin creep (f23 = f33 = 0) off.
     """
-    y0, dy, rows = geo[0, _t.HEADER_Y0], geo[0, _t.HEADER_DY], int(geo[0, _t.HEADER_ROWS])
-    axle_load, shear = geo[0, _t.HEADER_AXLE_LOAD], geo[0, _t.HEADER_SHEAR_MODULUS]
-    mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0]
+    # The table is stored in mm, kN and GPa (rail_mj.tables): SI from here on.
+    y0, dy, rows = geo[0, _t.HEADER_Y0] * _t.MM, geo[0, _t.HEADER_DY] * _t.MM, int(geo[0, _t.HEADER_ROWS])
+    axle_load, shear = geo[0, _t.HEADER_AXLE_LOAD] * _t.KN, geo[0, _t.HEADER_SHEAR_MODULUS] * _t.GPA
+    mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0] * _t.MM
     gravity, spinning = geo[0, _t.HEADER_GRAVITY] != 0.0, geo[0, _t.HEADER_SPIN] != 0.0
     u = min(max((y - y0) / dy, 0.0), rows - 1.0)
     i = min(int(u), rows - 2)
@@ -479,9 +480,9 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
         for slot in range(_t.SLOTS):
             c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
             w = lo[c + _t.WEIGHT] + t * (hi[c + _t.WEIGHT] - lo[c + _t.WEIGHT])
-            r = r0 + lo[c + _t.RADIUS] + t * (hi[c + _t.RADIUS] - lo[c + _t.RADIUS])
+            r = r0 + (lo[c + _t.RADIUS] + t * (hi[c + _t.RADIUS] - lo[c + _t.RADIUS])) * _t.MM
             g = lo[c + _t.ANGLE] + t * (hi[c + _t.ANGLE] - lo[c + _t.ANGLE])
-            lever = lo[c + _t.LEVER] + t * (hi[c + _t.LEVER] - lo[c + _t.LEVER])
+            lever = (lo[c + _t.LEVER] + t * (hi[c + _t.LEVER] - lo[c + _t.LEVER])) * _t.MM
             v = w * math.cos(g)
             m = w * (lever * math.cos(g) - s * r * math.sin(g))
             if side == 0:
@@ -505,11 +506,11 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
             normal = wheel * (lo[c + _t.WEIGHT] + t * (hi[c + _t.WEIGHT] - lo[c + _t.WEIGHT]))
             if normal <= 0.0:
                 continue
-            rise = lo[c + _t.RADIUS] + t * (hi[c + _t.RADIUS] - lo[c + _t.RADIUS])
+            rise = (lo[c + _t.RADIUS] + t * (hi[c + _t.RADIUS] - lo[c + _t.RADIUS])) * _t.MM
             r = r0 + rise
             g = lo[c + _t.ANGLE] + t * (hi[c + _t.ANGLE] - lo[c + _t.ANGLE])
-            lever = lo[c + _t.LEVER] + t * (hi[c + _t.LEVER] - lo[c + _t.LEVER])
-            cube = normal ** (1.0 / 3.0)
+            lever = (lo[c + _t.LEVER] + t * (hi[c + _t.LEVER] - lo[c + _t.LEVER])) * _t.MM
+            cube = (normal / _t.KN) ** (1.0 / 3.0) * _t.MM  # semi-axes per unit load: mm/kN^(1/3)
             a = cube * (lo[c + _t.SEMI_A] + t * (hi[c + _t.SEMI_A] - lo[c + _t.SEMI_A]))
             b = cube * (lo[c + _t.SEMI_B] + t * (hi[c + _t.SEMI_B] - lo[c + _t.SEMI_B]))
             ab = a * b

@@ -231,7 +231,11 @@ class _Prepared:
         """|y| past which a wheelset has left the rails: `lateral`, or on profiles the end of
         their contact table (10 mm: far up the flange, where a rigid wheel climbs it)."""
         profiles = self.request.layout.profiles is not None
-        return min(lateral, -float(self.vehicle.model.numeric(NUMERIC_GEOMETRY).data[0])) if profiles else lateral
+        if not profiles:
+            return lateral
+        from rail_mj.tables import HEADER_Y0, MM
+
+        return min(lateral, -float(self.vehicle.model.numeric(NUMERIC_GEOMETRY).data[HEADER_Y0]) * MM)
 
 
 def prepare(request: Request, python_callback: bool = False) -> _Prepared:

@@ -39,16 +39,22 @@ import math
 
 import numpy as np
 
-# Header entries (row 0).
+# The table is stored in mm, kN and GPa: MuJoCo's MJCF writer writes as 0 any entry of a
+# numeric smaller than 1e-12 of its largest, and in SI a shear modulus of 8e10 Pa beside
+# shifts of 5e-5 m would lose them (the native block also carries creep coefficients of 1e7 N).
+MM, KN, GPA, MRAD = 1e-3, 1e3, 1e9, 1e-3  # SI per stored unit
+
+# Header entries (row 0): y0 and dy (mm), rows, axle load (kN), shear modulus (GPa),
+# friction coefficient, r0 (mm), gravitational stiffness and spin creep on (1) or off (0).
 HEADER_Y0, HEADER_DY, HEADER_ROWS, HEADER_AXLE_LOAD, HEADER_SHEAR_MODULUS, HEADER_FRICTION, \
     HEADER_R0, HEADER_GRAVITY, HEADER_SPIN = range(9)
-# Per row: y, roll (rad, left side up), then per side (left, right) per slot POINT entries.
+# Per row: y (mm), roll (mrad, left side up), then per side (left, right) per slot POINT entries.
 Y, ROLL = range(2)
 FIRST_POINT = 2
-# Per point: load share, rolling radius less r0 (m: what MJCF's 6 significant figures keep
-# to 1e-12 m near the centre), contact angle (rad, leaning towards the track
-# centre), lateral lever (m, the contact's y less the wheelset's), Hertz semi-axes per
-# unit load (m/N^(1/3), a along the rolling direction), Kalker's C11, C22, C23, C33.
+# Per point: load share, rolling radius less r0 (mm: MJCF's 6 significant figures keep it to
+# 1e-9 mm near the centre), contact angle (rad, leaning towards the track centre), lateral
+# lever (mm, the contact's y less the wheelset's), Hertz semi-axes per unit load
+# (mm/kN^(1/3), a along the rolling direction), Kalker's C11, C22, C23, C33.
 WEIGHT, RADIUS, ANGLE, LEVER, SEMI_A, SEMI_B, C11, C22, C23, C33 = range(10)
 POINT = 10
 SLOTS = 2  # tread, flange
@@ -130,9 +136,10 @@ def _split(s_primary) -> float:
 
 
 def build(geometry, axle_load: float, young: float, poisson: float, friction: float) -> np.ndarray:
-    """The table from a rail_mj.geometry.ContactTable (uniform y), for an axle load (N, the
-    vertical load the two wheels carry together), steel of Young's modulus `young` and
-    Poisson's ratio `poisson`, and the friction coefficient (0 for the linear law)."""
+    """The table (in its stored units: mm, kN, GPa) from a rail_mj.geometry.ContactTable
+    (uniform y), for an axle load (N, the vertical load the two wheels carry together),
+    steel of Young's modulus `young` (Pa) and Poisson's ratio `poisson`, and the friction
+    coefficient (0 for the linear law)."""
     cols = geometry.columns
     ys = np.asarray(cols["y"], float)
     steps = np.diff(ys)
@@ -141,10 +148,11 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
     rows = len(ys)
     table = np.zeros((rows + 1, COLUMNS))
     r0 = 0.5 * float(np.interp(0.0, ys, cols["r_left"]) + np.interp(0.0, ys, cols["r_right"]))
-    table[0, :9] = ys[0], steps[0], rows, axle_load, young / (2.0 * (1.0 + poisson)), friction, r0, 1.0, 1.0
+    table[0, :9] = (ys[0] / MM, steps[0] / MM, rows, axle_load / KN, young / (2.0 * (1.0 + poisson)) / GPA,
+                    friction, r0 / MM, 1.0, 1.0)
     body = table[1:]
-    body[:, Y] = ys
-    body[:, ROLL] = cols["roll"]
+    body[:, Y] = ys / MM
+    body[:, ROLL] = np.asarray(cols["roll"], float) / MRAD
     for k, side in enumerate(("left", "right")):
         split = _split(np.asarray(cols[f"wheel_s_{side}"], float))
         for i in range(rows):
@@ -161,7 +169,9 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
                 slots = [FLANGE, TREAD] if points[0][1] < points[1][1] else [TREAD, FLANGE]
             for (gap, s, r, gamma, y_c, kw, kr), (_, _, A, B), w, slot in zip(points, shapes, weights, slots):
                 a, b, C, _ = _hertz_per_unit_load(A, B, young, poisson)
-                values = (w, r - r0, gamma, y_c - ys[i], a, b, C["C11"], C["C22"], C["C23"], C["C33"])
+                per_kn = KN ** (1.0 / 3.0) / MM  # m/N^(1/3) -> mm/kN^(1/3)
+                values = (w, (r - r0) / MM, gamma, (y_c - ys[i]) / MM, a * per_kn, b * per_kn,
+                          C["C11"], C["C22"], C["C23"], C["C33"])
                 for field, v in enumerate(values):
                     body[i, point_column(k, slot, field)] = v
             if len(points) == 1:  # the empty slot copies the point, at no load
@@ -186,8 +196,8 @@ def linearised(table: np.ndarray, geometry, amplitude: float) -> np.ndarray:
     ys = body[:, Y]
     centre = np.array([np.interp(0.0, ys, body[:, c]) for c in range(COLUMNS)])
     theta = np.linspace(0.0, 2.0 * math.pi, 721)[:-1]
-    yh = amplitude * 1e-3 * np.sin(theta)
-    slope = np.array([np.mean(np.interp(yh, ys, body[:, c]) * np.sin(theta)) * 2.0 / (amplitude * 1e-3)
+    yh = amplitude * np.sin(theta)  # mm, as the table's y
+    slope = np.array([np.mean(np.interp(yh, ys, body[:, c]) * np.sin(theta)) * 2.0 / amplitude
                       for c in range(COLUMNS)])
     for side, sign in ((0, 1.0), (1, -1.0)):
         for slot in (TREAD, FLANGE):
@@ -244,12 +254,12 @@ def centred_coefficients(profiles, wheelset, contact, law: str, friction) -> dic
     table = table_for(profiles, wheelset, contact, law, friction)
     body = table[1:]
     row = np.array([np.interp(0.0, body[:, Y], body[:, c]) for c in range(COLUMNS)])
-    shear, out = table[0, HEADER_SHEAR_MODULUS], dict(f11=0.0, f22=0.0, f23=0.0, f33=0.0)
+    shear, out = table[0, HEADER_SHEAR_MODULUS] * GPA, dict(f11=0.0, f22=0.0, f23=0.0, f33=0.0)
     for slot in range(SLOTS):
         w = row[point_column(0, slot, WEIGHT)]
         if w <= 0:
             continue
-        cube = (w * wheelset.wheel_load) ** (1.0 / 3.0)
+        cube = (w * wheelset.wheel_load / KN) ** (1.0 / 3.0) * MM
         ab = cube**2 * row[point_column(0, slot, SEMI_A)] * row[point_column(0, slot, SEMI_B)]
         out["f11"] += shear * ab * row[point_column(0, slot, C11)]
         out["f22"] += shear * ab * row[point_column(0, slot, C22)]

@@ -13,6 +13,8 @@ from rail_mj.layout import layout_from_dict
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"
 SHIPPED = sorted(p for p in MODELS.glob("*/*.toml") if p.stem == p.parent.name)
+# Shipped models on coned wheels (the others have [profiles]).
+CONED = [p for p in SHIPPED if "[profiles]" not in p.read_text()]
 
 # Manchester benchmark wheelset (docs/manchester-coach.md).
 WHEELSET = {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0], "rolling_radius": 0.46,

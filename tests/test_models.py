@@ -30,8 +30,9 @@ def step_without_warnings(model: mujoco.MjModel, n_wheelsets: int, speed=30.0, s
     assert np.max(np.abs(data.qpos)) < 0.05  # stable at 30 m/s: nothing ran away
 
 
-def test_the_four_shipped_layouts_are_there():
-    assert {p.stem for p in SHIPPED} == {"wheelset", "bogie", "wagon", "manchester-coach"}
+def test_the_shipped_layouts_are_there():
+    assert {p.stem for p in SHIPPED} == {"wheelset", "bogie", "wagon", "manchester-coach",
+                                         "manchester-coach-s1002", "manchester-coach-worn"}
 
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)

@@ -72,7 +72,7 @@ def test_normal_forces_do_the_virtual_work_of_the_axle_load(coach, y_mm):
     y = y_mm * 1e-3
     i = int(round((y - geo.y[0]) / (geo.y[1] - geo.y[0])))
     dz_dy = (geo.z[i + 1] - geo.z[i - 1]) / (geo.y[i + 1] - geo.y[i - 1])
-    w = table[0, tables.HEADER_AXLE_LOAD]
+    w = table[0, tables.HEADER_AXLE_LOAD] * tables.KN
     got = float(forces_at(table, geo.y[i]).flange_lateral[0])
     assert got == pytest.approx(-w * dz_dy, rel=1e-3)
     assert got * y < 0  # it pushes the wheelset back to the centre
@@ -91,7 +91,7 @@ def test_forces_are_odd_on_a_symmetric_track(coach):
         assert float(b.lateral[0]) == pytest.approx(-float(a.lateral[0]), abs=1e-7 * scale)
         assert float(b.yaw[0]) == pytest.approx(-float(a.yaw[0]), abs=1e-7 * scale)
     centred = forces_at(table, 0.0)
-    assert abs(float(centred.lateral[0])) < 1e-9 * table[0, tables.HEADER_AXLE_LOAD]
+    assert abs(float(centred.lateral[0])) < 1e-9 * table[0, tables.HEADER_AXLE_LOAD] * tables.KN
 
 
 def cone_on_knives(tmp_path, lam):
@@ -123,13 +123,13 @@ def test_a_cone_on_knife_edges_is_the_classical_restrained_wheelset(tmp_path):
     stability = Stability(layout, amplitude=2.0)
     table = tables.dynamics_table(layout)
     centre = table[1:][np.argmin(np.abs(table[1:, tables.Y]))]
-    b = centre[tables.point_column(0, tables.TREAD, tables.LEVER)]
+    b = centre[tables.point_column(0, tables.TREAD, tables.LEVER)] * tables.MM
     lam = stability.equivalent_conicity
     # Δr of the knives is linear: the same conicity at every amplitude (1e-6).
     assert Stability(layout, amplitude=6.0).equivalent_conicity == pytest.approx(lam, rel=1e-6)
     w, c = layout.wheelset, layout.creep
     # r0: the centred contact's rolling radius (the knives touch 18.5 mm inside the taping line)
-    m, iz, r0, kpsi = w.mass, w.inertia[2], table[0, tables.HEADER_R0], layout.primary.yaw_stiffness
+    m, iz, r0, kpsi = w.mass, w.inertia[2], table[0, tables.HEADER_R0] * tables.MM, layout.primary.yaw_stiffness
     p = m * c.f11 * b**2 + iz * c.f22
     q = c.f22 * kpsi
     closed = math.sqrt(p * q / (p**2 * lam / (b * r0) - (m * kpsi) ** 2 / 4))

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from conftest import MODELS, SHIPPED, free_truck
+from conftest import CONED, MODELS, SHIPPED, free_truck
 from planar import closed_form_critical_speed, planar_eigenvalues
 from rail_mj.cli import main
 from rail_mj.forces import CreepForces, installed
@@ -154,8 +154,10 @@ def test_shipped_bogie_has_both_hunting_modes():
         assert sum(m.participation.values()) == pytest.approx(1.0, abs=1e-12)
 
 
-@pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
+@pytest.mark.parametrize("layout_path", CONED, ids=lambda p: p.stem)
 def test_time_domain_critical_speed_agrees_with_eigenvalues(layout_path):
+    """Coned wheels: the same linear model both ways. (On profiles the eigen method
+    linearises at 3 mm and the runs feel the whole tables: they need not agree.)"""
     layout = load_layout(layout_path)
     eigen = Stability(layout).critical_speed(5.0, 150.0)
     # The time method brackets the crossing itself, on a grid that does not contain it.

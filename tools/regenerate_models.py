@@ -4,6 +4,10 @@
     python tools/regenerate_models.py --check  # exit 1 if models/ is out of date
 
 tests/test_models.py runs the same comparison, so a stale models/ fails CI.
+
+Profile files in assets/ (.csv, .prw, .prr: a layout's [profiles] wheel or rail, such as
+models/manchester-coach-worn/assets/s1002_worn.csv from tools/worn_profile.py) are inputs, not
+generated: they are kept, and not reported as out of date.
 """
 
 from __future__ import annotations
@@ -16,6 +20,12 @@ from rail_mj.layout import load_layout
 from rail_mj.model import generate, generated_files
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
+PROFILE_SUFFIXES = (".csv", ".prw", ".prr")  # profile files: inputs a layout reads, kept
+
+
+def is_input(path: Path) -> bool:
+    """A file in assets/ that generation does not write: a profile the layout may read."""
+    return path.suffix.lower() in PROFILE_SUFFIXES
 
 
 def shipped_layouts() -> list[Path]:
@@ -33,7 +43,7 @@ def stale_files(layout_path: Path) -> list[str]:
     assets = folder / "assets"
     if assets.is_dir():
         stale += [f"assets/{p.name} (not generated)" for p in sorted(assets.iterdir())
-                  if f"assets/{p.name}" not in expected]
+                  if f"assets/{p.name}" not in expected and not is_input(p)]
     return stale
 
 
@@ -51,7 +61,8 @@ def main() -> int:
         else:
             assets = path.parent / "assets"
             for old in assets.glob("*") if assets.is_dir() else []:
-                old.unlink()  # a changed radius or conicity renames the mesh
+                if not is_input(old):
+                    old.unlink()  # a changed radius or conicity renames the mesh
             for written in generate(load_layout(path), path.parent):
                 print(written.relative_to(MODELS.parent))
     return 1 if out_of_date else 0
