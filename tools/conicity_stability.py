@@ -47,9 +47,10 @@ def on_track(layout, **profiles):
     return dataclasses.replace(layout, profiles=dataclasses.replace(layout.profiles, **profiles))
 
 
-def linear(layout, amplitude: float = 3.0) -> tuple[float, float | None]:
+def linear(layout, amplitude: float = 3.0) -> tuple[float, float | None, str]:
     s = Stability(layout, amplitude)
-    return s.equivalent_conicity, s.critical_speed(VMIN, VMAX, points=60).critical_speed
+    r = s.critical_speed(VMIN, VMAX, points=60)
+    return s.equivalent_conicity, r.critical_speed, r.mode or r.note
 
 
 def cone_line(base, conicities):
@@ -75,17 +76,19 @@ def main() -> None:
              ("worn S1002, 1:40, 1435 mm", worn)]
     rows = []
     for label, layout in pairs:
-        lam, vc = linear(layout)
-        vn = None
+        lam, vc, mode = linear(layout)
+        vn = outcome = None
         if args.nonlinear:
-            vn = nonlinear_critical_speed(layout, VMIN, VMAX)[0].critical_speed
-        rows.append((label, lam, vc, vn))
-        print(f"{label}: λe(3 mm) = {lam:.3f}, linear Vc = {vc}, nonlinear = {vn}", flush=True)
+            result = nonlinear_critical_speed(layout, VMIN, VMAX)[0]
+            vn, outcome = result.critical_speed, result.outcome
+        rows.append((label, lam, vc, mode, vn, outcome))
+        print(f"{label}: λe(3 mm) = {lam:.3f}, linear Vc = {vc} ({mode}), nonlinear = {vn} ({outcome})",
+              flush=True)
     amplitudes = [1.0, 1.5, 2.0, 3.0, 4.0, 6.0]
-    sweep = [(a, *linear(new, a)) for a in amplitudes]
+    sweep = [(a, *linear(new, a)[:2]) for a in amplitudes]
     for a, lam, vc in sweep:
         print(f"new pair at {a:g} mm: λe = {lam:.3f}, linear Vc = {vc}", flush=True)
-    lams = np.linspace(0.1, 0.5, 17)
+    lams = np.linspace(0.05, 0.5, 19)
     line = cone_line(new, lams)
 
     fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=120)
@@ -98,7 +101,7 @@ def main() -> None:
             ax.annotate(f"{a:g} mm", (lam, vc), textcoords="offset points", xytext=(6, 4), fontsize=7,
                         color="tab:blue")
     markers = iter("oDv^P")
-    for label, lam, vc, vn in rows:
+    for label, lam, vc, _, vn, _ in rows:
         m = next(markers)
         ax.plot([lam], [vc], m, color="tab:red", ms=7, label=f"{label} (3 mm)")
         if vn is not None:
@@ -115,13 +118,15 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     atomic_write(args.out / "critical_speed_conicity.png", buf.getvalue())
 
-    print("\n| wheel and track | λe at 3 mm | linear critical speed (m/s) |" + (
-        " nonlinear (m/s) |" if args.nonlinear else ""))
+    print("\n| wheel and track | λe at 3 mm | linear critical speed (m/s), mode |" + (
+        " nonlinear critical speed (m/s) |" if args.nonlinear else ""))
     print("|---|---|---|" + ("---|" if args.nonlinear else ""))
-    for label, lam, vc, vn in rows:
-        cells = f"| {label} | {lam:.3f} | {vc:.1f} |" if vc else f"| {label} | {lam:.3f} | stable to {VMAX:g} |"
+    for label, lam, vc, mode, vn, outcome in rows:
+        cells = (f"| {label} | {lam:.3f} | {vc:.1f}, {mode} |" if vc
+                 else f"| {label} | {lam:.3f} | stable to {VMAX:g} |")
         if args.nonlinear:
-            cells += f" {vn:.1f} |" if vn else " - |"
+            cells += (f" {vn:.1f} |" if vn else " the linear one: no limit cycle below it |" if outcome == "linear"
+                      else f" none ({outcome}) |")
         print(cells)
 
 
