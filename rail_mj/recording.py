@@ -7,10 +7,12 @@ Entity paths (stable; later tools read them back), in review units: mm, mrad, kN
     /guiding/wheelset<i>   the sum of guiding forces Sigma Y on wheelset i, kN (Scalars):
                            the lateral force of the rails, creep and flange
     /flange/wheelset<i>    (with [flange] contact) the flange's part of it, kN: the rail's
-                           lateral force on the flange, positive to the left, 0 off the flange
+                           lateral force on the flange, positive to the left, 0 off the flange;
+                           on profiles the normal forces' lateral part (gravitational
+                           stiffness on the tread, the flange force on the flange)
     /lateral/<frame>       lateral displacement of each moving frame, mm: bogie1, bogie2, ...
     /yaw/<frame>           and its yaw, mrad; then carbody, unless it is fixed
-    /events/flange         (with [flange] contact) a log line for each flange strike
+    /events/flange         (with [flange] or profiles) a log line for each flange strike
     /layout                the layout file and the run's settings, logged once
     /world/rails           the track, logged once, and /world/sleepers, one every 0.6 m
     /world/vehicle/<body>  each body's pose (carbody, bogieK, wheelsetN) moving along the
@@ -214,7 +216,10 @@ def plots(run: Run) -> list[Plot]:
     if run.frame_names:
         out += [Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM)),
                 Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD))]
-    if run.layout.flange is not None:
+    if run.layout.profiles is not None:  # the normal forces: gravitational stiffness and the flange
+        out.append(Plot("Wheelsets: normal forces, lateral part (kN)",
+                        wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)))
+    elif run.layout.flange is not None:
         out.append(Plot("Wheelsets: flange force (kN)",
                         wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)))
     return out
@@ -246,7 +251,7 @@ def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
                                 axis_y=rrb.ScalarAxis(range=axis_range([s.values for s in p.series])))
              for p in shown]
     notes = [rrb.TextDocumentView(origin="/layout", name="Layout and run")]
-    if run.layout.flange is not None:
+    if _flanges(run):
         notes.append(rrb.TextLogView(origin=FLANGE_EVENTS, name="Flange strikes"))
     extent = _extent(run)
     centre = extent.mean(axis=0) + [float(run.x[0]), 0.0, 0.0]
@@ -305,9 +310,14 @@ def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: lis
         rec.log(series.path, rr.SeriesLines(names=series.label, colors=[series.colour],
                                             aggregation_policy="MinMax"), static=True)
         rec.send_columns(series.path, indexes=indexes, columns=rr.Scalars.columns(scalars=series.values[keep]))
-    if run.layout.flange is not None:
+    if _flanges(run):
         log_flange_strikes(rec, run)
     log_vehicle(rec, run, keep, indexes)
+
+
+def _flanges(run: Run) -> bool:
+    """Whether the run has flange contact: [flange], or profiles (their own flanges)."""
+    return run.layout.flange is not None or run.layout.profiles is not None
 
 
 def log_flange_strikes(rec: rr.RecordingStream, run: Run) -> None:

@@ -147,7 +147,9 @@ class Run:
         t, x, y1, psi1, y2, psi2, ...   time, distance, each wheelset's lateral displacement and yaw
         sum_y1, flange1, sum_y2, ...    each wheelset's sum of guiding forces Sigma Y and the
                                         flange's part of it (the rail's lateral force on the
-                                        wheelset, positive to the left; 0 off the flange)
+                                        wheelset, positive to the left; 0 off the flange; on
+                                        profiles the normal forces' lateral part, gravitational
+                                        stiffness included)
         y_bogie1, psi_bogie1, ...       each moving frame's lateral displacement and yaw
         (y_carbody, psi_carbody)        (bogies, then the car body unless it is fixed)
         """
@@ -174,6 +176,14 @@ def _yaw(quat: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(quat[..., 3], quat[..., 0])
 
 
+def _table_header(model: mujoco.MjModel) -> tuple[float, float]:
+    """(first y, step in y), m, of a profiled model's contact table (rail_mj.tables)."""
+    from rail_mj.tables import HEADER_DY, HEADER_Y0, MM
+
+    header = model.numeric(NUMERIC_GEOMETRY).data
+    return float(header[HEADER_Y0]) * MM, float(header[HEADER_DY]) * MM
+
+
 def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> float:
     """Timestep for RK4 with explicit creep forces: STEP_FRACTION / (fastest linear rate).
 
@@ -182,11 +192,16 @@ def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> floa
     the model's speed.
     """
     rate = np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, forces))))
-    if vehicle.layout.flange is not None:
+    layout = vehicle.layout
+    if layout.flange is not None or layout.profiles is not None:
         # In flange contact the rail's stiffness and the steep radius rise add faster
-        # rates: linearise there too, the whole vehicle pressed 2 mm into the flanges.
+        # rates: linearise there too, the whole vehicle pressed 2 mm into the flanges; on
+        # profiles, in the table's step where the contact jumps onto the flange (the
+        # normal force's lateral part rises by ~2 W over 0.05 mm: the stiffest place).
+        shift = (layout.wheelset.flangeway_clearance + 0.002 if layout.profiles is None
+                 else layout.wheelset.flangeway_clearance - 0.5 * _table_header(vehicle.model)[1])
         qpos0 = np.zeros(vehicle.model.nq)
-        qpos0[vehicle.root_lateral_dofs] = vehicle.layout.wheelset.flangeway_clearance + 0.002
+        qpos0[vehicle.root_lateral_dofs] = shift
         engaged = state_matrix(vehicle.model, forces, qpos0=qpos0)
         rate = max(rate, np.max(np.abs(np.linalg.eigvals(engaged))))
     return min(MAX_TIMESTEP, STEP_FRACTION / rate) if rate > 0 else MAX_TIMESTEP
@@ -231,11 +246,7 @@ class _Prepared:
         """|y| past which a wheelset has left the rails: `lateral`, or on profiles the end of
         their contact table (10 mm: far up the flange, where a rigid wheel climbs it)."""
         profiles = self.request.layout.profiles is not None
-        if not profiles:
-            return lateral
-        from rail_mj.tables import HEADER_Y0, MM
-
-        return min(lateral, -float(self.vehicle.model.numeric(NUMERIC_GEOMETRY).data[HEADER_Y0]) * MM)
+        return min(lateral, -_table_header(self.vehicle.model)[0]) if profiles else lateral
 
 
 def prepare(request: Request, python_callback: bool = False) -> _Prepared:
