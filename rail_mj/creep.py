@@ -81,8 +81,10 @@ class ContactParameters:
 
     @functools.cached_property
     def table(self) -> np.ndarray:
-        """The per-wheelset numbers as rows of one array, for the compiled kernel."""
-        return np.ascontiguousarray(np.stack([getattr(self, name) for name in _ROWS]))
+        """The per-wheelset numbers as rows of one array, for the compiled kernel; the
+        shear modulus in GPa (GPA), as the model's numerics carry it."""
+        rows = [getattr(self, name) / (GPA if name == "shear_modulus" else 1.0) for name in _ROWS]
+        return np.ascontiguousarray(np.stack(rows))
 
     @classmethod
     def broadcast(cls, n: int, *, r0, b, conicity, f11, f22, f23=0.0, f33=0.0,
@@ -102,6 +104,10 @@ class ContactParameters:
 
 
 NO_GEOMETRY = np.zeros((0, _t.COLUMNS))
+# The shear modulus travels in GPa (ContactParameters.table, the rail_mj/ellipse numeric):
+# MuJoCo's MJCF writer writes as 0 every entry of a numeric below 1e-12 of its largest,
+# and 8e10 Pa would take a flangeway clearance of 0.008 m with it.
+GPA = _t.GPA
 
 # The rows of ContactParameters.table, in order. The native callback's numeric block carries
 # ROWS numbers per wheelset (rail_mj.native).
@@ -404,7 +410,7 @@ def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed):
 def _fastsim_wheel(p, xi_x, xi_y, xi_sp):
     """One wheel's (Fx, Fy, Mz) by FASTSIM on the default grid, from its column `p` of
     `ContactParameters.table`; mu*N is the table's friction limit."""
-    return _fastsim(p[_SEMI_A], p[_SEMI_B], p[_NORMAL], p[_LIMIT] / p[_NORMAL], p[_SHEAR], p[_C11], p[_C22],
+    return _fastsim(p[_SEMI_A], p[_SEMI_B], p[_NORMAL], p[_LIMIT] / p[_NORMAL], p[_SHEAR] * GPA, p[_C11], p[_C22],
                     p[_C23], xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS)
 
 
@@ -444,23 +450,60 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     return creep_lateral, flange_lateral, couple, spin, flange_moment
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _between(lo, hi, t, column):
+    """A table entry interpolated between two rows."""
+    return lo[column] + t * (hi[column] - lo[column])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _normal_loads(lo, hi, t, axle_load, r0):
+    """Each wheel's normal load (N) from the wheelset's vertical and roll equilibrium under
+    its axle load: N_L*V_L + N_R*V_R = W, N_L*M_L + N_R*M_R = 0 with V = sum w*cos(g) and
+    M = sum w*(l*cos(g) - s*r*sin(g)) over the wheel's points (the roll moment of its
+    normal forces per unit load, about the wheelset's centre). Where that would have a
+    wheel pull on its rail, one wheel carries the axle alone: the one whose own normal
+    force rolls the wheelset onto it (M_L <= 0: the left; M_R >= 0: the right)."""
+    v_left = v_right = m_left = m_right = 0.0
+    for side in range(2):
+        s = 1.0 - 2.0 * side
+        for slot in range(_t.SLOTS):
+            c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
+            w = _between(lo, hi, t, c + _t.WEIGHT)
+            r = r0 + _between(lo, hi, t, c + _t.RADIUS) * _t.MM
+            g = _between(lo, hi, t, c + _t.ANGLE)
+            lever = _between(lo, hi, t, c + _t.LEVER) * _t.MM
+            v, m = w * math.cos(g), w * (lever * math.cos(g) - s * r * math.sin(g))
+            if side == 0:
+                v_left, m_left = v_left + v, m_left + m
+            else:
+                v_right, m_right = v_right + v, m_right + m
+    det = v_left * m_right - v_right * m_left
+    n_left, n_right = axle_load * m_right / det, -axle_load * m_left / det
+    if not (n_left >= 0.0 and n_right >= 0.0):
+        if m_left <= 0.0:
+            n_left, n_right = axle_load / v_left, 0.0
+        else:
+            n_left, n_right = 0.0, axle_load / v_right
+    return n_left, n_right
+
+
 @numba.njit(cache=True, error_model="numpy")
 def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
     """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
     them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
-    its contact table (rail_mj.tables), interpolated linearly in y and held at its last row
+    its contact table (rail_mj.tables), interpolated linearly in y and held at its end rows
     beyond (the runner stops a wheelset that leaves it); `p`: its column of
     ContactParameters.table, for the falling-friction constants. docs/dynamics-on-profiles.md.
 
     Per contact point k of side s (+1 left, -1 right), load share w, radius r, contact
     angle g (leaning towards the track centre), lateral lever l:
-      normal loads from the wheelset's vertical and roll equilibrium under the axle load W:
-        N_L*V_L + N_R*V_R = W,  N_L*M_L + N_R*M_R = 0,
-        V = sum w*cos(g),  M = sum w*(l*cos(g) - s*r*sin(g)),
-      a wheel that would need to pull on its rail carries nothing (it lifts);
-      creepages xi_x = (r0 - r)/r0 - l*psi'/V, xi_y = y'/(V*cos g) - psi*cos g (the slip
-        the rigid contact allows lies in the contact plane), spin = psi'*cos(g)/V - s*sin(g)/r;
-      Kalker's law with this point's ellipse at its load (a, b grow as N^(1/3)), saturated;
+      normal loads from the wheelset's vertical and roll equilibrium (`_normal_loads`);
+      creepages xi_x = (r0 - r)/r0 - l*psi'/V, xi_y = (y'/V - psi)/cos(g) (the slip the
+        rigid contact allows lies in the contact plane, its contact point led by the yaw),
+        spin = psi'*cos(g)/V - s*sin(g)/r0 (the wheel turns at V/r0);
+      Kalker's law with this point's ellipse at its load (a, b grow as N^(1/3)), saturated,
+        or FASTSIM on that ellipse;
       the normal force's lateral part -s*N*sin(g): gravitational stiffness and the flange.
     The table's header switches gravitational stiffness and spin creep (f23 = f33 = 0) off.
     """
@@ -469,75 +512,54 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
     axle_load, shear = geo[0, _t.HEADER_AXLE_LOAD] * _t.KN, geo[0, _t.HEADER_SHEAR_MODULUS] * _t.GPA
     mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0] * _t.MM
     gravity, spinning = geo[0, _t.HEADER_GRAVITY] != 0.0, geo[0, _t.HEADER_SPIN] != 0.0
+    if math.isnan(y):  # a diverged state: no table row, and the runner reports it
+        return math.nan, math.nan, math.nan, math.nan, math.nan
     u = min(max((y - y0) / dy, 0.0), rows - 1.0)
     i = min(int(u), rows - 2)
     t = u - i
     lo, hi = geo[1 + i], geo[2 + i]
-    # Vertical and roll equilibrium.
-    v_left = v_right = m_left = m_right = 0.0
-    for side in range(2):
-        s = 1.0 - 2.0 * side
-        for slot in range(_t.SLOTS):
-            c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
-            w = lo[c + _t.WEIGHT] + t * (hi[c + _t.WEIGHT] - lo[c + _t.WEIGHT])
-            r = r0 + (lo[c + _t.RADIUS] + t * (hi[c + _t.RADIUS] - lo[c + _t.RADIUS])) * _t.MM
-            g = lo[c + _t.ANGLE] + t * (hi[c + _t.ANGLE] - lo[c + _t.ANGLE])
-            lever = (lo[c + _t.LEVER] + t * (hi[c + _t.LEVER] - lo[c + _t.LEVER])) * _t.MM
-            v = w * math.cos(g)
-            m = w * (lever * math.cos(g) - s * r * math.sin(g))
-            if side == 0:
-                v_left += v
-                m_left += m
-            else:
-                v_right += v
-                m_right += m
-    det = v_left * m_right - v_right * m_left
-    n_left, n_right = axle_load * m_right / det, -axle_load * m_left / det
-    if n_right < 0.0:
-        n_left, n_right = axle_load / v_left, 0.0
-    elif n_left < 0.0:
-        n_left, n_right = 0.0, axle_load / v_right
+    n_left, n_right = _normal_loads(lo, hi, t, axle_load, r0)
     creep_lateral = normal_lateral = couple = spin = lead_moment = 0.0
     for side in range(2):
         s = 1.0 - 2.0 * side
         wheel = n_left if side == 0 else n_right
         for slot in range(_t.SLOTS):
             c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
-            normal = wheel * (lo[c + _t.WEIGHT] + t * (hi[c + _t.WEIGHT] - lo[c + _t.WEIGHT]))
-            if normal <= 0.0:
+            normal = wheel * _between(lo, hi, t, c + _t.WEIGHT)
+            if not normal > 0.0:
                 continue
-            rise = (lo[c + _t.RADIUS] + t * (hi[c + _t.RADIUS] - lo[c + _t.RADIUS])) * _t.MM
+            rise = _between(lo, hi, t, c + _t.RADIUS) * _t.MM
             r = r0 + rise
-            g = lo[c + _t.ANGLE] + t * (hi[c + _t.ANGLE] - lo[c + _t.ANGLE])
-            lever = (lo[c + _t.LEVER] + t * (hi[c + _t.LEVER] - lo[c + _t.LEVER])) * _t.MM
+            g = _between(lo, hi, t, c + _t.ANGLE)
+            lever = _between(lo, hi, t, c + _t.LEVER) * _t.MM
             cube = (normal / _t.KN) ** (1.0 / 3.0) * _t.MM  # semi-axes per unit load: mm/kN^(1/3)
-            a = cube * (lo[c + _t.SEMI_A] + t * (hi[c + _t.SEMI_A] - lo[c + _t.SEMI_A]))
-            b = cube * (lo[c + _t.SEMI_B] + t * (hi[c + _t.SEMI_B] - lo[c + _t.SEMI_B]))
+            a = cube * _between(lo, hi, t, c + _t.SEMI_A)
+            b = cube * _between(lo, hi, t, c + _t.SEMI_B)
             ab = a * b
-            f11 = shear * ab * (lo[c + _t.C11] + t * (hi[c + _t.C11] - lo[c + _t.C11]))
-            f22 = shear * ab * (lo[c + _t.C22] + t * (hi[c + _t.C22] - lo[c + _t.C22]))
-            c23 = lo[c + _t.C23] + t * (hi[c + _t.C23] - lo[c + _t.C23])
-            f23 = f33 = 0.0
-            if spinning:
-                f23 = shear * ab * math.sqrt(ab) * c23
-                f33 = shear * ab * ab * (lo[c + _t.C33] + t * (hi[c + _t.C33] - lo[c + _t.C33]))
+            c11, c22 = _between(lo, hi, t, c + _t.C11), _between(lo, hi, t, c + _t.C22)
+            c23 = _between(lo, hi, t, c + _t.C23)
             cos_g, sin_g = math.cos(g), math.sin(g)
             xi_x = -rise / r0 - lever * psi_dot / speed
-            xi_y = y_dot / (speed * cos_g) - psi * cos_g
-            xi_sp = psi_dot * cos_g / speed - s * sin_g / r if spinning else 0.0
+            xi_y = (y_dot / speed - psi) / cos_g
+            xi_sp = psi_dot * cos_g / speed - s * sin_g / r0 if spinning else 0.0
             scale = 1.0
             if law == FASTSIM:  # this point's ellipse through Kalker's FASTSIM
-                fx, fy, mz = _fastsim(a, b, normal, mu, shear, f11 / (shear * ab), f22 / (shear * ab), c23,
-                                      xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS)
+                fx, fy, mz = _fastsim(a, b, normal, mu, shear, c11, c22, c23, xi_x, xi_y, xi_sp,
+                                      FASTSIM_STRIPS, FASTSIM_ELEMENTS)
             else:
-                fx = -f11 * xi_x
-                fy = -f22 * xi_y - f23 * xi_sp
+                f23 = f33 = 0.0
+                if spinning:
+                    f23 = shear * ab * math.sqrt(ab) * c23
+                    f33 = shear * ab * ab * _between(lo, hi, t, c + _t.C33)
+                fx = -shear * ab * c11 * xi_x
+                fy = -shear * ab * c22 * xi_y - f23 * xi_sp
                 mz = f23 * xi_y - f33 * xi_sp
-            if law != LINEAR and law != FASTSIM:
-                limit = mu * normal
-                if falling:
-                    limit = _falling_friction(limit, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_x, xi_y))
-                scale = _saturation_factor(law, fx, fy, limit)
+                if law != LINEAR:
+                    limit = mu * normal
+                    if falling:
+                        limit = _falling_friction(limit, p[_FALL_RATIO], p[_FALL_RATE],
+                                                  speed * math.hypot(xi_x, xi_y))
+                    scale = _saturation_factor(law, fx, fy, limit)
             lateral = scale * fy * cos_g
             pushed = -s * normal * sin_g if gravity else 0.0
             creep_lateral += lateral

@@ -30,7 +30,7 @@ import contextlib
 import mujoco
 import numpy as np
 
-from rail_mj.creep import ContactParameters, wheelset_forces
+from rail_mj.creep import GPA, ContactParameters, wheelset_forces
 from rail_mj.model import (NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE, NUMERIC_GEOMETRY, NUMERIC_SATURATION,
                            NUMERIC_WHEEL)
 from rail_mj.tables import COLUMNS
@@ -54,7 +54,8 @@ def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParame
         friction_limit=limit, falling_friction_ratio=falling_ratio, falling_friction_rate=falling_rate,
         law=int(law), clearance=clearance, flange_stiffness=stiffness,
         flange_damping=damping, flange_slope=slope if flange else None, geometry=geometry,
-        semi_axis_a=a, semi_axis_b=semi_b, normal_force=normal, shear_modulus=shear, c11=c11, c22=c22, c23=c23,
+        semi_axis_a=a, semi_axis_b=semi_b, normal_force=normal, shear_modulus=shear * GPA, c11=c11, c22=c22,
+        c23=c23,
     )
 
 

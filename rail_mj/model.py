@@ -34,6 +34,7 @@ import numpy as np
 
 from rail_mj.files import staged
 from rail_mj.layout import LAWS, Layout, Suspension
+from rail_mj.tables import GPA
 from rail_mj.wheel import wheel_profile, wheel_stl
 
 # Heights of the bodies above the rail, m. The model is planar (lateral and yaw), so
@@ -91,7 +92,7 @@ NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAW
 NUMERIC_GEOMETRY = "rail_mj/geometry"  # a profiled wheelset's contact table (rail_mj.tables), row-major
 NUMERIC_FLANGE = "rail_mj/flange"  # on (1) or off (0), stiffness, damping, tan(flange angle)
 # The contact ellipse, for the fastsim law: semi-axes a (rolling) and b, m, wheel load N, shear
-# modulus G, Pa, and Kalker's C11, C22, C23; zeros for a layout without [contact].
+# modulus G, GPa (see creep.GPA), and Kalker's C11, C22, C23; zeros for a layout without [contact].
 NUMERIC_ELLIPSE = "rail_mj/ellipse"
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
@@ -343,9 +344,13 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
                      if f else _g6(0.0, 0.0, 0.0, 0.0))
     spec.add_numeric(name=NUMERIC_ELLIPSE, data=_g6(*_ellipse(layout)))
     if layout.profiles is not None:
-        from rail_mj.tables import dynamics_table
+        from rail_mj.tables import TableError, dynamics_table
 
-        spec.add_numeric(name=NUMERIC_GEOMETRY, data=_g6(*dynamics_table(layout).reshape(-1)))
+        try:
+            table = dynamics_table(layout)
+        except TableError as e:
+            raise ValueError(f"{layout.source}: {e}") from None
+        spec.add_numeric(name=NUMERIC_GEOMETRY, data=_g6(*table.reshape(-1)))
     return spec
 
 
@@ -357,7 +362,7 @@ def _ellipse(layout: Layout) -> tuple[float, ...]:
     from rail_mj.layout import contact_patch_of  # scipy: only for layouts with [contact]
 
     patch = contact_patch_of(layout)
-    return (patch.a, patch.b, patch.normal_load, patch.shear_modulus, patch.C["C11"], patch.C["C22"],
+    return (patch.a, patch.b, patch.normal_load, patch.shear_modulus / GPA, patch.C["C11"], patch.C["C22"],
             patch.C["C23"])
 
 
@@ -514,8 +519,17 @@ def scene_xml(layout: Layout) -> str:
 
 def generated_files(layout: Layout) -> dict[str, bytes]:
     """Every file `generate` writes, relative to the output folder."""
-    spec, _ = compiled(layout)  # to_xml needs a compiled spec; also proves the model is valid
-    files = {f"{layout.name}.xml": spec.to_xml().encode(), "scene.xml": scene_xml(layout).encode()}
+    spec, model = compiled(layout)  # to_xml needs a compiled spec; also proves the model is valid
+    xml = spec.to_xml()
+    # MuJoCo's writer keeps 6 significant figures (every number went in through _g6) and
+    # writes as 0 any entry of a numeric below 1e-12 of its largest: check that the MJCF
+    # reads back to the very model the runner steps, numbers and all.
+    written = mujoco.MjModel.from_xml_string(xml, spec.assets)
+    if not np.array_equal(written.numeric_data, model.numeric_data):
+        k = int(np.flatnonzero(written.numeric_data != model.numeric_data)[0])
+        raise ValueError(f"{layout.source}: the written MJCF would not read back to the model (numeric entry {k}: "
+                         f"{model.numeric_data[k]!r} written as {written.numeric_data[k]!r}); a bug in rail-mj")
+    files = {f"{layout.name}.xml": xml.encode(), "scene.xml": scene_xml(layout).encode()}
     for name, data in spec.assets.items():
         files[f"assets/{name}"] = bytes(data)
     return files

@@ -245,8 +245,12 @@ class _Prepared:
     def derailment(self, lateral: float) -> float:
         """|y| past which a wheelset has left the rails: `lateral`, or on profiles the end of
         their contact table (10 mm: far up the flange, where a rigid wheel climbs it)."""
-        profiles = self.request.layout.profiles is not None
-        return min(lateral, -_table_header(self.vehicle.model)[0]) if profiles else lateral
+        return min(lateral, self.table_end)
+
+    @functools.cached_property
+    def table_end(self) -> float:
+        """|y| where a profiled vehicle's contact table ends; inf on coned wheels."""
+        return -_table_header(self.vehicle.model)[0] if self.request.layout.profiles is not None else math.inf
 
 
 def prepare(request: Request, python_callback: bool = False) -> _Prepared:

@@ -28,7 +28,7 @@ Example, S1002 on 60E1 at 1:40 near the centre, a 110 kN axle, the Polach law's 
     >>> from rail_mj.profiles import rail_60e1, s1002
     >>> geo = contact_table(Track(s1002(), rail_60e1()), ys=np.linspace(-1e-3, 1e-3, 41))
     >>> t = build(geo, 110e3, 210e9, 0.28, 0.3)
-    >>> t.shape == (42, COLUMNS), round(float(t[21, point_column(0, TREAD, ANGLE)]), 4)
+    >>> t.shape == (42, COLUMNS), round(float(t[21, point_column(0, 0, ANGLE)]), 4)
     (True, 0.0244)
 """
 
@@ -57,14 +57,13 @@ FIRST_POINT = 2
 # (mm/kN^(1/3), a along the rolling direction), Kalker's C11, C22, C23, C33.
 WEIGHT, RADIUS, ANGLE, LEVER, SEMI_A, SEMI_B, C11, C22, C23, C33 = range(10)
 POINT = 10
-SLOTS = 2  # tread, flange
+SLOTS = 2  # each followed across the rows (_assign_slots): slot 0 starts at the centred outer point
 COLUMNS = FIRST_POINT + 2 * SLOTS * POINT
-TREAD, FLANGE = 0, 1
-_JUMP = 2e-3  # m across the wheel: a jump of the contact point this long is tread -> flange
+_JUMP = 2e-3  # m across the wheel: a contact point moving further between two rows is a new one
 
 
 def point_column(side: int, slot: int, field: int) -> int:
-    """The column of `field` for side 0 (left) / 1 (right) and slot TREAD / FLANGE."""
+    """The column of `field` for side 0 (left) / 1 (right) and slot 0 / 1."""
     return FIRST_POINT + (side * SLOTS + slot) * POINT + field
 
 
@@ -126,13 +125,46 @@ def _side_points(cols, side: str, i: int):
     return out
 
 
-def _split(s_primary) -> float:
-    """The wheel coordinate that separates tread from flange: the middle of the longest
-    jump of the contact point between neighbouring rows, if one is longer than _JUMP;
-    -inf (all tread) for a profile whose contact moves continuously (a cone, a worn tread)."""
-    jumps = np.abs(np.diff(s_primary))
-    k = int(np.argmax(jumps))
-    return 0.5 * (s_primary[k] + s_primary[k + 1]) if jumps[k] > _JUMP else -math.inf
+def _assign_slots(wheel_s, centre: int) -> list[list[int]]:
+    """Which slot each row's points go to, following each point across the rows.
+
+    `wheel_s[i]`: the wheel coordinates s of row i's points. From the centred row (its
+    outer point in slot 0) outwards both ways, a point stays in the slot whose point it
+    continues: of two points, the pairing that moves them least; a single point stays in
+    the slot that was occupied if it lies within _JUMP of that slot's point, and starts in
+    the other slot if it jumped (the contact leaving the tread for the flange root): then
+    the one slot's load fades out across the table step as the other's fades in."""
+    out = [None] * len(wheel_s)
+    first = sorted(range(len(wheel_s[centre])), key=lambda k: -wheel_s[centre][k])
+    out[centre] = [first.index(k) for k in range(len(wheel_s[centre]))]
+    for step in (1, -1):
+        last = [math.nan] * SLOTS
+        occupied = set(out[centre])
+        for k, slot in enumerate(out[centre]):
+            last[slot] = wheel_s[centre][k]
+        i = centre + step
+        while 0 <= i < len(wheel_s):
+            points = wheel_s[i]
+            if len(points) == 2:
+                if len(occupied) == 1:
+                    (q,) = occupied
+                    near = int(np.argmin([abs(v - last[q]) for v in points]))
+                    slots = [q, 1 - q] if near == 0 else [1 - q, q]
+                else:
+                    keep = abs(points[0] - last[0]) + abs(points[1] - last[1])
+                    swap = abs(points[0] - last[1]) + abs(points[1] - last[0])
+                    slots = [0, 1] if keep <= swap else [1, 0]
+            elif len(occupied) == 1:
+                (q,) = occupied
+                slots = [q if abs(points[0] - last[q]) <= _JUMP else 1 - q]
+            else:
+                slots = [int(np.argmin([abs(points[0] - last[0]), abs(points[0] - last[1])]))]
+            out[i] = slots
+            occupied = set(slots)
+            for k, slot in enumerate(slots):
+                last[slot] = points[k]
+            i += step
+    return out
 
 
 def build(geometry, axle_load: float, young: float, poisson: float, friction: float) -> np.ndarray:
@@ -153,61 +185,108 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
     body = table[1:]
     body[:, Y] = ys / MM
     body[:, ROLL] = np.asarray(cols["roll"], float) / MRAD
+    centre = int(np.argmin(np.abs(ys)))
     for k, side in enumerate(("left", "right")):
-        split = _split(np.asarray(cols[f"wheel_s_{side}"], float))
+        points = [_side_points(cols, side, i) for i in range(rows)]
+        slots = _assign_slots([[p[1] for p in row] for row in points], centre)
+        filled = np.zeros((rows, SLOTS), bool)
         for i in range(rows):
-            points = _side_points(cols, side, i)
             shapes = []
-            for gap, s, r, gamma, y_c, kw, kr in points:
+            for gap, s, r, gamma, y_c, kw, kr in points[i]:
                 A = math.cos(gamma) / (2.0 * r)  # the wheel's circumferential curvature (Meusnier)
                 B = 0.5 * (kw + kr)
                 shapes.append((gap, gamma, A, B))
-            weights = [1.0] if len(points) == 1 else _share(shapes, axle_load / 2.0, young, poisson)
-            if len(points) == 1:
-                slots = [FLANGE if points[0][1] < split else TREAD]
-            else:  # the point further in across the wheel is on the flange
-                slots = [FLANGE, TREAD] if points[0][1] < points[1][1] else [TREAD, FLANGE]
-            for (gap, s, r, gamma, y_c, kw, kr), (_, _, A, B), w, slot in zip(points, shapes, weights, slots):
+            weights = [1.0] if len(shapes) == 1 else _share(shapes, axle_load / 2.0, young, poisson)
+            for (gap, s, r, gamma, y_c, kw, kr), (_, _, A, B), w, slot in zip(points[i], shapes, weights, slots[i]):
                 a, b, C, _ = _hertz_per_unit_load(A, B, young, poisson)
                 per_kn = KN ** (1.0 / 3.0) / MM  # m/N^(1/3) -> mm/kN^(1/3)
                 values = (w, (r - r0) / MM, gamma, (y_c - ys[i]) / MM, a * per_kn, b * per_kn,
                           C["C11"], C["C22"], C["C23"], C["C33"])
-                for field, v in enumerate(values):
-                    body[i, point_column(k, slot, field)] = v
-            if len(points) == 1:  # the empty slot copies the point, at no load
-                full, empty = slots[0], 1 - slots[0]
-                start = point_column(k, full, 0)
-                body[i, point_column(k, empty, 0):point_column(k, empty, 0) + POINT] = body[i, start:start + POINT]
-                body[i, point_column(k, empty, WEIGHT)] = 0.0
+                c = point_column(k, slot, 0)
+                body[i, c:c + POINT] = values
+                filled[i, slot] = True
+        # An empty slot keeps its own nearest point at no load, so that between two rows a
+        # slot's load fades while its geometry stays its own point's.
+        for slot in range(SLOTS):
+            have = np.flatnonzero(filled[:, slot])
+            c = point_column(k, slot, 0)
+            for i in np.flatnonzero(~filled[:, slot]):
+                source = (have[np.argmin(np.abs(have - i))], slot) if len(have) else (i, 1 - slot)
+                body[i, c:c + POINT] = body[source[0], point_column(k, source[1], 0):point_column(k, source[1], 0) + POINT]
+                body[i, c + WEIGHT] = 0.0
     if not np.all(np.isfinite(table)):
         raise TableError("the contact table has undefined entries (a profile's curvature at its end?)")
     return table
 
 
+def _one_point_per_wheel(table: np.ndarray) -> np.ndarray:
+    """The table with each wheel's points merged into one carrying the wheel's load, in
+    slot 0: contact angle, radius and lever their load-weighted means, and an ellipse with
+    the wheel's Kalker coefficients: at a wheel load N each point k carries w_k*N, its a*b
+    grows as (w_k*N)^(2/3), so f11 = G*N^(2/3)*sum(w_k^(2/3)*(ab)_k*C11_k) (per unit load
+    (ab)_k) and likewise f22; f23 with (ab)^1.5 and weight w_k, f33 with (ab)^2 and w_k^(4/3).
+    The merged point keeps the load-weighted a/b."""
+    out = table.copy()
+    body = out[1:]
+    for side in range(2):
+        w = np.stack([body[:, point_column(side, k, WEIGHT)] for k in range(SLOTS)])
+        total = np.sum(w, axis=0)
+        share = w / np.where(total > 0, total, 1.0)
+
+        def field(f):
+            return np.stack([body[:, point_column(side, k, f)] for k in range(SLOTS)])
+
+        ab = field(SEMI_A) * field(SEMI_B)
+        merged_ab = np.sum(share ** (2 / 3) * ab, axis=0)
+        ratio = np.sum(share * field(SEMI_A) / field(SEMI_B), axis=0)
+        merged = {
+            WEIGHT: np.ones(len(body)), RADIUS: np.sum(share * field(RADIUS), axis=0),
+            ANGLE: np.sum(share * field(ANGLE), axis=0), LEVER: np.sum(share * field(LEVER), axis=0),
+            SEMI_A: np.sqrt(merged_ab * ratio), SEMI_B: np.sqrt(merged_ab / ratio),
+            C11: np.sum(share ** (2 / 3) * ab * field(C11), axis=0) / merged_ab,
+            C22: np.sum(share ** (2 / 3) * ab * field(C22), axis=0) / merged_ab,
+            C23: np.sum(share * ab**1.5 * field(C23), axis=0) / merged_ab**1.5,
+            C33: np.sum(share ** (4 / 3) * ab**2 * field(C33), axis=0) / merged_ab**2,
+        }
+        for f, values in merged.items():
+            body[:, point_column(side, 0, f)] = values
+        c = point_column(side, 1, 0)
+        body[:, c:c + POINT] = body[:, point_column(side, 0, 0):point_column(side, 0, 0) + POINT]
+        body[:, c + WEIGHT] = 0.0
+    return out
+
+
 def linearised(table: np.ndarray, geometry, amplitude: float) -> np.ndarray:
-    """The table linearised about the centred state at a lateral amplitude (mm), as
-    practitioners linearise: the rolling radii as the cone of the equivalent conicity
-    there (EN 15302, so that Δr = 2*λe*y), every other entry as its value at y = 0 plus
-    the first-harmonic slope of its odd part at that amplitude. Three rows, one grid step apart."""
+    """The table linearised about the centred state for a harmonic lateral motion of
+    amplitude `amplitude` (mm), as practitioners linearise: the rolling radii as the cone
+    of the equivalent conicity there (EN 15302, so that Δr = 2*λe*y, about the centred
+    radii); every other entry c(y) as c0 + c1*y with the describing function's two
+    coefficients over y = amplitude*sin(θ): c1 = (1/π)∫c·sin θ dθ / amplitude, the
+    first-harmonic slope, and c0 = (1/π)∫c·sin²θ dθ, the mean weighted as a gain on an
+    in-phase motion (what the wheel meets over the cycle, not only at the centre: the
+    centred S1002/60E1 contact's two tread points exist for |y| < 0.45 mm only). Each wheel
+    is first made one point carrying its whole load (`_one_point_per_wheel`), so that a
+    wheel's contact angle, lever and creep coefficients are linearised as the wheel's, not
+    slot by slot. Three rows, one grid step apart."""
     from rail_mj import geometry as g
 
     lam = g.equivalent_conicity(geometry, amplitude)
-    body = table[1:]
+    body = _one_point_per_wheel(table)[1:]
     ys = body[:, Y]
-    centre = np.array([np.interp(0.0, ys, body[:, c]) for c in range(COLUMNS)])
     theta = np.linspace(0.0, 2.0 * math.pi, 721)[:-1]
-    yh = amplitude * np.sin(theta)  # mm, as the table's y
-    slope = np.array([np.mean(np.interp(yh, ys, body[:, c]) * np.sin(theta)) * 2.0 / amplitude
-                      for c in range(COLUMNS)])
+    along = np.array([np.interp(amplitude * np.sin(theta), ys, body[:, c]) for c in range(COLUMNS)])
+    mean = np.mean(along * 2.0 * np.sin(theta) ** 2, axis=1)
+    slope = np.mean(along * np.sin(theta), axis=1) * 2.0 / amplitude
     for side, sign in ((0, 1.0), (1, -1.0)):
-        for slot in (TREAD, FLANGE):
-            slope[point_column(side, slot, RADIUS)] = sign * lam
+        for slot in range(SLOTS):
+            c = point_column(side, slot, RADIUS)
+            mean[c], slope[c] = np.interp(0.0, ys, body[:, c]), sign * lam
     dy = table[0, HEADER_DY]
     out = np.zeros((4, COLUMNS))
     out[0] = table[0]
     out[0, HEADER_Y0], out[0, HEADER_ROWS] = -dy, 3
     for i, y in enumerate((-dy, 0.0, dy)):
-        out[i + 1] = centre + slope * y
+        out[i + 1] = mean + slope * y
     out[1:, Y] = (-dy, 0.0, dy)
     return out
 

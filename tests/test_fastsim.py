@@ -195,13 +195,14 @@ def test_fastsim_needs_the_contact_ellipse():
 
 
 def test_the_model_carries_the_ellipse_and_both_callbacks_agree():
-    """The ellipse travels in the model (six significant figures), and the native callback
-    gives the Python callback's forces to round-off, on and off saturation."""
+    """The ellipse travels in the model (six significant figures, the shear modulus in GPa),
+    and the native callback gives the Python callback's forces to round-off, on and off
+    saturation."""
     layout = fastsim_layout()
     model = Vehicle(layout).model
     patch = contact_patch(layout.wheelset.wheel_load, 0.46, 0.30, young_modulus=210e9, poisson_ratio=0.28)
     np.testing.assert_allclose(model.numeric(NUMERIC_ELLIPSE).data,
-                               [patch.a, patch.b, patch.normal_load, patch.shear_modulus, patch.C["C11"],
+                               [patch.a, patch.b, patch.normal_load, patch.shear_modulus / 1e9, patch.C["C11"],
                                 patch.C["C22"], patch.C["C23"]], rtol=5e-6)
     native.set_speed(model, 47.0)
     python = CreepForces(model, [f"wheelset{i + 1}" for i in range(4)], 47.0)

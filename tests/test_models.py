@@ -146,3 +146,23 @@ def test_the_coach_is_drawn_as_a_coach_on_outside_frame_bogies():
     assert not model.geom_contype.any() and not model.geom_conaffinity.any()
     np.testing.assert_array_equal(model.body_mass[1:], [layout.carbody.mass] + (
         [layout.bogie.mass] + [layout.wheelset.mass] * 2) * 2)
+
+
+def test_a_layout_with_contact_writes_an_mjcf_that_reads_back(tmp_path):
+    """[contact] puts the Hertz ellipse and the shear modulus in the model (the fastsim
+    law): the written MJCF still reads back to the model in memory, every number (MuJoCo's
+    writer drops entries below 1e-12 of a numeric's largest; generate refuses to lose any)."""
+    import tomllib
+
+    from rail_mj.layout import layout_from_dict
+
+    data = tomllib.loads((MODELS / "manchester-coach" / "manchester-coach.toml").read_text())
+    for key in ("f11", "f22", "f23", "f33"):
+        data["creep"].pop(key)
+    data["creep"]["law"] = "fastsim"
+    data["contact"] = {"young_modulus": 210e9, "poisson_ratio": 0.28, "rail_transverse_radius": 0.3}
+    layout = layout_from_dict(data, "coach-with-contact")
+    generate(layout, tmp_path)
+    written = mujoco.MjModel.from_xml_path(str(tmp_path / f"{layout.name}.xml"))
+    np.testing.assert_array_equal(written.numeric_data, Vehicle(layout).model.numeric_data)
+    assert written.numeric("rail_mj/wheel").data[3] == 0.008  # the flangeway clearance survives

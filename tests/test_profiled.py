@@ -52,9 +52,11 @@ def forces_at(table, y, psi=0.0, y_dot=0.0, psi_dot=0.0, speed=30.0, law=0):
 
 def test_the_coach_on_profiles_takes_everything_from_them(coach):
     assert coach.flange is None and coach.profiles is not None
-    # The flangeway clearance is where a flange first touches (contact-geometry's number).
-    assert coach.wheelset.flangeway_clearance == pytest.approx(
-        geometry.flange_contact_shift(geometry.contact_table(coach)), abs=0)
+    # The flangeway clearance is where a flange is met: the contact steeper than 1 rad
+    # there, on the tread one table step (0.05 mm) nearer the centre.
+    geo = geometry.contact_table(coach)
+    i = int(np.argmin(np.abs(geo.y - coach.wheelset.flangeway_clearance)))
+    assert geo.contact_angle_left[i] > 1.0 > geo.contact_angle_left[i - 1]
     # Kalker's coefficients of the centred contact, from Hertz at each point: of the order of
     # 10 MN for a 5.5 t wheel (docs/contact.md's 10 t reference case gives 14.3 and 13.1 MN).
     assert 5e6 < coach.creep.f22 < coach.creep.f11 < 20e6
@@ -123,10 +125,8 @@ def test_a_cone_on_knife_edges_is_the_classical_restrained_wheelset(tmp_path):
     stability = Stability(layout, amplitude=2.0)
     table = tables.dynamics_table(layout)
     centre = table[1:][np.argmin(np.abs(table[1:, tables.Y]))]
-    b = centre[tables.point_column(0, tables.TREAD, tables.LEVER)] * tables.MM
+    b = centre[tables.point_column(0, 0, tables.LEVER)] * tables.MM
     lam = stability.equivalent_conicity
-    # Δr of the knives is linear: the same conicity at every amplitude (1e-6).
-    assert Stability(layout, amplitude=6.0).equivalent_conicity == pytest.approx(lam, rel=1e-6)
     w, c = layout.wheelset, layout.creep
     # r0: the centred contact's rolling radius (the knives touch 18.5 mm inside the taping line)
     m, iz, r0, kpsi = w.mass, w.inertia[2], table[0, tables.HEADER_R0] * tables.MM, layout.primary.yaw_stiffness
@@ -208,3 +208,86 @@ def test_cli_states_the_linearisation_amplitude(coach, capsys):
     status = main(["eigen", coach.source, "--speed", "40", "--amplitude", "20"])
     err = capsys.readouterr().err
     assert status == 2 and "--amplitude" in err.strip().splitlines()[-1]
+
+
+def test_a_steep_flange_holds_the_wheelset_on_the_flanging_wheel(coach):
+    """On a flange steeper than the S1002's 70 degrees the other wheel lifts: the flanging
+    wheel carries the axle load alone and pushes back with W*tan(gamma) (75 degrees here,
+    3.73 W), never lets the wheelset through."""
+    table = tables.dynamics_table(coach).copy()
+    row = 1 + int(np.argmin(np.abs(table[1:, tables.Y] - 6.4)))
+    for slot in range(tables.SLOTS):
+        table[row, tables.point_column(0, slot, tables.ANGLE)] = math.radians(75.0)
+    w = table[0, tables.HEADER_AXLE_LOAD] * tables.KN
+    got = float(forces_at(table, table[row, tables.Y] * tables.MM).flange_lateral[0])
+    assert got == pytest.approx(-w * math.tan(math.radians(75.0)), rel=1e-9)
+
+
+def test_a_flange_yawed_into_its_rail_is_turned_away(coach):
+    """Against the left rail's flange, nose-left (into the rail): the normal force acts
+    ahead of the axle (r*tan(gamma) > l) and yaws the wheelset nose-right (docs/flange.md)."""
+    table = tables.dynamics_table(coach)
+    f = forces_at(table, 6.4e-3, psi=0.004)
+    assert float(f.flange_lateral[0]) < 0 and float(f.flange_moment[0]) < 0
+
+
+def test_spin_creep_opposes_gravitational_stiffness(coach):
+    """At rest 3 mm off centre the contact angles differ, and so do the wheels' spin
+    creepages: their lateral force pushes outwards, against the normal forces' restoring
+    part, but does not cancel it (Wickens 2003)."""
+    f = forces_at(tables.dynamics_table(coach), 3e-3, law=2)
+    assert float(f.flange_lateral[0]) < 0 < float(f.creep_lateral[0]) < -float(f.flange_lateral[0])
+
+
+def test_a_nan_state_gives_nan_not_a_wild_read(coach):
+    f = forces_at(tables.dynamics_table(coach), math.nan)
+    assert np.all(np.isnan(np.array(f)))
+
+
+def test_hertz_shares_two_points_load_by_their_approach():
+    """Two like points: equal gaps share equally; a gap g moves load to the closer point as
+    Hertz's law says, N2/N1 = ((zeta - g)/zeta)^(3/2) for the common approach zeta."""
+    A, B = 1.0, 5.0
+    assert tables._share([(0.0, 0.0, A, B), (0.0, 0.0, A, B)], 50e3, 210e9, 0.28) == pytest.approx([0.5, 0.5])
+    w1, w2 = tables._share([(0.0, 0.0, A, B), (2e-5, 0.0, A, B)], 50e3, 210e9, 0.28)
+    c = tables._hertz_per_unit_load(A, B, 210e9, 0.28)[3]
+    zeta = c * (w1 * 50e3) ** (2 / 3)  # the first point's approach at its load
+    assert w2 / w1 == pytest.approx(((zeta - 2e-5) / zeta) ** 1.5, rel=1e-9)
+    assert w2 < w1
+
+
+def test_slots_follow_their_points_across_the_rows():
+    """Two tread points from the centre; the outer one leaves, the inner one carries on,
+    then the contact jumps to the flange root: a new point in the freed slot."""
+    s = [[-8.0e-3, 3.2e-3], [-8.1e-3, 3.1e-3], [-8.2e-3], [-8.3e-3], [-30e-3], [-30.1e-3]]
+    assert tables._assign_slots(s, 0) == [[1, 0], [1, 0], [1], [1], [0], [0]]
+    # and outwards the other way from a centre inside the list
+    assert tables._assign_slots([[-30e-3], [-8.3e-3], [3.2e-3, -8.0e-3]], 2) == [[0], [1], [0, 1]]
+
+
+def test_linearisation_is_the_describing_function(tmp_path):
+    """An entry c(y) = c0 + c1*y + c2*y^2 + c3*y^3 linearised at amplitude A: slope
+    c1 + (3/4)*c3*A^2 (first harmonic) and mean c0 + (3/4)*c2*A^2 (weighted by sin^2);
+    the radii become the cone of the equivalent conicity (1e-9). 1e-4 for the polynomial:
+    the law interpolates linearly between rows 0.05 mm apart, off by c''*dy^2/8."""
+    layout = cone_on_knives(tmp_path, 0.025)
+    table = tables.dynamics_table(layout).copy()
+    y = table[1:, tables.Y]
+    c0, c1, c2, c3 = 0.05, 0.01, 0.002, 0.0003  # per mm
+    column = tables.point_column(0, 0, tables.ANGLE)
+    table[1:, column] = c0 + c1 * y + c2 * y**2 + c3 * y**3
+    amplitude = 3.0
+    lin = tables.linearised(table, geometry.contact_table(layout), amplitude)
+    dy = lin[0, tables.HEADER_DY]
+    assert (lin[3, column] - lin[1, column]) / (2 * dy) == pytest.approx(c1 + 0.75 * c3 * amplitude**2, rel=1e-4)
+    assert lin[2, column] == pytest.approx(c0 + 0.75 * c2 * amplitude**2, rel=1e-4)
+    lam = geometry.equivalent_conicity(geometry.contact_table(layout), amplitude)
+    radius = tables.point_column(0, 0, tables.RADIUS)
+    assert (lin[3, radius] - lin[1, radius]) / (2 * dy) == pytest.approx(lam, rel=1e-9)
+
+
+def test_a_wheelset_past_the_table_has_climbed_its_flange(coach):
+    from rail_mj.runner import Derailed
+
+    with pytest.raises(Derailed, match="climbed the flange"):
+        simulate(coach, 30.0, 50.0, 0.0105)
