@@ -21,6 +21,8 @@ import contextlib
 import dataclasses
 import functools
 import math
+import threading
+import time
 from typing import Callable
 
 import mujoco
@@ -213,10 +215,8 @@ def _linearly_stable(vehicle: Vehicle, forces: CreepForces | None) -> bool:
 
 
 def _warnings(data) -> str | None:
-    for i, w in enumerate(data.warning):
-        if w.number:
-            return mujoco.mjtWarning(i).name
-    return None
+    raised = np.flatnonzero(data.warning.number)
+    return mujoco.mjtWarning(int(raised[0])).name if raised.size else None
 
 
 @dataclasses.dataclass
@@ -241,6 +241,7 @@ class _Prepared:
     timestep: float
     n_steps: int
     forces: CreepForces | None = None  # the Python callback, when asked for; None: the native one
+    seconds: float = 0.0  # the time it took
 
     def derailment(self, lateral: float) -> float:
         """|y| past which a wheelset has left the rails: `lateral`, or on profiles the end of
@@ -256,6 +257,7 @@ class _Prepared:
 def prepare(request: Request, python_callback: bool = False) -> _Prepared:
     """Check a request, build its vehicle (speed set) and choose its timestep. Raises
     ValueError for an impossible request and RunRefused for one too slow to simulate."""
+    started = time.perf_counter()
     layout, speed, distance = request.layout, request.speed, request.distance
     for name, value in (("speed", speed), ("distance", distance)):
         if not (math.isfinite(value) and value > 0):
@@ -284,7 +286,7 @@ def prepare(request: Request, python_callback: bool = False) -> _Prepared:
             f"of {dt:.2g} s, {steps:.3g} steps (limit {MAX_STEPS:.0e}); raise --speed or "
             f"shorten --distance"
         )
-    return _Prepared(request, vehicle, dt, math.ceil(steps), forces)
+    return _Prepared(request, vehicle, dt, math.ceil(steps), forces, time.perf_counter() - started)
 
 
 def simulate(
@@ -308,79 +310,183 @@ def simulate(
     (rail_mj.native); `python_callback` uses the Python one (rail_mj.forces) instead.
     """
     prepared = prepare(Request(layout, speed, distance, initial_lateral, initial_yaw, state), python_callback)
-    ((result,),) = _step([_Pack.alone(prepared)], progress, derailment_lateral, prepared.forces)
+    result = _alone(prepared, derailment_lateral, progress)
     if isinstance(result, SimulationError):
         raise result
     return result
 
 
-# Vehicles a model when runs are stepped together: a step of a model of eight coaches
-# costs a little over a third of eight steps of one, and far fewer Python round trips.
+# Vehicles a model when runs are stepped together: a coach's step in a model of eight
+# costs two thirds of its step alone (no drawn shapes, MuJoCo's overheads shared) and far
+# fewer Python round trips; models of 16 or 32 save 1-2 % more, and balance worse.
 PACK = 8
 
 
 def simulate_many(requests: list[Request], threads: int = 1, derailment_lateral: float = DERAILMENT_LATERAL,
-                  ) -> list[Run | Exception]:
-    """Many runs stepped together: runs of one timestep are packed, PACK to a MuJoCo model
-    (each vehicle attached under its own name prefix, its own speed in the native block),
-    in the order of their length so that few steps are wasted on runs that have ended, and
-    the models are stepped side by side by `mujoco.rollout` on `threads` threads. Each
-    result is exactly the Run that `simulate` gives for its request, bit for bit, or the
-    exception it raises (ValueError, SimulationError). A numerical failure while packed
-    is put down to its runs one by one, each run again on its own."""
+                  finished: Callable[[int, "Run | Exception", float], None] | None = None,
+                  stop: threading.Event | None = None) -> list[Run | Exception]:
+    """Many runs stepped together, each result exactly the Run that `simulate` gives for its
+    request, bit for bit, or the exception it raises (ValueError, SimulationError).
+
+    `threads` threads step a MuJoCo model each, holding up to PACK runs of one timestep
+    (each vehicle attached under its own name prefix, its own speed in the native block).
+    A thread takes the longest runs waiting, so that the threads finish together. When one
+    of its runs ends, the longest run waiting of the same layout and timestep takes its
+    place (the model's speed for that vehicle changes, nothing else); when half of its
+    places are empty, the runs still going continue where they are in a new model, with
+    runs waiting of any layout. A numerical failure while packed is put down to its runs
+    one by one, each run again on its own. `finished(k, result, seconds)`, if given, is
+    told each result as soon as it is known, from the thread that stepped it: k its
+    place in `requests`, seconds its share of the threads' time. Once `stop` is set, the
+    threads stop after their chunk (the runs not finished have no result: None)."""
     results: list = [None] * len(requests)
-    groups: dict[float, list[tuple[int, _Prepared]]] = {}
-    for k, request in enumerate(requests):
-        try:
-            prepared = prepare(request)
-        except (ValueError, SimulationError) as e:
-            results[k] = e
-            continue
-        groups.setdefault(prepared.timestep, []).append((k, prepared))
-    for group in groups.values():
-        group.sort(key=lambda item: (item[1].n_steps, item[0]))
-        packs = [_Pack.of([item for item in group[j:j + PACK]]) for j in range(0, len(group), PACK)]
-        # rollout steps models side by side only when their sizes agree: the full packs
-        # together, a last, smaller one on its own.
-        by_size: dict[tuple, list[_Pack]] = {}
-        for pack in packs:
-            by_size.setdefault(pack.size, []).append(pack)
-        for same in by_size.values():
-            stepped = _step(same, None, derailment_lateral, None, threads)
-            for pack, outcomes in zip(same, stepped):
-                for k, p, result in zip(pack.indices, pack.prepared, outcomes):
-                    if isinstance(result, SimulationError) and not isinstance(result, Derailed) \
-                            and len(pack.prepared) > 1:
-                        ((result,),) = _step([_Pack.alone(p)], None, derailment_lateral, None)
-                    results[k] = result
+
+    def done(k: int, result, seconds: float) -> None:
+        results[k] = result
+        if finished is not None:
+            finished(k, result, seconds)
+
+    def put_all() -> None:
+        """Prepare the requests, the longest first, for the threads to take as they come."""
+        for k in sorted(range(len(requests)), key=lambda k: (-_duration(requests[k]), k)):
+            started = time.perf_counter()
+            try:
+                queue.put(k, prepare(requests[k]))
+            except (ValueError, SimulationError) as e:
+                done(k, e, time.perf_counter() - started)
+        queue.close()
+
+    queue = _Queue(stop)
+    workers = max(1, min(threads, len(requests)))
+    size = min(PACK, -(-len(requests) // workers))  # the first packs: every thread busy
+    with native.installed(), _stepping():
+        if workers == 1:
+            put_all()
+            _work(queue, size, done, derailment_lateral)
+        else:
+            errors: list[BaseException] = []
+
+            def work() -> None:
+                try:
+                    _work(queue, size, done, derailment_lateral)
+                except BaseException as e:  # noqa: BLE001 - raised again in the calling thread
+                    errors.append(e)
+                    queue.cancel()
+
+            pool = [threading.Thread(target=work, name=f"rail-mj-{i}", daemon=True) for i in range(workers)]
+            for thread in pool:
+                thread.start()
+            try:
+                put_all()  # while the threads step the first runs prepared
+                for thread in pool:
+                    while thread.is_alive():  # a timeout, so that Ctrl-C is heard
+                        thread.join(0.2)
+            except BaseException:
+                queue.cancel()  # each thread stops after its chunk; the callback stays till then
+                for thread in pool:
+                    thread.join()
+                raise
+            if errors:
+                raise errors[0]
     return results
 
 
-@dataclasses.dataclass
-class _Pack:
-    """A model to step and the runs it holds, each at its place in it."""
+def _duration(request: Request) -> float:
+    """Seconds of simulated time, for the order of the runs (0 for a request to be refused)."""
+    try:
+        duration = request.distance / request.speed
+    except (TypeError, ZeroDivisionError):
+        return 0.0
+    return duration if math.isfinite(duration) and duration > 0 else 0.0
 
-    model: mujoco.MjModel
-    prepared: list[_Prepared]
-    places: list["_Place"]
-    indices: tuple[int, ...] = ()  # the runs' places in the caller's list
 
-    @classmethod
-    def alone(cls, prepared: _Prepared) -> "_Pack":
-        return cls(prepared.vehicle.model, [prepared], [_Place.whole(prepared.vehicle)], (0,))
+class _Queue:
+    """The runs waiting to be stepped, the longest first, shared by the threads; put in as
+    they are prepared, until `close`."""
 
-    @classmethod
-    def of(cls, items: list[tuple[int, _Prepared]]) -> "_Pack":
-        indices, prepared = zip(*items)
-        if len(prepared) == 1:
-            return dataclasses.replace(cls.alone(prepared[0]), indices=indices)
-        model, places = _pack([p.vehicle for p in prepared], [p.request.speed for p in prepared])
-        return cls(model, list(prepared), places, indices)
+    def __init__(self, stop: threading.Event | None = None):
+        self._items: list[tuple[int, _Prepared]] = []
+        self._ready = threading.Condition()
+        self._closed = False
+        self._stop = stop or threading.Event()
+
+    def put(self, k: int, prepared: _Prepared) -> None:
+        with self._ready:
+            self._items.append((k, prepared))
+            self._ready.notify_all()
+
+    def close(self) -> None:
+        with self._ready:
+            self._closed = True
+            self._ready.notify_all()
+
+    def cancel(self) -> None:
+        self._stop.set()
+        self.close()
 
     @property
-    def size(self) -> tuple:
-        m = self.model
-        return (m.nq, m.nv, m.nbody, m.njnt, m.nsensordata, m.nnumericdata, self.prepared[0].timestep)
+    def cancelled(self) -> bool:
+        return self._stop.is_set()
+
+    def take(self, n: int, timestep: float | None = None) -> list[tuple[int, _Prepared]]:
+        """Up to n runs of `timestep`, the longest first. Without a timestep: the first run
+        waiting's, and n of them if n will come (it waits for them)."""
+        with self._ready:
+            while True:
+                if self.cancelled or n <= 0:
+                    return []
+                dt = timestep if timestep is not None or not self._items else self._items[0][1].timestep
+                chosen = [item for item in self._items if item[1].timestep == dt][:n]
+                if timestep is not None or self._closed or len(chosen) == n:
+                    break
+                self._ready.wait(0.1)
+            for item in chosen:
+                self._items.remove(item)
+            return chosen
+
+    def take_like(self, prepared: _Prepared) -> tuple[int, _Prepared] | None:
+        """The longest run that can take the place of `prepared` in its model: its timestep
+        and an equal layout (so an equal vehicle), the speed alone differing."""
+        with self._ready:
+            for item in self._items:
+                if item[1].timestep == prepared.timestep and _same(item[1].request.layout, prepared.request.layout):
+                    self._items.remove(item)
+                    return item
+            return None
+
+
+def _same(a: Layout, b: Layout) -> bool:
+    try:
+        return a is b or bool(a == b)
+    except (TypeError, ValueError):  # fields that do not compare (arrays): not known to be equal
+        return False
+
+
+class _Running:
+    """A run being stepped: what it has recorded, how far it has come, and the state (qpos,
+    qvel) it starts or continues from (None: its request's disturbance)."""
+
+    def __init__(self, index: int, prepared: _Prepared):
+        self.index, self.prepared = index, prepared
+        self.every = max(1, round(SAMPLE_INTERVAL / prepared.timestep))
+        self.count = -(-prepared.n_steps // self.every) + 1  # samples: the last at or past the distance
+        self.pos, self.quat, self.rates = _records(prepared.vehicle, self.count)
+        self.done = 0  # samples recorded
+        self.state = prepared.request.state
+        self.seconds = prepared.seconds  # and its share of the time of the models it was stepped in
+
+    def t(self) -> np.ndarray:
+        return np.arange(self.count) * (self.every * self.prepared.timestep)  # exact, unlike data.time
+
+    def run(self, final) -> Run:
+        p = self.prepared
+        return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final)
+
+    def partial(self, k: int) -> Run:
+        """The Run of its first k samples (what was simulated before a failure)."""
+        p = self.prepared
+        return Run(p.vehicle, p.request.speed, p.timestep, self.t()[:k], self.pos[:k].copy(), self.quat[:k].copy(),
+                   self.rates[:k].copy())
 
 
 @dataclasses.dataclass
@@ -399,6 +505,70 @@ class _Place:
         model = vehicle.model
         return cls(vehicle.sensors, np.arange(model.nq), np.arange(model.nv),
                    vehicle.root_lateral_dofs, vehicle.wheelset_dofs(YAW))
+
+
+class _Pack:
+    """A model that one thread steps and the runs in it, each at its place; a place whose
+    run has ended is empty (None), its vehicle at rest in the centre."""
+
+    STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+    def __init__(self, runs: list[_Running], alone: bool = False):
+        started = time.perf_counter()
+        self.runs: list[_Running | None] = list(runs)
+        self.alone = alone  # the run's own vehicle model (drawn shapes and all), as `simulate` steps it
+        if alone:
+            vehicle = runs[0].prepared.vehicle
+            self.model, self.places = vehicle.model, [_Place.whole(vehicle)]
+        else:
+            self.model, self.places = _pack([r.prepared.vehicle for r in runs], [r.prepared.request.speed for r in runs])
+        model = self.model
+        model.opt.timestep = runs[0].prepared.timestep
+        # A run that blows up must stay blown up (non-finite), not be reset by MuJoCo to its
+        # start: that is how it is told from the runs stepped beside it.
+        model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+        if _unconstrained(model):  # nothing to constrain: the constraint stages are skipped, same result
+            model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+        self.data = mujoco.MjData(model)
+        self.state = np.empty(mujoco.mj_stateSize(model, self.STATE))
+        mujoco.mj_getState(model, self.data, self.state, self.STATE)
+        for m in range(len(runs)):
+            self.start(m)
+        self.share(time.perf_counter() - started)
+
+    def start(self, m: int) -> None:
+        """Put run m's starting state at its place (or its vehicle at rest, if empty)."""
+        place, run, nq = self.places[m], self.runs[m], self.model.nq
+        self.state[1 + place.qpos] = self.model.qpos0[place.qpos]
+        self.state[1 + nq + place.qvel] = 0.0
+        if run is None:
+            return
+        if run.state is None:
+            self.state[1 + place.lateral] = run.prepared.request.initial_lateral
+            self.state[1 + place.yaw] = run.prepared.request.initial_yaw
+        else:
+            self.state[1 + place.qpos], self.state[1 + nq + place.qvel] = run.state
+
+    def state_of(self, m: int, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(qpos, qvel) of run m in a state vector of this model."""
+        place = self.places[m]
+        return vector[1 + place.qpos].copy(), vector[1 + self.model.nq + place.qvel].copy()
+
+    def going(self) -> list[int]:
+        return [m for m, run in enumerate(self.runs) if run is not None]
+
+    def share(self, seconds: float) -> None:
+        going = self.going()
+        for m in going:
+            self.runs[m].seconds += seconds / len(going)
+
+
+def _unconstrained(model: mujoco.MjModel) -> bool:
+    """Whether nothing in the model makes a constraint: no contacts, equalities, limits,
+    friction loss or tendons (so mjDSBL_CONSTRAINT changes nothing but the time)."""
+    return (bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT) and model.neq == 0
+            and model.ntendon == 0 and model.nflex == 0 and not np.any(model.jnt_limited)
+            and not np.any(model.dof_frictionloss))
 
 
 def _pack(vehicles: list[Vehicle], speeds: list[float]):
@@ -442,129 +612,186 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     return model, places
 
 
-def _step(packs: list[_Pack], progress, derailment_lateral: float, forces, threads: int = 1,
-          ) -> list[list[Run | SimulationError]]:
-    """Step every pack (models of one size and timestep, side by side on `threads`
-    threads) until each run has covered its distance. MuJoCo steps in chunks
-    (`mujoco.rollout`) and measures every body with its sensors. A step's sensor values
-    are those of the state it started from (sensors are computed in the forward pass,
-    before integration), so step j's record is the sample at step j. A run that leaves
-    the rails is stopped there (its part of the state re-centred, so that it cannot
-    disturb the others); a numerical failure stops every run still going."""
-    dt = packs[0].prepared[0].timestep
-    every = max(1, round(SAMPLE_INTERVAL / dt))
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    current, counts, records, results, finals, derails = [], [], [], [], [], []
-    for pack in packs:
-        model = pack.model
-        model.opt.timestep = dt
-        data = mujoco.MjData(model)
-        for p, place in zip(pack.prepared, pack.places):
-            r = p.request
-            if r.state is None:
-                data.qpos[place.lateral] = r.initial_lateral
-                data.qpos[place.yaw] = r.initial_yaw
+class _Roller:
+    """One thread's `mujoco.rollout` on the calling thread, into buffers it keeps: states
+    and sensor readings, views valid until the next call."""
+
+    def __init__(self):
+        self._rollout = rollout.Rollout(nthread=0)
+        self._states, self._readings = np.empty(0), np.empty(0)
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, start: np.ndarray, nstep: int):
+        nstate, nsensor = start.size, model.nsensordata
+        if self._states.size < nstep * nstate:
+            self._states = np.empty(nstep * nstate)
+        if self._readings.size < nstep * nsensor:
+            self._readings = np.empty(nstep * nsensor)
+        states = self._states[:nstep * nstate].reshape(1, nstep, nstate)
+        readings = self._readings[:nstep * nsensor].reshape(1, nstep, nsensor)
+        self._rollout.rollout([model], [data], start[None], skip_checks=True, nstep=nstep, state=states,
+                              sensordata=readings)
+        return states[0], readings[0]
+
+
+def _work(queue: _Queue, size: int, done, derailment_lateral: float) -> None:
+    """One thread's share of `simulate_many`: packs of the longest runs waiting, until none wait."""
+    roller = _Roller()
+    while not queue.cancelled:
+        items = queue.take(size)
+        if not items:
+            return
+        _drive(_Pack([_Running(k, p) for k, p in items]), roller, done, derailment_lateral, None, queue)
+
+
+def _alone(prepared: _Prepared, derailment_lateral: float, progress=None) -> "Run | SimulationError":
+    """One run on its own, in its vehicle's own model: what `simulate` steps."""
+    outcome = []
+    forces = prepared.forces
+    with installed(forces) if forces else native.installed(), _stepping():
+        later = _drive(_Pack([_Running(0, prepared)], alone=True), _Roller(),
+                       lambda k, result, seconds: outcome.append(result), derailment_lateral, forces, None, progress)
+    for make in later:  # outside the callback's block: the cause linearises
+        outcome.append(make())
+    (result,) = outcome
+    return result
+
+
+def _drive(pack: _Pack, roller: _Roller, done, derailment_lateral: float, forces, queue: _Queue | None,
+           progress=None) -> list:
+    """Step `pack` until its runs have covered their distances (and those that take their
+    places from `queue`), telling `done(k, result, seconds)` each result. MuJoCo steps in
+    chunks of CHECK_EVERY samples (`mujoco.rollout`) and measures every body with its
+    sensors. A step's sensor values are those of the state it started from (sensors are
+    computed in the forward pass, before integration), so step j's record is the sample
+    at step j. Every run starts at the start of a chunk, so each meets the same chunks and
+    checks as on its own. A run that leaves the rails is stopped there (its place emptied,
+    so that it cannot disturb the others); a numerical failure stops every run still going,
+    and in a pack of several, each is run again on its own. Returns the Derailed results
+    still to make when `forces` (the Python callback) is installed: thunks for the caller."""
+    later = []
+    while True:
+        going = pack.going()
+        if not going or (queue is not None and queue.cancelled):
+            return later
+        runs = [pack.runs[m] for m in going]
+        every, dt = runs[0].every, runs[0].prepared.timestep
+        count = min(CHECK_EVERY, max(r.count - r.done for r in runs))
+        started = time.perf_counter()
+        start = pack.state
+        states, readings = roller(pack.model, pack.data, start, count * every)
+        readings = readings[::every]
+        pack.state = states[-1].copy()
+        pack.share(time.perf_counter() - started)
+        warning = _warnings(pack.data)
+        if warning or not (np.all(np.isfinite(readings)) and np.all(np.isfinite(pack.state))):
+            for r in runs:
+                if pack.alone:
+                    at = (min(r.done + count, r.count) - 1) * (every * dt)
+                    speed = r.prepared.request.speed
+                    done(r.index, SimulationError(
+                        f"diverged by t = {at:.4g} s (x = {speed * at:.4g} m): MuJoCo reported "
+                        f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at "
+                        f"{speed:g} m/s; the suspension or creep stiffness is too high for "
+                        f"this step", r.partial(r.done)), r.seconds)
+                else:
+                    done(r.index, _alone(r.prepared, derailment_lateral), r.seconds)
+            return later
+        first, ended = runs[0].done, []
+        for m, r in zip(going, runs):
+            place = pack.places[m]
+            n = min(count, r.count - r.done)
+            mine = slice(r.done, r.done + n)
+            r.pos[mine, 0], r.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
+            place.sensors.poses(readings[:n], r.pos[mine], r.quat[mine])
+            place.sensors.rates(readings[:n], r.rates[mine])
+            lateral = np.abs(r.pos[mine][:, r.prepared.vehicle.wheelset_ids, 1])
+            off = np.nonzero(np.max(lateral, axis=1) > r.prepared.derailment(derailment_lateral))[0]
+            if len(off):
+                j, worst = r.done + off[0], int(np.argmax(lateral[off[0]]))
+
+                def make(r=r, j=j, worst=worst):
+                    return _derailed(r.prepared, worst, j, r.t(), derailment_lateral, forces, r.partial(j + 1))
+
+                if forces is None:
+                    done(r.index, make(), r.seconds)
+                else:
+                    later.append(make)
+                ended.append(m)
+            elif r.done + n == r.count:  # its last sample: the state the run ends in
+                last = n - 1
+                done(r.index, r.run(pack.state_of(m, states[last * every - 1] if last > 0 else start)), r.seconds)
+                ended.append(m)
             else:
-                data.qpos[place.qpos], data.qvel[place.qvel] = r.state
-        state = np.empty(mujoco.mj_stateSize(model, spec))
-        mujoco.mj_getState(model, data, state, spec)
-        current.append(state)
-        counts.append([-(-p.n_steps // every) + 1 for p in pack.prepared])  # the last at or past the distance
-        records.append([_records(p.vehicle, max(counts[-1])) for p in pack.prepared])
-        results.append([None] * len(pack.prepared))
-        finals.append([None] * len(pack.prepared))
-        derails.append({})  # run -> (sample, wheelset) where it left the rails
-    n_samples = max(max(c) for c in counts)
-    t = np.arange(n_samples) * (every * dt)  # exact, where data.time accumulates round-off
+                r.done += n
+        for m in ended:
+            # The longest run waiting of the same vehicle takes the place: only the speed changes.
+            item = queue.take_like(pack.runs[m].prepared) if queue is not None else None
+            pack.runs[m] = None if item is None else _Running(*item)
+            if item is not None:
+                native.set_speed(pack.model, item[1].request.speed, vehicle=m)
+            pack.start(m)
+        if progress is not None:
+            progress(min(first + count, runs[0].count - 1) / max(runs[0].count - 1, 1))
+        empty = len(pack.runs) - len(pack.going())
+        if queue is not None and empty and 2 * empty >= len(pack.runs):
+            # Half the places empty: the runs going continue in a new model, with runs waiting.
+            keep = pack.going()
+            for m in keep:
+                pack.runs[m].state = pack.state_of(m, pack.state)
+            items = queue.take(PACK - len(keep), dt)
+            runs = [pack.runs[m] for m in keep] + [_Running(k, p) for k, p in items]
+            if not runs:
+                return later
+            pack = _Pack(runs)
 
-    def partial(a: int, m: int, k: int) -> Run:
-        pos, quat, rates = records[a][m]
-        return Run(packs[a].prepared[m].vehicle, packs[a].prepared[m].request.speed, dt, t[:k].copy(),
-                   pos[:k].copy(), quat[:k].copy(), rates[:k].copy())
 
-    for pack in packs:
-        # A run that blows up must stay blown up (non-finite) in its own pack, not be reset by
-        # MuJoCo to its start: that is how it is told from the runs stepped beside it.
-        pack.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
-    datas = [mujoco.MjData(packs[0].model) for _ in range(max(1, min(threads, len(packs))))]
-    nq = packs[0].model.nq
-    done = 0  # samples recorded and checked
-    active = list(range(len(packs)))
-    with installed(forces) if forces else native.installed(), _quiet_mujoco():
-        while active:
-            count = min(CHECK_EVERY, max(max(counts[a]) for a in active) - done)
-            starts = [current[a] for a in active]
-            states, readings = rollout.rollout([packs[a].model for a in active], datas[:len(active)],
-                                               np.array(starts), nstep=count * every)
-            # MuJoCo's warnings are counted per thread, not per pack: they name a failure only
-            # when one pack is stepped; otherwise the pack's own non-finite values do.
-            warning = _warnings(datas[0]) if len(active) == 1 else None
-            for b, a in enumerate(active):
-                current[a] = states[b, -1].copy()
-                mine_all = readings[b, ::every]
-                if warning or not (np.all(np.isfinite(mine_all)) and np.all(np.isfinite(current[a]))):
-                    at = t[min(done + count, n_samples) - 1]
-                    for m, p in enumerate(packs[a].prepared):
-                        if results[a][m] is None and done < counts[a][m]:
-                            results[a][m] = SimulationError(
-                                f"diverged by t = {at:.4g} s (x = {p.request.speed * at:.4g} m): MuJoCo reported "
-                                f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at "
-                                f"{p.request.speed:g} m/s; the suspension or creep stiffness is too high for "
-                                f"this step", partial(a, m, done))
-                    continue
-                for m, (p, place) in enumerate(zip(packs[a].prepared, packs[a].places)):
-                    if results[a][m] is not None or done >= counts[a][m]:
-                        continue
-                    mine = slice(done, min(done + count, counts[a][m]))
-                    pos, quat, rates = records[a][m]
-                    place.sensors.poses(mine_all[:mine.stop - done], pos[mine], quat[mine])
-                    place.sensors.rates(mine_all[:mine.stop - done], rates[mine])
-                    lateral = np.abs(pos[mine][:, p.vehicle.wheelset_ids, 1])
-                    off = np.nonzero(np.max(lateral, axis=1) > p.derailment(derailment_lateral))[0]
-                    if len(off):
-                        derails[a][m] = done + off[0], int(np.argmax(lateral[off[0]]))
-                        results[a][m] = partial(a, m, derails[a][m][0] + 1)  # its Derailed is made below
-                        current[a][1 + place.qpos] = 0.0  # re-centred: it cannot blow up the others
-                        current[a][1 + nq + place.qvel] = 0.0
-                    elif mine.stop == counts[a][m]:  # its last sample: the state the run ends in
-                        last = mine.stop - 1 - done
-                        state = states[b, last * every - 1] if last > 0 else starts[b]
-                        finals[a][m] = (state[1 + place.qpos].copy(), state[1 + nq + place.qvel].copy())
-            done += count
-            active = [a for a in active if done < max(counts[a])
-                      and any(r is None for r in results[a])]
-            if progress is not None:
-                progress(min(done, n_samples - 1) / max(n_samples - 1, 1))
-    for a, pack in enumerate(packs):
-        for m, (j, worst) in derails[a].items():  # outside the callback's block: the cause linearises
-            results[a][m] = _derailed(pack.prepared[m], worst, j, t, derailment_lateral, forces, results[a][m])
-        for m, p in enumerate(pack.prepared):
-            if results[a][m] is None:
-                pos, quat, rates = records[a][m]
-                k = counts[a][m]
-                results[a][m] = Run(p.vehicle, p.request.speed, dt, t[:k], pos[:k], quat[:k], rates[:k], finals[a][m])
-    return results
+_STEPPING = threading.Lock()
+_stepping_users = 0
+_stepping_previous: tuple = ()
 
 
 @contextlib.contextmanager
-def _quiet_mujoco():
-    """While stepping, MuJoCo's warnings are not printed nor appended to MUJOCO_LOG.TXT in
-    the working folder: the runner reports a failure itself, in one line, naming the
-    warning (from the data's warning counters)."""
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(lambda message: None)
+def _stepping():
+    """While any thread steps: MuJoCo's warnings are not printed nor appended to
+    MUJOCO_LOG.TXT in the working folder (the runner reports a failure itself, in one
+    line, naming the warning from the data's warning counters), and MuJoCo's pipeline
+    timers (data.timer, a clock read at every stage, 2 % of a step) are off."""
+    global _stepping_users, _stepping_previous
+    with _STEPPING:
+        if _stepping_users == 0:
+            _stepping_previous = (mujoco.get_mju_user_warning(), mujoco.get_mjcb_time())
+            mujoco.set_mju_user_warning(lambda message: None)
+            mujoco.set_mjcb_time(_untimed())
+        _stepping_users += 1
     try:
         yield
     finally:
-        mujoco.set_mju_user_warning(previous)
+        with _STEPPING:
+            _stepping_users -= 1
+            if _stepping_users == 0:
+                mujoco.set_mju_user_warning(_stepping_previous[0])
+                mujoco.set_mjcb_time(_stepping_previous[1])
+
+
+@functools.cache
+def _untimed():
+    """A native clock that always reads 0 (MuJoCo's default reads the system clock)."""
+    import ctypes
+
+    import numba
+
+    @numba.cfunc(numba.types.float64(), cache=True)
+    def zero():
+        return 0.0
+
+    return ctypes.CFUNCTYPE(ctypes.c_double)(zero.address)
 
 
 def _records(vehicle: Vehicle, n_samples: int):
-    """Empty arrays for a run's body positions, quaternions (the world's set) and rates."""
+    """Empty arrays for a run's body positions, quaternions and rates, filled as it goes
+    (the memory is touched then, a chunk at a time, not all before the first step)."""
     nbody = vehicle.model.nbody
-    pos, quat = np.empty((n_samples, nbody, 3)), np.empty((n_samples, nbody, 4))
-    pos[:, 0], quat[:, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors fill the rest
-    return pos, quat, np.empty((n_samples, vehicle.n_wheelsets, 2))
+    return np.empty((n_samples, nbody, 3)), np.empty((n_samples, nbody, 4)), np.empty((n_samples, vehicle.n_wheelsets, 2))
 
 
 def _derailed(p: _Prepared, worst: int, j: int, t, derailment_lateral: float, forces, run) -> "Derailed":

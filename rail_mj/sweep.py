@@ -2,11 +2,11 @@
 
 A sweep is a list of cases: every combination of the `grid` values (layout keys such as
 `primary.yaw_stiffness`), with the `sets` applied to all, and for `method="run"` every
-speed as well. Runs are stepped many at a time (rail_mj.runner.simulate_many: packed
-eight vehicles to a MuJoCo model, the models side by side on MuJoCo's threads), each
-with exactly the result it would have alone; critical speeds are computed a case a
-thread (`run_case`). Every row is a function of its case alone, so any executor gives
-the same rows: this machine's cores by default, or a Dask cluster. Finished rows are appended to a journal beside the output as they come;
+speed as well. Runs are stepped many at a time (rail_mj.runner.simulate_many: eight
+vehicles to a MuJoCo model, a model on each thread), each with exactly the result it
+would have alone, and each row is summarised as its run ends; critical speeds are
+computed a case a thread (`run_case`). Every row is a function of its case alone, so
+any executor gives the same rows: this machine's cores by default, or a Dask cluster. Finished rows are appended to a journal beside the output as they come;
 the same sweep started again keeps them and runs only the rest, and the output is written
 whole at the end, sorted by case.
 
@@ -28,11 +28,13 @@ import itertools
 import json
 import math
 import os
+import queue
+import threading
 import time
 import tomllib
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -212,10 +214,10 @@ def run_case(case: Case) -> dict:
 
 
 def tasks(cases: list[Case], packs_per_task: int = 1) -> list[list[Case]]:
-    """The units of work: runs in the order of their duration, `packs_per_task` models of
-    PACK vehicles at a time (rail_mj.runner.simulate_many steps them side by side); every
-    other case alone. Packing changes no result (each run is the one `simulate` gives,
-    bit for bit), so executors may cut the work as suits them."""
+    """The units of work of a Dask cluster: runs in the order of their duration,
+    `packs_per_task` models of PACK vehicles at a time (rail_mj.runner.simulate_many steps
+    them together); every other case alone. Packing changes no result (each run is the one
+    `simulate` gives, bit for bit), so executors may cut the work as suits them."""
     from rail_mj.runner import PACK
 
     size = PACK * packs_per_task
@@ -227,32 +229,54 @@ def run_task(cases: list[Case], threads: int = 1) -> list[dict]:
     """The rows of a task (see `tasks`), runs stepped on `threads` threads. Never raises."""
     if len(cases) == 1:
         return [run_case(cases[0])]
+    return list(run_rows(cases, threads))
+
+
+def run_rows(cases: list[Case], threads: int = 1) -> Iterator[dict]:
+    """The rows of run cases as their runs end, in any order: the runs stepped together
+    (rail_mj.runner.simulate_many on `threads` threads), each row summarised by the thread
+    that stepped its run, while the others step on. Never raises; closing the iterator
+    stops the runs still going."""
     from rail_mj.runner import Request, simulate_many
 
-    started = time.perf_counter()
-    layouts, requests = [], []
+    owners, requests = [], []
     for case in cases:
         try:
-            layouts.append(layout_from_dict(case.layout, source=case.source))
-            requests.append(Request(layouts[-1], case.speed, case.distance, DEFAULT_INITIAL_LATERAL))
+            layout = layout_from_dict(case.layout, source=case.source)
+            requests.append(Request(layout, case.speed, case.distance, DEFAULT_INITIAL_LATERAL))
+            owners.append((case, layout))
         except (LayoutError, ValueError):
-            layouts.append(None)
+            yield run_case(case)  # says why its layout is refused
+    rows: queue.SimpleQueue = queue.SimpleQueue()
+    stop = threading.Event()
+
+    def finished(k: int, outcome, seconds: float) -> None:
+        case, layout = owners[k]
+        rows.put(_row(case, lambda: _summarise_run(case, layout, outcome), seconds))
+
+    def step() -> None:
+        try:
+            simulate_many(requests, threads, finished=finished, stop=stop)
+        except Exception:  # noqa: BLE001 - packs that cannot be built: each case left on its own
+            rows.put(False)
+        rows.put(None)
+
+    stepping = threading.Thread(target=step, name="rail-mj-sweep", daemon=True)
+    stepping.start()
+    given = set()
     try:
-        outcomes = iter(simulate_many(requests, threads))
-    except Exception:  # noqa: BLE001 - packs that cannot be built: each case on its own
-        return [run_case(case) for case in cases]
-    share = (time.perf_counter() - started) / len(cases)
-    jobs = []
-    for case, layout in zip(cases, layouts):
-        if layout is None:
-            jobs.append(lambda case=case: run_case(case))  # says why its layout is refused
-        else:
-            outcome = next(outcomes)
-            jobs.append(lambda case=case, layout=layout, outcome=outcome:
-                        _row(case, lambda: _summarise_run(case, layout, outcome), share))
-    # The summaries (filters, spectra: numpy and scipy, which let go of the GIL) side by side.
-    with ThreadPoolExecutor(max_workers=threads) as pool:
-        return list(pool.map(lambda job: job(), jobs))
+        while (row := rows.get()) is not None:
+            if row is False:
+                for case, _ in owners:
+                    if case.index not in given:
+                        given.add(case.index)
+                        yield run_case(case)
+            elif row["case"] not in given:
+                given.add(row["case"])
+                yield row
+    finally:  # closed early (Ctrl-C): the threads stop after their chunk
+        stop.set()
+        stepping.join()
 
 
 def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> dict:
@@ -498,16 +522,16 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
             client.close()
         return
     threads = workers or os.cpu_count() or 1
-    work = tasks(cases, packs_per_task=2 * threads)
-    # Runs: one task at a time, its packs stepped side by side by MuJoCo's own threads
-    # (mujoco.rollout); critical speeds: a thread each.
-    for task in (t for t in work if t[0].method == "run"):
-        yield from run_task(task, threads)
+    # Runs: all at once, packs on every thread, a row as each run ends; critical speeds: a
+    # thread each.
+    runs = [c for c in cases if c.method == "run"]
+    if runs:
+        yield from run_rows(runs, threads)
     pool = ThreadPoolExecutor(max_workers=threads)
     try:
-        futures = [pool.submit(run_task, task) for task in work if task[0].method != "run"]
+        futures = [pool.submit(run_case, case) for case in cases if case.method != "run"]
         for future in as_completed(futures):
-            yield from future.result()
+            yield future.result()
     finally:  # interrupted (Ctrl-C): the queued cases are dropped, not waited for
         pool.shutdown(wait=False, cancel_futures=True)
 

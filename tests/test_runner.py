@@ -12,8 +12,8 @@ from rail_mj.cli import main
 from rail_mj.forces import CreepForces
 from rail_mj.layout import load_layout
 from rail_mj.model import Vehicle
-from rail_mj.runner import (MAX_TIMESTEP, STEP_FRACTION, RunRefused, SimulationError,
-                            simulate, stable_timestep)
+from rail_mj.runner import (MAX_TIMESTEP, STEP_FRACTION, Request, RunRefused, SimulationError,
+                            simulate, simulate_many, stable_timestep)
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
 WHEELSET = MODELS / "wheelset" / "wheelset.toml"
@@ -148,3 +148,44 @@ def test_small_wheels_generate_and_run(tmp_path):
     layout.write_text(text)
     assert main(["generate", str(layout), "-o", str(tmp_path / "gen")]) == 0
     assert main(["run", str(layout), "--speed", "10", "--distance", "5", "--json"]) == 0
+
+
+def _same_outcome(a, b) -> bool:
+    """Two results of a run alike bit for bit: Runs (every array, the final state), or
+    exceptions of one type and message with the same partial run."""
+    if isinstance(a, Exception) or isinstance(b, Exception):
+        return (type(a) is type(b) and str(a) == str(b)
+                and (getattr(a, "run", None) is None) == (getattr(b, "run", None) is None)
+                and (getattr(a, "run", None) is None or _same_outcome(a.run, b.run)))
+    arrays = ("t", "body_pos", "body_quat", "wheelset_rates")
+    return (a.speed == b.speed and a.timestep == b.timestep
+            and all(np.array_equal(getattr(a, name), getattr(b, name)) for name in arrays)
+            and (a.final_state is None) == (b.final_state is None)
+            and (a.final_state is None or all(np.array_equal(x, y) for x, y in zip(a.final_state, b.final_state))))
+
+
+def test_many_runs_together_are_each_the_run_alone():
+    """simulate_many packs runs eight to a model on two threads; a run that ends gives its
+    place to the next of the same vehicle, and half-empty models are packed again with the
+    runs going continuing where they were. None of it changes a result: each is the one
+    `simulate` gives, bit for bit, or the error it raises (refused, derailed, diverged)."""
+    coach, wheelset = load_layout(COACH), load_layout(WHEELSET)
+    blown_up = np.zeros(14)
+    blown_up[1] = 1e150  # a car-body yaw rate that overflows: diverged, in a pack, then alone
+    requests = ([Request(coach, speed, 60.0, 0.002) for speed in np.linspace(20.0, 100.0, 21)]
+                + [Request(wheelset, 75.0, 200.0, 0.002), Request(wheelset, 40.0, 30.0, 0.001, 0.0005),
+                   Request(coach, 50.0, 20.0, state=(np.zeros(14), blown_up)), Request(coach, -1.0, 10.0),
+                   Request(free_truck([1.8, 0.0, -1.8], primary=5e6), 20.0, 20.0, 0.002)])
+    told = {}
+    many = simulate_many(requests, threads=2, finished=lambda k, result, seconds: told.setdefault(k, result))
+    assert sorted(told) == list(range(len(requests))) and all(told[k] is many[k] for k in told)
+    kinds = set()
+    for request, result in zip(requests, many):
+        try:
+            alone = simulate(request.layout, request.speed, request.distance, request.initial_lateral,
+                             request.initial_yaw, state=request.state)
+        except (ValueError, SimulationError) as e:
+            alone = e
+        assert _same_outcome(result, alone), request
+        kinds.add(type(alone).__name__)
+    assert kinds == {"Run", "Derailed", "SimulationError", "ValueError"}

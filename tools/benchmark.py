@@ -5,12 +5,15 @@
 Times (best of several repeats, wall clock, one process, side by side in one run):
 - the eigen critical speed of the shipped coach; a root locus of 50 speeds;
 - one RK4 step of the coach, bare, with the native creep callback (target: at most
-  1.3x bare) and with the Python one;
+  1.3x bare) and with the Python one; one coach's step in a model of eight, and the numba
+  peer's step (CPU time of the calling thread: the floor of a batch's cost);
 - one coach run, 1 km at 60 m/s (target: under 0.3 s);
 - the 64-speed sweep of the coach, 20-100 m/s, 1 km each, on every core (target: under
   10 s), and a 20 x 20 eigen stability map (target: under 20 s);
 - the peers, what a user writes instead (tools/peer_solve_ivp.py, tools/peer_numba.py),
-  per vehicle-km against rail-mj;
+  per vehicle-km against rail-mj; the batches (rail-mj's sweep, its runs alone, the numba
+  peer's as written and with its speeds dealt out evenly to the cores) taken in turn,
+  wall clock and CPU time (the machine is shared: each the best of its turns);
 - start-up: `rail-mj --help` and a layout error, each a new process, against the bare
   interpreter and against importing what a run needs (target: under 0.5 s).
 """
@@ -31,11 +34,17 @@ from rail_mj.forces import CreepForces, installed
 from rail_mj.layout import load_layout
 from rail_mj.model import Vehicle
 from rail_mj.plots import root_locus
-from rail_mj.runner import simulate
+from rail_mj.runner import PACK, Request, prepare, simulate, simulate_many
 from rail_mj.stability import Stability
 from rail_mj.sweep import sweep
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import peer_numba  # noqa: E402
+import peer_solve_ivp  # noqa: E402
+
 COACH = Path(__file__).resolve().parent.parent / "models" / "manchester-coach" / "manchester-coach.toml"
+SPEEDS = (20.0, 100.0, 64)  # the batch: 64 runs of 1 km, 20-100 m/s
+VEHICLE_KM = 64.0
 
 
 def best(fn, repeats: int) -> float:
@@ -47,21 +56,59 @@ def best(fn, repeats: int) -> float:
     return min(times)
 
 
-def peer_times() -> list[tuple[str, float, str]]:
-    """(name, s per vehicle-km, compared with 'single' or 'batch') of the peers in tools/."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    import peer_numba
-    import peer_solve_ivp
-
+def single_peers() -> list[tuple[str, float]]:
+    """(name, s per vehicle-km) of the peers of one run in tools/."""
     rows = []
     for method in peer_solve_ivp.METHODS:
         seconds, km = peer_solve_ivp.time_run(method)
-        rows.append((f"solve_ivp {method}, numpy right-hand side (`tools/peer_solve_ivp.py`)", seconds / km, "single"))
+        rows.append((f"`solve_ivp` {method}, numpy right-hand side (`tools/peer_solve_ivp.py`)", seconds / km))
     seconds, km = peer_numba.time_single()
-    rows.append(("planar RK4 compiled with numba, one run (`tools/peer_numba.py`)", seconds / km, "single"))
-    seconds, km = peer_numba.time_batch()
-    rows.append(("planar RK4 compiled with numba, 64 speeds on every core", seconds / km, "batch"))
+    rows.append(("a planar RK4 compiled with numba, one run (`tools/peer_numba.py`)", seconds / km))
     return rows
+
+
+def batches(layout, turns: int = 5) -> dict[str, tuple[float, float]]:
+    """{name: (wall s, CPU s) per vehicle-km} of the batches, taken in turn `turns` times."""
+    speeds = np.linspace(*SPEEDS)
+    runs = {
+        "sweep": lambda: sweep(COACH, SPEEDS),
+        "runs": lambda: simulate_many([Request(layout, v, 1000.0, 0.002) for v in speeds], threads=peer_numba.threads()),
+        "peer": lambda: peer_numba.time_batch(repeats=1),
+        "balanced": lambda: peer_numba.time_batch(repeats=1, balanced=True),
+    }
+    sweep(COACH, (20.0, 100.0, 4), distance=50.0)  # compiled and warm
+    peer_numba.time_batch(repeats=1, distance=10.0)
+    times: dict[str, list[tuple[float, float]]] = {name: [] for name in runs}
+    for _ in range(turns):
+        for name, fn in runs.items():
+            wall, cpu = time.perf_counter(), time.process_time()
+            fn()
+            times[name].append(((time.perf_counter() - wall) / VEHICLE_KM, (time.process_time() - cpu) / VEHICLE_KM))
+    return {name: (min(w for w, _ in t), min(c for _, c in t)) for name, t in times.items()}
+
+
+def packed_steps(layout, n: int = 4000, repeats: int = 7) -> tuple[float, float]:
+    """CPU seconds of one coach's RK4 step in a model of PACK coaches (20-100 m/s, from the
+    2 mm start), bare and with the native creep callback, alternating (best of each)."""
+    from rail_mj.runner import _Pack, _Running, _stepping  # the runner's own packing and options
+
+    runs = [_Running(k, prepare(Request(layout, v, 1000.0, 0.002))) for k, v in enumerate(np.linspace(20, 100, PACK))]
+    pack = _Pack(runs)
+    model, data = pack.model, pack.data
+    mujoco.mj_setState(model, data, pack.state, pack.STATE)
+
+    def per_coach() -> float:
+        started = time.thread_time()
+        mujoco.mj_step(model, data, nstep=n)
+        return (time.thread_time() - started) / n / PACK
+
+    bare, fast = [], []
+    with _stepping():
+        for _ in range(repeats):
+            bare.append(per_coach())
+            with native.installed():
+                fast.append(per_coach())
+    return min(bare), min(fast)
 
 
 def process(*args: str) -> None:
@@ -104,15 +151,16 @@ def main() -> None:
     bare, fast = min(bare_times), min(fast_times)
     with installed(CreepForces(model, vehicle.wheelset_names, 40.0)):
         creep = best(lambda: mujoco.mj_step(model, data, nstep=n), 3) / n
+    packed_bare, packed = packed_steps(layout)
+    peer_step = peer_numba.step_time()
     run = best(lambda: simulate(layout, 40.0, 400.0, 0.002), 3)
     simulate(layout, 60.0, 1000.0, 0.002)
     km = best(lambda: simulate(layout, 60.0, 1000.0, 0.002), 5)
-    speeds = (20.0, 100.0, 64)
-    sweep_time = best(lambda: sweep(COACH, speeds), 2)
-    vehicle_km = 64.0  # 64 runs of 1 km
+    batch = batches(layout)
+    sweep_time = batch["sweep"][0] * VEHICLE_KM
     map_time = best(lambda: sweep(COACH, (5.0, 150.0, 60), method="eigen",
                                   grids=["wheelset.conicity=0.025:0.4:20", "primary.yaw_stiffness=2e6:100e6:20:log"]), 1)
-    peers = peer_times()
+    peers = single_peers()
 
     print("| benchmark (shipped coach, 14 dof) | time |")
     print("|---|---|")
@@ -124,17 +172,33 @@ def main() -> None:
     print(f"| `simulate`: 400 m at 40 m/s (10 s, 10 000 steps) | {run:.2f} s |")
     print(f"| `simulate`: 1 km at 60 m/s | {km:.2f} s |")
     print(f"| `rail-mj sweep`: 64 speeds 20-100 m/s, 1 km each, every core | {sweep_time:.1f} s "
-          f"({sweep_time / vehicle_km:.3f} s per vehicle-km) |")
+          f"({sweep_time / VEHICLE_KM:.3f} s per vehicle-km) |")
     print(f"| `rail-mj map`: 20 x 20 eigen critical speeds | {map_time:.1f} s |")
     print()
-    print("| the coach, per vehicle-km (1 km at 60 m/s; batch: 64 speeds, 20-100 m/s) | s | rail-mj is |")
+    print("| one RK4 step of the coach, CPU time | µs | the peer's step times |")
+    print("|---|---|---|")
+    print(f"| the numba peer's whole step (`tools/peer_numba.py`, creep law included) | {peer_step * 1e6:.2f} | 1 |")
+    print(f"| a coach in a model of {PACK}, bare MuJoCo (no creep forces) | {packed_bare * 1e6:.2f} | "
+          f"{packed_bare / peer_step:.2f} |")
+    print(f"| a coach in a model of {PACK}, native creep callback | {packed * 1e6:.2f} | {packed / peer_step:.2f} |")
+    print()
+    print("| the coach, per vehicle-km (1 km at 60 m/s) | s | rail-mj is |")
     print("|---|---|---|")
     print(f"| rail-mj, one run (`simulate`) | {km:.3f} | |")
-    print(f"| rail-mj, batch (`sweep`: eight coaches a model, every core) | {sweep_time / vehicle_km:.3f} | |")
-    for name, seconds, versus in peers:
-        ours = km if versus == "single" else sweep_time / vehicle_km
-        print(f"| {name} | {seconds:.3f} | {seconds / ours:.2f}x faster |" if seconds >= ours else
-              f"| {name} | {seconds:.3f} | {ours / seconds:.2f}x slower |")
+    for name, seconds in peers:
+        print(f"| {name} | {seconds:.3f} | {seconds / km:.2f}x faster |" if seconds >= km else
+              f"| {name} | {seconds:.3f} | {km / seconds:.2f}x slower |")
+    print()
+    print("| batch: 64 speeds 20-100 m/s, 1 km each, every core, per vehicle-km | wall s | CPU s "
+          "| against the numba peer as written (wall, CPU) |")
+    print("|---|---|---|---|")
+    names = {"sweep": "rail-mj, `sweep` (runs and their EN 14363 summary rows)",
+             "runs": "rail-mj, the runs alone (`simulate_many`, no summaries)",
+             "peer": "the numba RK4 peer, as written (`prange` over the speeds in order)",
+             "balanced": "the numba RK4 peer, its speeds dealt out evenly to the cores"}
+    peer = batch["peer"]
+    for name, (wall, cpu) in batch.items():
+        print(f"| {names[name]} | {wall:.3f} | {cpu:.3f} | {wall / peer[0]:.2f}x, {cpu / peer[1]:.2f}x |")
     print()
     print("| start-up (a new process each) | time |")
     print("|---|---|")

@@ -12,12 +12,14 @@ hunting on the flanges at 100 m/s, where |y| reaches 15 mm.
 
 prints the agreement with `rail_mj.simulate` over 1 km at 60 m/s and a timing table:
 one run, and a batch of 64 speeds run at once on every core (`batch`, numba prange).
-`time_single` and `time_batch` return (seconds, vehicle-km) for tools/benchmark.py.
+`time_single` and `time_batch` return (seconds, vehicle-km) for tools/benchmark.py,
+`step_time` the CPU time of one step.
 """
 
 from __future__ import annotations
 
 import math
+import time
 
 import numba
 import numpy as np
@@ -270,13 +272,36 @@ def time_single(speed: float = SPEED, distance: float = DISTANCE, repeats: int =
 
 
 def time_batch(runs: int = BATCH_RUNS, speeds: tuple[float, float] = BATCH_SPEEDS, distance: float = DISTANCE,
-               repeats: int = 2) -> tuple[float, float]:
+               repeats: int = 2, balanced: bool = False) -> tuple[float, float]:
     """(seconds, vehicle-km) of `runs` runs at speeds evenly from speeds[0] to speeds[1],
-    each `distance` long, on every core; compilation excluded."""
+    each `distance` long, on every core; compilation excluded.
+
+    As a user writes it the speeds go in in order, and numba's prange gives each thread an
+    equal block of them: on two threads, one gets the 32 slowest runs, 2.2 times the other's
+    work. `balanced` deals the speeds out in turn instead (thread i gets speeds i, i + T,
+    ...), so that each thread's share of the work is nearly equal."""
     vehicle = coach()
     grid = np.linspace(*speeds, runs)
+    if balanced:
+        grid = np.concatenate([grid[i::threads()] for i in range(threads())])
     batch(vehicle, grid[:threads()], 1.0)
     return best(lambda: batch(vehicle, grid, distance), repeats), runs * distance / 1000.0
+
+
+def step_time(speed: float = SPEED, steps: int = 5000, repeats: int = 5) -> float:
+    """CPU seconds of one RK4 step of the coach (the calling thread's time, best of
+    `repeats` runs of `steps` steps from the 2 mm start)."""
+    vehicle = coach()
+    arrays = _arrays(vehicle)
+    ys, psis = np.zeros((steps + 1, vehicle.wheelsets.size)), np.zeros((steps + 1, vehicle.wheelsets.size))
+    _run(arrays, speed, initial_state(vehicle, INITIAL_LATERAL), TIMESTEP, 1, 1, ys[:2], psis[:2])
+    times = []
+    for _ in range(repeats):
+        state = initial_state(vehicle, INITIAL_LATERAL)
+        started = time.thread_time()
+        _run(arrays, speed, state, TIMESTEP, steps, 1, ys, psis)
+        times.append((time.thread_time() - started) / steps)
+    return min(times)
 
 
 def main() -> None:
