@@ -572,7 +572,7 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
     return creep_lateral, normal_lateral, couple, spin, lead_moment
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)  # summaries on one thread while another steps
 def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     """`contact_forces` over flat, contiguous state arrays: the last axis of the original
     shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of

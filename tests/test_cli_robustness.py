@@ -135,6 +135,12 @@ HOSTILE = [
     ["critical-speed", WHEELSET, "--method", "nonlinear", "--step", "nan"],
     ["critical-speed", MODELS / "wagon" / "wagon.toml", "--method", "nonlinear"],
     ["critical-speed", WHEELSET, "--method", "warp"],
+    # --amplitude: for profiled layouts only, within the contact tables
+    ["eigen", WHEELSET, "--speed", "30", "--amplitude", "3"],
+    ["eigen", MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml", "--speed", "30", "--amplitude", "nan"],
+    ["critical-speed", MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml", "--amplitude", "-1"],
+    ["root-locus", MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml", "--speeds", "20:80:3",
+     "-o", "l.png", "--amplitude", "1e9"],
     # root locus and bifurcation
     ["root-locus", WHEELSET, "--speeds", "1:1e9:3", "-o", "locus.png"],
     ["root-locus", WHEELSET, "--speeds", "a:b:c", "-o", "locus.png"],
