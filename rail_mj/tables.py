@@ -2,21 +2,20 @@
 
 `rail_mj.geometry` finds where a rigid wheelset touches its rails at each lateral shift y.
 This module turns that into one array the compiled law (`rail_mj.creep.profiled_contact`)
-interpolates at every step: per row y, the roll, and per wheel two contact
-slots, the tread and the flange, each with its share of the wheel's load, rolling radius,
-contact angle, lateral lever, and the Hertz ellipse and Kalker coefficients of that point
-per unit load. The physics is in docs/dynamics-on-profiles.md.
+interpolates at every step: per row y, the roll, and per wheel two contact slots, each
+following one contact point across the rows, with its share of the wheel's load, rolling
+radius, contact angle, lateral lever, and the Hertz ellipse and Kalker coefficients of that
+point per unit load. The physics is in docs/dynamics-on-profiles.md.
 
 Two switches in the header keep the classical planar law reachable: gravitational stiffness
 (the normal forces' lateral parts) and spin creep (with it off, f23 = f33 = 0).
 
-Why two slots: on a new S1002 wheel on a 60E1 rail the contact jumps from the tread to the
-flange root as the flange closes (at 6.26 mm on standard track). Rigidly, tread and flange
-touch together at one shift only; under load the elastic approach of wheel and rail
-(~0.07 mm at 50 kN) closes a nearby second gap too, and the wheel's load is shared between
-the points as Hertz's law shares it: N_k proportional to (approach_k)^(3/2). Each slot keeps
-its own point across the rows, so interpolating between rows moves load from tread to
-flange instead of dragging one point across the gap.
+Why two slots: a wheel may touch its rail at two points at once, where the elastic approach
+of wheel and rail (~0.07 mm at 50 kN) closes a second rigid gap (the centred S1002 on 60E1
+stands on two tread points); the load is then shared as Hertz's law shares it, N_k as
+(approach_k)^(3/2). And where the contact jumps across the wheel (tread to flange root),
+the point left behind and the point reached are in different slots, so interpolating
+between rows moves the load from one to the other instead of dragging one point across.
 
 Layout of the array (float64, shape (1 + rows, COLUMNS)): row 0 is a header (HEADER_*),
 rows 1.. are the uniform y grid.
