@@ -22,6 +22,17 @@ WHEELSET = {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0], "rolling_radius"
 BOGIE_FRAME = {"mass": 2615.0, "inertia": [1722.0, 1476.0, 3067.0]}
 
 
+# The [profiles] table of the standard track: new S1002 on 60E1 at 1:40, 1435/1360.
+PROFILES_TOML = """
+[profiles]
+wheel = "s1002"
+rail = "60e1"
+rail_inclination = 0.025
+track_gauge = 1.435
+flange_back_spacing = 1.360
+"""
+
+
 def linear_text(name: str) -> str:
     """A shipped layout's TOML with linear creep and no flange contact: the classical model."""
     lines = (MODELS / name / f"{name}.toml").read_text().splitlines(keepends=True)

@@ -15,6 +15,8 @@ from rail_mj.geometry import Track, contact_table, gaps
 from rail_mj.layout import LayoutError, load_layout
 from rail_mj.profiles import Profile, rail_60e1, s1002
 
+from conftest import PROFILES_TOML
+
 MODELS = Path(__file__).resolve().parent.parent / "models"
 LAMBDA, R0 = 0.05, 0.46
 
@@ -173,14 +175,7 @@ def test_delta_r_feeds_the_conicity(standard):
 
 # --- [profiles] in a layout ------------------------------------------------------------
 
-PROFILED = (MODELS / "wheelset" / "wheelset.toml").read_text().replace("conicity = 0.1\n", "") + """
-[profiles]
-wheel = "s1002"
-rail = "60e1"
-rail_inclination = 0.025
-track_gauge = 1.435
-flange_back_spacing = 1.360
-"""
+PROFILED = (MODELS / "wheelset" / "wheelset.toml").read_text().replace("conicity = 0.1\n", "") + PROFILES_TOML
 
 
 def write(tmp_path, text, name="profiled.toml"):

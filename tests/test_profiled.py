@@ -8,28 +8,22 @@ import json
 import math
 from pathlib import Path
 
-import mujoco
 import numpy as np
 import pytest
 
 from rail_mj import geometry, native, tables
 from rail_mj.cli import main
 from rail_mj.creep import ContactParameters, contact_forces
-from rail_mj.forces import CreepForces, installed
+from rail_mj.forces import CreepForces
 from rail_mj.layout import LayoutError, load_layout
 from rail_mj.model import Vehicle
 from rail_mj.runner import simulate
 from rail_mj.stability import Stability
 
+from conftest import PROFILES_TOML, passive_forces
+
 MODELS = Path(__file__).resolve().parent.parent / "models"
-PROFILES = """
-[profiles]
-wheel = "s1002"
-rail = "60e1"
-rail_inclination = 0.025
-track_gauge = 1.435
-flange_back_spacing = 1.360
-"""
+PROFILES = PROFILES_TOML
 COACH = ((MODELS / "manchester-coach" / "manchester-coach.toml").read_text()
          .replace("conicity = 0.15", "").replace("flangeway_clearance = 0.008", "")
          .replace("[flange]", "") + PROFILES)
@@ -148,13 +142,7 @@ def test_native_and_python_callbacks_agree_on_profiles(coach, law):
     rng = np.random.default_rng(11)
     for _ in range(15):
         qpos, qvel = rng.normal(scale=0.005, size=model.nq), rng.normal(scale=0.2, size=model.nv)
-        out = []
-        for callback in (python, native.callback()):
-            data = mujoco.MjData(model)
-            data.qpos[:], data.qvel[:] = qpos, qvel
-            with installed(callback):
-                mujoco.mj_forward(model, data)
-            out.append(data.qfrc_passive.copy())
+        out = [passive_forces(model, callback, qpos, qvel) for callback in (python, native.callback())]
         scale = np.max(np.abs(out[0]))
         assert scale > 0
         np.testing.assert_allclose(out[1], out[0], rtol=0, atol=1e-9 * scale)
