@@ -145,6 +145,11 @@ class Stability:
             self._absolute[name] = (jacp[1].copy(), jacr[2].copy())
         self._mass = {n: (model.body(n).mass[0], model.body(n).inertia[2]) for n in self.bodies}
         self._yaw_arm = {n: self._arm(n) for n in self.bodies}
+        if layout.train is not None:
+            from rail_mj.trains import TrainModes
+
+            self._train_modes = TrainModes(layout, self.model, self._absolute, self._mass)
+            self._yaw_arm.update(self._train_modes.arms())
 
     @property
     def equivalent_conicity(self) -> float:
@@ -237,7 +242,12 @@ class Stability:
         - otherwise the wheelsets carry it: 'wheelset i (secondary hunting)', or
           'wheelset i (wheelset hunting)' when its frame cannot move;
         - a car body above bogies: 'car body lateral' or 'car body yaw'.
+
+        A train's modes are named by rail_mj.trains.TrainModes (which body or bogie, and
+        the snaking of its car bodies).
         """
+        if self.layout.train is not None:
+            return self._train_modes.name(q, share, motion, self._direction)
         groups: dict[str, list[str]] = {}
         for name in self.bodies:
             if name.startswith("wheelset"):
