@@ -153,3 +153,18 @@ def test_bad_topologies_fail_with_one_line(case):
     text = str(e.value)
     assert "\n" not in text and text.startswith("t.toml: ")
     assert message in text, text
+
+
+def test_sweep_keys_reach_into_a_trains_couplings():
+    from rail_mj.sweep import SweepError, with_value
+
+    data = tomllib.loads((MODELS / "articulated-set" / "articulated-set.toml").read_text())
+    every = with_value(data, "coupling.*.yaw_damping", 1.0)
+    assert [c["yaw_damping"] for c in every["coupling"]] == [1.0, 1.0]
+    second = with_value(data, "coupling.2.lateral_damping", 3.0)
+    assert "lateral_damping" not in second["coupling"][0] and second["coupling"][1]["lateral_damping"] == 3.0
+    assert "lateral_damping" not in data["coupling"][1]  # a copy
+    for key, message in (("coupling.3.yaw_damping", "must number one of the 2"),
+                         ("coupling.yaw_damping", "holds several tables")):
+        with pytest.raises(SweepError, match=message):
+            with_value(data, key, 1.0)
