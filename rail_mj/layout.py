@@ -133,6 +133,49 @@ class CarBody:
 
 
 @dataclasses.dataclass(frozen=True)
+class Car:
+    """One car body of a train ([[car]]): x of its centre and its length along the train."""
+
+    mass: float
+    inertia: tuple[float, float, float]
+    position: float  # m, x of the centre along the train
+    length: float  # m, over the body ends
+    bogies: tuple[int, ...]  # the bogies (1-based, train numbering) that carry it, leading first
+
+
+@dataclasses.dataclass(frozen=True)
+class Coupling:
+    """An inter-car element ([[coupling]]) between adjacent car bodies `cars` = (k, k + 1), acting
+    at the coupling point midway between the two body ends: lateral spring-damper there
+    (coupler and gangway) and yaw spring-damper between the bodies (inter-car yaw dampers)."""
+
+    cars: tuple[int, int]  # 1-based
+    lateral_stiffness: float = 0.0
+    yaw_stiffness: float = 0.0
+    lateral_damping: float = 0.0
+    yaw_damping: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Train:
+    """Several car bodies in a row ([train], [[car]], [[coupling]]; docs/trains.md). The bogies are
+    `Layout.carbody.bogie_positions` (x along the train); a bogie carried by two cars is a Jacobs
+    bogie, and each of the two bodies takes half of [secondary]."""
+
+    cars: tuple[Car, ...]
+    couplings: tuple[Coupling, ...] = ()
+
+    def cars_on(self, bogie: int) -> tuple[int, ...]:
+        """The cars (1-based) a bogie (1-based) carries."""
+        return tuple(k + 1 for k, car in enumerate(self.cars) if bogie in car.bogies)
+
+    def coupling_x(self, coupling: Coupling) -> float:
+        """x of the coupling point: midway between the front car's rear end and the rear car's front."""
+        front, rear = (self.cars[k - 1] for k in coupling.cars)
+        return ((front.position - front.length / 2) + (rear.position + rear.length / 2)) / 2
+
+
+@dataclasses.dataclass(frozen=True)
 class Layout:
     name: str
     wheelset: Wheelset
@@ -147,6 +190,10 @@ class Layout:
     # (rail_mj.tables); wheelset.conicity is their equivalent conicity at 3 mm, creep.f11..f33
     # the centred contact's (docs/dynamics-on-profiles.md).
     profiles: Profiles | None = None
+    # Several car bodies ([train]): then `carbody` stands for the train (its bogie_positions
+    # are the train's, x along the train; mass the cars' total) and the model is built flat,
+    # with fixed tendons for the suspension (docs/trains.md).
+    train: Train | None = None
     source: str = "<layout>"
     # Legal values far outside railway practice (rail_mj.practice), one line each.
     warnings: tuple[str, ...] = dataclasses.field(default=(), compare=False)
@@ -426,35 +473,42 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     elif top.get("secondary", None, required=False) is not None:
         top.fail("secondary", "given without [bogie]: secondary suspension joins bogies to the body")
 
-    t = _Table(source, "carbody", top.get("carbody"))
-    fixed = t.get("fixed", False)
-    if not isinstance(fixed, bool):
-        t.fail("fixed", f"must be true or false, got {_kind(fixed)}")
-    carbody_mass = t.positive("mass", required=not fixed)
-    carbody_inertia = t.vector3("inertia", required=not fixed)
-    if has_bogie:
-        if "wheelset_positions" in t.data:
-            t.fail("wheelset_positions", "not allowed with [bogie]: wheelsets hang from the bogies")
-        extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
-        carbody = CarBody(
-            fixed, carbody_mass, carbody_inertia,
-            bogie_positions=t.positions("bogie_positions", extent, "bogie"),
-            wheelset_positions=None,
-        )
+    train = None
+    if top.get("train", None, required=False) is not None:
+        carbody, train = _train(top, source, warnings, bogie, wheel_diameter, r0, b)
+    elif top.get("car", None, required=False) is not None or top.get("coupling", None, required=False) is not None:
+        top.fail("car" if "car" in top.data else "coupling", "given without [train]: [[car]] and [[coupling]] "
+                 "describe the car bodies of a train")
     else:
-        if "bogie_positions" in t.data:
-            t.fail("bogie_positions", "given without a [bogie] table")
-        carbody = CarBody(
-            fixed, carbody_mass, carbody_inertia,
-            bogie_positions=None,
-            wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
-        )
-    t.done()
-    _practice(t, warnings, mass=carbody.mass)
-    # Ends overhang the outermost wheels by a few metres; about 2 m to the side and roof.
-    xs = carbody.bogie_positions or carbody.wheelset_positions
-    reach = max(abs(x) for x in xs) + (max(abs(x) for x in bogie.wheelset_positions) if bogie else 0.0)
-    _inertia_fits(t, carbody.mass, carbody.inertia, math.hypot(reach + r0 + 3.0, 2.0), "car body")
+        t = _Table(source, "carbody", top.get("carbody"))
+        fixed = t.get("fixed", False)
+        if not isinstance(fixed, bool):
+            t.fail("fixed", f"must be true or false, got {_kind(fixed)}")
+        carbody_mass = t.positive("mass", required=not fixed)
+        carbody_inertia = t.vector3("inertia", required=not fixed)
+        if has_bogie:
+            if "wheelset_positions" in t.data:
+                t.fail("wheelset_positions", "not allowed with [bogie]: wheelsets hang from the bogies")
+            extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
+            carbody = CarBody(
+                fixed, carbody_mass, carbody_inertia,
+                bogie_positions=t.positions("bogie_positions", extent, "bogie"),
+                wheelset_positions=None,
+            )
+        else:
+            if "bogie_positions" in t.data:
+                t.fail("bogie_positions", "given without a [bogie] table")
+            carbody = CarBody(
+                fixed, carbody_mass, carbody_inertia,
+                bogie_positions=None,
+                wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
+            )
+        t.done()
+        _practice(t, warnings, mass=carbody.mass)
+        # Ends overhang the outermost wheels by a few metres; about 2 m to the side and roof.
+        xs = carbody.bogie_positions or carbody.wheelset_positions
+        reach = max(abs(x) for x in xs) + (max(abs(x) for x in bogie.wheelset_positions) if bogie else 0.0)
+        _inertia_fits(t, carbody.mass, carbody.inertia, math.hypot(reach + r0 + 3.0, 2.0), "car body")
     if wheelset.wheel_load is None and carbody.mass is not None:
         # The static weight, shared equally by every wheel: exact for a symmetric vehicle.
         n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
@@ -509,12 +563,92 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
-        bogie=bogie, secondary=secondary, contact=contact, flange=flange, profiles=profiles, source=source,
+        bogie=bogie, secondary=secondary, contact=contact, flange=flange, profiles=profiles, train=train,
+        source=source,
         warnings=tuple(warnings),
     )
 
 
 GRAVITY = 9.81  # m/s^2
+# Two body ends nearer than this overlap (m): an articulated set's ends meet over the Jacobs bogie.
+END_TOLERANCE = 1e-6
+
+
+def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, wheel_diameter: float,
+           r0: float, b: float) -> tuple[CarBody, Train]:
+    """[train], [[car]] and [[coupling]], checked (docs/trains.md): the train's bogies and the cars
+    they carry, one clear line for each bad topology."""
+    if bogie is None:
+        top.fail("train", "needs [bogie]: a train's car bodies rest on bogies (train.bogie_positions)")
+    if "carbody" in top.data:
+        top.fail("carbody", "not used with [train]: give each car body as a [[car]]")
+    t = _Table(source, "train", top.get("train"))
+    extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
+    bogie_x = t.positions("bogie_positions", extent, "bogie")
+    t.done()
+    cars_data = top.get("car", None, required=False)
+    if not isinstance(cars_data, list) or not cars_data:
+        top.fail("car", "missing: a [train] needs its car bodies, one [[car]] each, leading first")
+    cars = []
+    for k, data in enumerate(cars_data, start=1):
+        t = _Table(source, f"car[{k}]", data)
+        mass, inertia = t.positive("mass"), t.vector3("inertia")
+        position = t.number("position", low=-MAX_POSITION, high=MAX_POSITION)
+        length = t.positive("length")
+        carried = t.get("bogies")
+        if not isinstance(carried, list) or not all(isinstance(i, int) and not isinstance(i, bool) for i in carried):
+            t.fail("bogies", f"must be a list of bogie numbers (1 to {len(bogie_x)}), got {_kind(carried)}")
+        if not carried:
+            t.fail("bogies", "empty: a car body with no bogie under it has no support")
+        if len(carried) > 2 or len(set(carried)) != len(carried):
+            t.fail("bogies", f"must name one or two different bogies, got {carried}")
+        for i in carried:
+            if not 1 <= i <= len(bogie_x):
+                t.fail("bogies", f"bogie {i} does not exist: train.bogie_positions lists {len(bogie_x)}")
+        if sorted(carried) != carried:
+            t.fail("bogies", f"must list the leading bogie first, got {carried}")
+        for i in carried:
+            if abs(bogie_x[i - 1] - position) > length / 2 + END_TOLERANCE:
+                t.fail("bogies", f"bogie {i} at x = {bogie_x[i - 1]:g} m is not under this {length:g} m body "
+                                 f"centred at x = {position:g} m")
+        t.done()
+        _practice(_Table(source, "carbody", {}), warnings, mass=mass)
+        _inertia_fits(t, mass, inertia, math.hypot(length / 2, 2.0), "car body")
+        cars.append(Car(mass, inertia, position, length, tuple(carried)))
+    for k, (front, rear) in enumerate(zip(cars, cars[1:]), start=1):
+        if rear.position >= front.position:
+            top.fail(f"car[{k + 1}].position", f"cars must be listed leading first (x decreasing): "
+                                               f"{rear.position:g} m is not behind car {k} at {front.position:g} m")
+        gap = (front.position - front.length / 2) - (rear.position + rear.length / 2)
+        if gap < -END_TOLERANCE:
+            top.fail(f"car[{k + 1}]", f"car bodies {k} and {k + 1} overlap by {-gap:g} m: the rear end of one "
+                                      f"must not pass the front end of the next")
+    for i in range(1, len(bogie_x) + 1):
+        on = [k for k, car in enumerate(cars, start=1) if i in car.bogies]
+        if not on:
+            top.fail("train.bogie_positions", f"bogie {i} at x = {bogie_x[i - 1]:g} m carries no car body: "
+                                              f"no [[car]] lists it in bogies")
+        if len(on) > 2 or (len(on) == 2 and on[1] != on[0] + 1):
+            top.fail("train.bogie_positions", f"bogie {i} is listed by cars {on}: a (Jacobs) bogie carries the "
+                                              f"ends of at most two adjacent cars")
+    couplings = []
+    for k, data in enumerate(top.get("coupling", [], required=False) or [], start=1):
+        t = _Table(source, f"coupling[{k}]", data)
+        pair = t.get("cars")
+        if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(i, int) and not isinstance(i, bool)
+                                                                  for i in pair)):
+            t.fail("cars", f"must be two car numbers [k, k + 1], got {_kind(pair)}")
+        if pair[1] != pair[0] + 1 or not 1 <= pair[0] < len(cars):
+            t.fail("cars", f"must be two adjacent cars [k, k + 1] of the {len(cars)}, got {pair}")
+        if any(c.cars == tuple(pair) for c in couplings):
+            t.fail("cars", f"cars {pair} are coupled twice: give one [[coupling]] per pair")
+        couplings.append(Coupling(tuple(pair), t.non_negative("lateral_stiffness", 0.0),
+                                  t.non_negative("yaw_stiffness", 0.0), t.non_negative("lateral_damping", 0.0),
+                                  t.non_negative("yaw_damping", 0.0)))
+        t.done()
+    total = sum(car.mass for car in cars)
+    carbody = CarBody(False, total, cars[0].inertia, bogie_positions=bogie_x, wheelset_positions=None)
+    return carbody, Train(tuple(cars), tuple(couplings))
 STANDARD_PROFILES = {"wheel": ("s1002",), "rail": ("60e1", "uic60")}
 
 

@@ -174,13 +174,15 @@ def underframe_bottom(layout: Layout) -> float:
     return max(UNDERFRAME_BOTTOM, below + UNDERFRAME_CLEARANCE)
 
 
-def add_wheelset(parent, name: str, x: float, z: float, layout: Layout, spring_top: float) -> None:
+def add_wheelset(parent, name: str, x: float, z: float, layout: Layout, spring_top: float,
+                 nested: bool = True) -> None:
     """A wheelset hanging from `parent` at (x, z) in its frame, on the primary suspension,
-    with its axleboxes and the primary springs up to `spring_top` (above the rail)."""
+    with its axleboxes and the primary springs up to `spring_top` (above the rail).
+    `nested=False` (a train): free joints in the world, the suspension a tendon."""
     w = layout.wheelset
     body = parent.add_body(name=name, pos=_pos(x, z))
     _set_inertia(body, w.mass, w.inertia)
-    _add_planar_joints(body, layout.primary)
+    _add_planar_joints(body, layout.primary if nested else None)
     b, ys = w.contact_half_spacing, spring_spacing(layout)
     body.add_geom(  # through the wheels into the axleboxes
         name=f"{name}_axle", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=_g6(AXLE_RADIUS, ys, 0),
@@ -210,6 +212,18 @@ def add_bogie(parent, name: str, x: float, z: float, layout: Layout, first_wheel
     body = parent.add_body(name=name, pos=_pos(x, z))
     _set_inertia(body, bogie.mass, bogie.inertia)
     _add_planar_joints(body, layout.secondary)
+    add_bogie_frame(body, name, layout)
+    bottom = side_frame_heights(layout)[0] - BOGIE_HEIGHT  # in this body's frame
+    for i, x in enumerate(bogie.wheelset_positions):
+        add_wheelset(
+            body, f"wheelset{first_wheelset + i}", x,
+            layout.wheelset.rolling_radius - BOGIE_HEIGHT, layout, spring_top=bottom + BOGIE_HEIGHT,
+        )
+
+
+def add_bogie_frame(body, name: str, layout: Layout) -> None:
+    """A bogie frame's geoms in its body (origin BOGIE_HEIGHT above the rail)."""
+    bogie = layout.bogie
     xs = sorted(bogie.wheelset_positions)
     ys = spring_spacing(layout)
     middle = (xs[0] + xs[-1]) / 2
@@ -232,11 +246,6 @@ def add_bogie(parent, name: str, x: float, z: float, layout: Layout, first_wheel
     for side, sign in SIDES:
         _upright_cylinder(body, f"{name}_spring_{side}", SECONDARY_SPRING_RADIUS, middle, sign * ys,
                           top, underframe_bottom(layout) - BOGIE_HEIGHT, SPRING_RGBA)
-    for i, x in enumerate(bogie.wheelset_positions):
-        add_wheelset(
-            body, f"wheelset{first_wheelset + i}", x,
-            layout.wheelset.rolling_radius - BOGIE_HEIGHT, layout, spring_top=bottom + BOGIE_HEIGHT,
-        )
 
 
 def add_carbody_shell(body, layout: Layout) -> None:
@@ -246,36 +255,42 @@ def add_carbody_shell(body, layout: Layout) -> None:
     c = layout.carbody
     xs = c.bogie_positions if layout.bogie else c.wheelset_positions
     middle = (max(xs) + min(xs)) / 2
-    half_width = CARBODY_HALF_WIDTH
-    # Heights in this body's frame; its origin is CARBODY_HEIGHT above the rail.
-    bottom = underframe_bottom(layout) - CARBODY_HEIGHT
-    floor = bottom + UNDERFRAME_DEPTH
     if c.fixed:  # a plate over the running gear, reaching 0.5 m past the wheels
+        half_width = CARBODY_HALF_WIDTH
+        bottom = underframe_bottom(layout) - CARBODY_HEIGHT
         reach = (max(layout.bogie.wheelset_positions) - min(layout.bogie.wheelset_positions)) / 2 \
             if layout.bogie else 0.0
         half_length = (max(xs) - min(xs)) / 2 + reach + wheel_radius(layout) + 0.5
         _box(body, "carbody_underframe", (half_length, half_width, UNDERFRAME_DEPTH / 2),
              (middle, 0, bottom + UNDERFRAME_DEPTH / 2), [0.7, 0.2, 0.2, 0.35])
         return
-    half_length = (max(xs) - min(xs)) / 2 + OVERHANG
+    add_coach_shell(body, "carbody", layout, middle, (max(xs) - min(xs)) / 2 + OVERHANG)
+
+
+def add_coach_shell(body, name: str, layout: Layout, middle: float, half_length: float) -> None:
+    """A coach's geoms, named <name>_*: centred at x = `middle` in `body`, `half_length` long."""
+    half_width = CARBODY_HALF_WIDTH
+    # Heights in this body's frame; its origin is CARBODY_HEIGHT above the rail.
+    bottom = underframe_bottom(layout) - CARBODY_HEIGHT
+    floor = bottom + UNDERFRAME_DEPTH
     body_rgba, dark = [0.7, 0.2, 0.2, 1], [0.15, 0.15, 0.17, 1]
     # The underframe a little narrower than the body, so that it reads as a separate band.
-    _box(body, "carbody_underframe", (half_length, half_width - 0.1, UNDERFRAME_DEPTH / 2),
+    _box(body, f"{name}_underframe", (half_length, half_width - 0.1, UNDERFRAME_DEPTH / 2),
          (middle, 0, bottom + UNDERFRAME_DEPTH / 2), dark)
     eaves = ROOF_HEIGHT - ROOF_DEPTH - CARBODY_HEIGHT
     wall_half_height = (eaves - floor) / 2
     for side, sign in SIDES:
-        _box(body, f"carbody_side_{side}", (half_length, WALL / 2, wall_half_height),
+        _box(body, f"{name}_side_{side}", (half_length, WALL / 2, wall_half_height),
              (middle, sign * (half_width - WALL / 2), floor + wall_half_height), body_rgba)
         # Windows: a dark strip just proud of the wall, short of the vestibules at the ends.
         low, high = WINDOW_BAND
-        _box(body, f"carbody_windows_{side}", (half_length - VESTIBULE, 0.005, (high - low) / 2),
+        _box(body, f"{name}_windows_{side}", (half_length - VESTIBULE, 0.005, (high - low) / 2),
              (middle, sign * (half_width + 0.005), floor + (low + high) / 2), [0.1, 0.12, 0.18, 1])
     for end, sign in (("front", 1.0), ("rear", -1.0)):
-        _box(body, f"carbody_end_{end}", (WALL / 2, half_width - WALL, wall_half_height),
+        _box(body, f"{name}_end_{end}", (WALL / 2, half_width - WALL, wall_half_height),
              (middle + sign * (half_length - WALL / 2), 0, floor + wall_half_height), body_rgba)
     # The roof overhangs the walls by 2 cm.
-    _box(body, "carbody_roof", (half_length + 0.02, half_width + 0.02, ROOF_DEPTH / 2),
+    _box(body, f"{name}_roof", (half_length + 0.02, half_width + 0.02, ROOF_DEPTH / 2),
          (middle, 0, eaves + ROOF_DEPTH / 2), [0.45, 0.45, 0.48, 1])
 
 
@@ -298,6 +313,76 @@ def add_carbody(worldbody, layout: Layout) -> None:
                 layout.wheelset.rolling_radius - CARBODY_HEIGHT, layout,
                 spring_top=underframe_bottom(layout),
             )
+
+
+# Half the gap left between two car bodies' drawn ends (gangway, coupler), m; drawing only.
+END_GAP = 0.15
+
+
+def add_train(spec: mujoco.MjSpec, layout: Layout) -> None:
+    """A train (layout.train; docs/trains.md): every car body, bogie frame and wheelset a child of
+    the world with its own lateral slide and yaw hinge (absolute coordinates, no spring), and each
+    suspension or inter-car element a pair of fixed tendons whose lengths are its lateral and yaw
+    deflections, their stiffness and damping the element's. Bodies: carbodyK, bogieK, wheelsetN
+    (numbered from the front)."""
+    train, bogie, world = layout.train, layout.bogie, spec.worldbody
+    x_of: dict[str, float] = {}
+    for k, car in enumerate(train.cars, start=1):
+        name = f"carbody{k}"
+        body = world.add_body(name=name, pos=_pos(car.position, CARBODY_HEIGHT))
+        _set_inertia(body, car.mass, car.inertia)
+        _add_planar_joints(body, None)
+        add_coach_shell(body, name, layout, 0.0, car.length / 2 - END_GAP)
+        x_of[name] = car.position
+    spring_top = side_frame_heights(layout)[0]
+    n = len(bogie.wheelset_positions)
+    for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
+        name = f"bogie{i}"
+        body = world.add_body(name=name, pos=_pos(xb, BOGIE_HEIGHT))
+        _set_inertia(body, bogie.mass, bogie.inertia)
+        _add_planar_joints(body, None)
+        add_bogie_frame(body, name, layout)
+        x_of[name] = xb
+        for j, xw in enumerate(bogie.wheelset_positions):
+            wheelset = f"wheelset{(i - 1) * n + j + 1}"
+            add_wheelset(world, wheelset, xb + xw, layout.wheelset.rolling_radius, layout, spring_top, nested=False)
+            x_of[wheelset] = xb + xw
+            _suspension_tendons(spec, wheelset, f"{name}", x_of, layout.primary)
+        carried_by = train.cars_on(i)
+        for k in carried_by:  # a Jacobs bogie shares [secondary] between its two bodies
+            _suspension_tendons(spec, name, f"carbody{k}", x_of, layout.secondary, 1.0 / len(carried_by))
+    for c in train.couplings:
+        front, rear = (f"carbody{k}" for k in c.cars)
+        x = train.coupling_x(c)
+        # The rear body's point at x against the front body's: y + (x - x_body)*psi of each.
+        lateral = {f"{rear}_{LATERAL}": 1.0, f"{rear}_{YAW}": x - x_of[rear],
+                   f"{front}_{LATERAL}": -1.0, f"{front}_{YAW}": -(x - x_of[front])}
+        _tendon(spec, f"coupling{c.cars[0]}_{LATERAL}", lateral, c.lateral_stiffness, c.lateral_damping)
+        _tendon(spec, f"coupling{c.cars[0]}_{YAW}", {f"{rear}_{YAW}": 1.0, f"{front}_{YAW}": -1.0},
+                c.yaw_stiffness, c.yaw_damping)
+
+
+def _suspension_tendons(spec, child: str, parent: str, x_of: dict[str, float], s: Suspension,
+                        share: float = 1.0) -> None:
+    """The lateral and yaw deflections of `child` hung from `parent` (docs/frames.md),
+    d = y_c - y_p - (x_c - x_p)*psi_p and e = psi_c - psi_p, as tendons with `share` of `s`."""
+    arm = x_of[child] - x_of[parent]
+    lateral = {f"{child}_{LATERAL}": 1.0, f"{parent}_{LATERAL}": -1.0, f"{parent}_{YAW}": -arm}
+    _tendon(spec, f"{child}_{parent}_{LATERAL}", lateral, share * s.lateral_stiffness, share * s.lateral_damping)
+    _tendon(spec, f"{child}_{parent}_{YAW}", {f"{child}_{YAW}": 1.0, f"{parent}_{YAW}": -1.0},
+            share * s.yaw_stiffness, share * s.yaw_damping)
+
+
+def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, damping: float) -> None:
+    """A fixed tendon, length sum(coef*q) (zero when centred), with a linear spring and damper;
+    none when both are zero."""
+    if stiffness == 0.0 and damping == 0.0:
+        return
+    tendon = spec.add_tendon(name=name, stiffness=_g6(stiffness, 0.0, 0.0), damping=_g6(damping, 0.0, 0.0),
+                             springlength=[0.0, 0.0])
+    for joint, coef in coefficients.items():
+        if coef != 0.0:
+            tendon.wrap_joint(joint, _g6(coef)[0])
 
 
 def mesh_file(layout: Layout) -> str:
@@ -329,7 +414,10 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     stl = wheel_stl(w.rolling_radius, w.conicity)
     spec.add_mesh(name="wheel", file=mesh_file(layout))
     spec.assets = {mesh_file(layout): stl}
-    add_carbody(spec.worldbody, layout)
+    if layout.train is not None:
+        add_train(spec, layout)
+    else:
+        add_carbody(spec.worldbody, layout)
 
     c = layout.creep
     spec.add_numeric(name=NUMERIC_WHEEL, data=_g6(

@@ -145,6 +145,11 @@ class Stability:
             self._absolute[name] = (jacp[1].copy(), jacr[2].copy())
         self._mass = {n: (model.body(n).mass[0], model.body(n).inertia[2]) for n in self.bodies}
         self._yaw_arm = {n: self._arm(n) for n in self.bodies}
+        if layout.train is not None:
+            from rail_mj.trains import TrainModes
+
+            self._train_modes = TrainModes(layout, self.model, self._absolute, self._mass)
+            self._yaw_arm.update(self._train_modes.arms())
 
     @property
     def equivalent_conicity(self) -> float:
@@ -237,7 +242,12 @@ class Stability:
         - otherwise the wheelsets carry it: 'wheelset i (secondary hunting)', or
           'wheelset i (wheelset hunting)' when its frame cannot move;
         - a car body above bogies: 'car body lateral' or 'car body yaw'.
+
+        A train's modes are named by rail_mj.trains.TrainModes (which body or bogie, and
+        the snaking of its car bodies).
         """
+        if self.layout.train is not None:
+            return self._train_modes.name(q, share, motion, self._direction)
         groups: dict[str, list[str]] = {}
         for name in self.bodies:
             if name.startswith("wheelset"):
@@ -339,6 +349,7 @@ def _check_range(vmin: float, vmax: float) -> None:
 
 # --- critical speed in the time domain -------------------------------------
 
+MATCH_FREQUENCY = 0.03  # relative: a measured frequency this close names a linear mode
 TIME_DURATION = 20.0  # s simulated per speed: tens of hunting cycles at 1-10 Hz
 TIME_DISTURBANCE = (1e-4, 1e-5)  # initial lateral (m) and wheelset yaw (rad): small enough
 # that even a saturating law is linear to 1e-3 (u = F/(mu*N) ~ 0.02 for 0.1 mm)
@@ -402,7 +413,11 @@ def time_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, 
                 return CriticalSpeed("time", vc, None, None, vmin, vmax,
                                      "the disturbed motion stops decaying; no frequency measured")
             modes = [m for m in Stability(layout).modes(vc) if m.oscillatory]
-            name = min(modes, key=lambda m: abs(m.frequency - freq)).name if modes else None
+            # Of the modes at the measured frequency (a train's bogies hunt at frequencies a
+            # thousandth apart), the least damped: the one that stops decaying at vc.
+            near = [m for m in modes if abs(m.frequency - freq) <= MATCH_FREQUENCY * freq]
+            name = (max(near, key=lambda m: m.eigenvalue.real).name if near
+                    else min(modes, key=lambda m: abs(m.frequency - freq)).name if modes else None)
             return CriticalSpeed("time", vc, freq, name, vmin, vmax,
                                  "the disturbed motion stops decaying; mode matched by frequency")
     return CriticalSpeed("time", None, None, None, vmin, vmax,

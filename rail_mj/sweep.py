@@ -101,16 +101,32 @@ def toml_value(text: str) -> Any:
 
 def with_value(data: dict, key: str, value: Any) -> dict:
     """A copy of a parsed layout with `key` (dotted: `primary.yaw_stiffness`) set; tables
-    on the way are made (`flange.stiffness` on a layout without [flange])."""
+    on the way are made (`flange.stiffness` on a layout without [flange]). In an array of
+    tables a number picks one (`coupling.1.yaw_damping`, from 1) and `*` every one
+    (`coupling.*.yaw_damping`, every inter-car element of a train)."""
     data = copy.deepcopy(data)
-    *tables, name = key.split(".")
-    node = data
-    for table in tables:
-        node = node.setdefault(table, {})
-        if not isinstance(node, dict):
-            raise SweepError(f"{key}: {table} is not a table in the layout")
-    node[name] = value
+    _set(data, key, key.split("."), value)
     return data
+
+
+def _set(node: Any, key: str, parts: list[str], value: Any) -> None:
+    *tables, name = parts
+    for k, table in enumerate(tables):
+        if isinstance(node, list):
+            if table == "*":
+                for item in node:
+                    _set(item, key, tables[k + 1:] + [name], value)
+                return
+            if not (table.isdigit() and 1 <= int(table) <= len(node)):
+                raise SweepError(f"{key}: {table!r} must number one of the {len(node)} entries (from 1), or be *")
+            node = node[int(table) - 1]
+        else:
+            node = node.setdefault(table, {})
+        if not isinstance(node, (dict, list)):
+            raise SweepError(f"{key}: {table} is not a table in the layout")
+    if isinstance(node, list):
+        raise SweepError(f"{key}: {tables[-1] if tables else key} holds several tables: pick one (.1) or all (.*)")
+    node[name] = value
 
 
 @dataclasses.dataclass(frozen=True)

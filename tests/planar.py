@@ -196,3 +196,91 @@ def closed_form_critical_speed(m, Iz, ky, kpsi, f11, f22, lam, r0, b):
         return math.inf, math.nan
     Vc = math.sqrt(P * Q / denominator)
     return Vc, math.sqrt(Q / P) / (2.0 * math.pi)
+
+
+# --- trains (docs/trains.md) ---------------------------------------------------------------
+#
+# A train's bodies: car bodies carbody1..N at their positions, bogies bogie1..M at
+# train.bogie_positions, wheelsets numbered over the train. Every element is a spring-damper
+# set acting on a lateral deflection d (at the point x where it acts) and the relative yaw e:
+#
+#   suspension, child c under parent p:  d = y_c - (y_p + (x_c - x_p)*psi_p)   e = psi_c - psi_p
+#   coupling of car A (front) and B:      d = (y_B + (x - x_B)*psi_B) - (y_A + (x - x_A)*psi_A)
+#                                         e = psi_B - psi_A,   x midway between the body ends
+#
+# A bogie carried by two car bodies (a Jacobs bogie) hangs from each with half of the
+# secondary suspension. The creep forces are those of planar_matrices.
+
+
+def planar_train_matrices(layout: Layout, speed: float):
+    """(M, C, K, names) of a train layout, in the order car bodies, bogies, wheelsets."""
+    V = float(speed)
+    train, bogie, ws = layout.train, layout.bogie, layout.wheelset
+    bodies = []  # (name, x, mass, Izz)
+    for k, car in enumerate(train.cars, start=1):
+        bodies.append((f"carbody{k}", car.position, car.mass, car.inertia[2]))
+    for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
+        bodies.append((f"bogie{i}", xb, bogie.mass, bogie.inertia[2]))
+    for k, xw in enumerate(layout.wheelset_x, start=1):
+        bodies.append((f"wheelset{k}", xw, ws.mass, ws.inertia[2]))
+    index = {name: (2 * k, 2 * k + 1) for k, (name, *_rest) in enumerate(bodies)}
+    x_of = {name: x for name, x, *_rest in bodies}
+    n = 2 * len(bodies)
+    M = np.diag([v for _n, _x, m, iz in bodies for v in (m, iz)])
+    C, K = np.zeros((n, n)), np.zeros((n, n))
+
+    def element(lateral: dict, yaw: dict, ky, kpsi, cy, cpsi):
+        g_d, g_e = np.zeros(n), np.zeros(n)
+        for (body, which), coef in lateral.items():
+            g_d[index[body][which]] += coef
+        for (body, which), coef in yaw.items():
+            g_e[index[body][which]] += coef
+        K[:] += ky * np.outer(g_d, g_d) + kpsi * np.outer(g_e, g_e)
+        C[:] += cy * np.outer(g_d, g_d) + cpsi * np.outer(g_e, g_e)
+
+    def hang(child, parent, s, share=1.0):
+        element({(child, 0): 1.0, (parent, 0): -1.0, (parent, 1): -(x_of[child] - x_of[parent])},
+                {(child, 1): 1.0, (parent, 1): -1.0},
+                share * s.lateral_stiffness, share * s.yaw_stiffness,
+                share * s.lateral_damping, share * s.yaw_damping)
+
+    per_bogie = len(bogie.wheelset_positions)
+    for k in range(layout.n_wheelsets):
+        hang(f"wheelset{k + 1}", f"bogie{k // per_bogie + 1}", layout.primary)
+    for i in range(1, len(layout.carbody.bogie_positions) + 1):
+        on = [k for k, car in enumerate(train.cars, start=1) if i in car.bogies]
+        for k in on:
+            hang(f"bogie{i}", f"carbody{k}", layout.secondary, 1.0 / len(on))
+    for c in train.couplings:
+        a, b = (train.cars[k - 1] for k in c.cars)
+        x = ((a.position - a.length / 2) + (b.position + b.length / 2)) / 2
+        A, B = (f"carbody{k}" for k in c.cars)
+        element({(B, 0): 1.0, (B, 1): x - b.position, (A, 0): -1.0, (A, 1): -(x - a.position)},
+                {(B, 1): 1.0, (A, 1): -1.0},
+                c.lateral_stiffness, c.yaw_stiffness, c.lateral_damping, c.yaw_damping)
+
+    cr = layout.creep
+    r0, b, lam = ws.rolling_radius, ws.contact_half_spacing, ws.conicity
+    for k in range(layout.n_wheelsets):
+        iy, ip = index[f"wheelset{k + 1}"]
+        C[iy, iy] += 2.0 * cr.f22 / V
+        K[iy, ip] += -2.0 * cr.f22
+        C[iy, ip] += 2.0 * cr.f23 / V
+        C[ip, ip] += 2.0 * cr.f11 * b * b / V + 2.0 * cr.f33 / V
+        K[ip, iy] += 2.0 * cr.f11 * b * lam / r0
+        C[ip, iy] += -2.0 * cr.f23 / V
+        K[ip, ip] += 2.0 * cr.f23
+    names = [f"{name}_{w}" for name, *_rest in bodies for w in ("lateral", "yaw")]
+    return M, C, K, names
+
+
+def planar_train_eigenvalues(layout: Layout, speed: float) -> np.ndarray:
+    """Eigenvalues of the planar train model, rigid-body roots (none with creep) included."""
+    M, C, K, _names = planar_train_matrices(layout, speed)
+    n = M.shape[0]
+    m_inv = 1.0 / np.diag(M)
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -m_inv[:, None] * K
+    A[n:, n:] = -m_inv[:, None] * C
+    return np.linalg.eigvals(A)
