@@ -15,7 +15,10 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   peer's as written and with its speeds dealt out evenly to the cores) taken in turn,
   wall clock and CPU time (the machine is shared: each the best of its turns);
 - start-up: `rail-mj --help` and a layout error, each a new process, against the bare
-  interpreter and against importing what a run needs (target: under 0.5 s).
+  interpreter and against importing what a run needs (target: under 0.5 s);
+- a ten-car train (models/two-coaches' coach and coupling, ten times over): one RK4 step with
+  the native callback, and a `simulate` run of 10 s, against real time on one core (target:
+  at least 10x faster than real time).
 """
 
 from __future__ import annotations
@@ -130,8 +133,43 @@ def start_up() -> list[tuple[str, float]]:
         ]
 
 
+def ten_car_train():
+    """models/two-coaches lengthened to ten coaches, each coupled to the next alike."""
+    import tomllib
+
+    from rail_mj.layout import layout_from_dict
+
+    data = tomllib.loads((COACH.parent.parent / "two-coaches" / "two-coaches.toml").read_text())
+    pitch = data["car"][0]["position"] - data["car"][1]["position"]
+    axle = data["train"]["bogie_positions"][0] - data["car"][0]["position"]  # a bogie from its body's centre
+    n = 10
+    centres = [(n - 1) * pitch / 2 - k * pitch for k in range(n)]
+    data["name"] = "ten-coaches"
+    data["train"]["bogie_positions"] = [c + s for c in centres for s in (axle, -axle)]
+    data["car"] = [{**data["car"][0], "position": c, "bogies": [2 * k + 1, 2 * k + 2]}
+                   for k, c in enumerate(centres)]
+    data["coupling"] = [{**data["coupling"][0], "cars": [k + 1, k + 2]} for k in range(n - 1)]
+    return layout_from_dict(data, "ten-coaches (tools/benchmark.py)")
+
+
+def train_speed(n: int = 3000) -> tuple[float, float, int]:
+    """The ten-car train: (one RK4 step with the native callback, s; a simulate run of 10 s
+    at 60 m/s, wall s; degrees of freedom)."""
+    train = ten_car_train()
+    vehicle = Vehicle(train)
+    model, data = vehicle.model, mujoco.MjData(vehicle.model)
+    native.set_speed(model, 60.0)
+    data.qpos[vehicle.root_lateral_dofs] = 0.002
+    with native.installed():
+        step = best(lambda: mujoco.mj_step(model, data, nstep=n), 5) / n
+    simulate(train, 60.0, 60.0, 0.002)
+    run = best(lambda: simulate(train, 60.0, 600.0, 0.002), 3)
+    return step, run, model.nv
+
+
 def main() -> None:
     starts = start_up()
+    train_step, train_run, train_nv = train_speed()
     layout = load_layout(COACH)
     critical = best(lambda: Stability(layout).critical_speed(), 5)
     locus = best(lambda: root_locus(Stability(layout), np.linspace(5.0, 150.0, 50)), 3)
@@ -199,6 +237,12 @@ def main() -> None:
     peer = batch["peer"]
     for name, (wall, cpu) in batch.items():
         print(f"| {names[name]} | {wall:.3f} | {cpu:.3f} | {wall / peer[0]:.2f}x, {cpu / peer[1]:.2f}x |")
+    print()
+    print(f"| a ten-car train ({train_nv} dof), real time 10 s at 60 m/s | time | faster than real time |")
+    print("|---|---|---|")
+    print(f"| one RK4 step of 1 ms with the native creep callback | {train_step * 1e6:.0f} µs | "
+          f"{1e-3 / train_step:.1f}x |")
+    print(f"| `simulate`: 600 m at 60 m/s (10 s) | {train_run:.2f} s | {10.0 / train_run:.1f}x |")
     print()
     print("| start-up (a new process each) | time |")
     print("|---|---|")
