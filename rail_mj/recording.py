@@ -193,11 +193,13 @@ class Plot(NamedTuple):
 
 def plots(run: Run) -> list[Plot]:
     """What the plots show, in the order of the blueprint's grid (row by row, three
-    columns: lateral, yaw, forces; wheelsets above, bogies and car body below)."""
+    columns: lateral, yaw, forces; wheelsets above, bogies and car body below; for a train,
+    each car's body, bogies and wheelsets, lateral and yaw, a pair of plots per car)."""
     forces = run.contact_forces()
     y, psi = run.y, run.psi
     wheelsets = [(f"wheelset {i + 1}", PALETTE[i % len(PALETTE)]) for i in range(run.n_wheelsets)]
     frames = [("car body", CARBODY_COLOUR) if name == "carbody"
+              else (name.replace("carbody", "car body "), CARBODY_COLOUR) if name.startswith("carbody")
               else (name.replace("bogie", "bogie "), PALETTE[k % len(PALETTE)])
               for k, name in enumerate(run.frame_names)]
 
@@ -213,7 +215,19 @@ def plots(run: Run) -> list[Plot]:
            Plot("Wheelsets: yaw ψ (mrad)", wheelset_series(yaw_path, "mrad", psi * MRAD)),
            Plot("Wheelsets: ΣY guiding force (kN)",
                 wheelset_series(guiding_path, "kN", forces.lateral / N_PER_KN))]
-    if run.frame_names:
+    train = run.layout.train
+    if train is not None:  # a train: each car's body, bogies and wheelsets together
+        per_bogie = len(run.layout.bogie.wheelset_positions)
+        lateral = frame_series(frame_lateral_path, "mm", run.frame_y * MM)
+        yaw = frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD)
+        wheel_lateral, wheel_yaw = out[0].series, out[1].series
+        index = {name: k for k, name in enumerate(run.frame_names)}
+        for k, car in enumerate(train.cars, start=1):
+            mine = [index[f"carbody{k}"]] + [index[f"bogie{b}"] for b in car.bogies]
+            axles = [(b - 1) * per_bogie + j for b in car.bogies for j in range(per_bogie)]
+            out += [Plot(f"Car {k}: lateral y (mm)", [lateral[m] for m in mine] + [wheel_lateral[i] for i in axles]),
+                    Plot(f"Car {k}: yaw ψ (mrad)", [yaw[m] for m in mine] + [wheel_yaw[i] for i in axles])]
+    elif run.frame_names:
         out += [Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM)),
                 Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD))]
     if run.layout.profiles is not None:  # the normal forces: gravitational stiffness and the flange
@@ -305,7 +319,8 @@ def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: lis
         rr.TimeColumn(TIME, duration=run.t[keep]),
         rr.TimeColumn(DISTANCE, sequence=np.round(run.x[keep] * 1000.0).astype(np.int64)),
     ]
-    for series in (s for p in shown for s in p.series):
+    logged = set()  # a series shown twice (a Jacobs bogie under two cars) is sent once
+    for series in (s for p in shown for s in p.series if not (s.path in logged or logged.add(s.path))):
         # MinMax: zoomed out, a pixel spans cycles of hunting; the default average flattens them.
         rec.log(series.path, rr.SeriesLines(names=series.label, colors=[series.colour],
                                             aggregation_policy="MinMax"), static=True)

@@ -168,3 +168,22 @@ def test_sweep_keys_reach_into_a_trains_couplings():
                          ("coupling.yaw_damping", "holds several tables")):
         with pytest.raises(SweepError, match=message):
             with_value(data, key, 1.0)
+
+
+def test_a_trains_recording_groups_its_plots_per_car(tmp_path):
+    """Each car's body, bogies and wheelsets plotted together (lateral and yaw); a Jacobs
+    bogie in both its cars' plots, and its series sent once."""
+    from rail_mj.recording import plots, write_recording
+    from rail_mj.runner import simulate
+
+    layout = load_layout(MODELS / "articulated-set" / "articulated-set.toml")
+    run = simulate(layout, 60.0, 60.0, 0.002)
+    shown = {p.title: [s.path for s in p.series] for p in plots(run)}
+    for k in (1, 2, 3):
+        assert f"Car {k}: lateral y (mm)" in shown and f"Car {k}: yaw ψ (mrad)" in shown
+    shared = {path for path in shown["Car 1: lateral y (mm)"] if path in shown["Car 2: lateral y (mm)"]}
+    assert shared == {"/lateral/bogie2", "/lateral/wheelset3", "/lateral/wheelset4"}  # the Jacobs bogie
+    assert len(shown["Car 1: lateral y (mm)"]) == 1 + 2 + 4  # its body, two bogies, four wheelsets
+    out = tmp_path / "set.rrd"
+    write_recording(run, out)
+    assert out.stat().st_size > 0
