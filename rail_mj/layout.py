@@ -587,6 +587,8 @@ def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, w
     bogie_x = t.positions("bogie_positions", extent, "bogie")
     t.done()
     cars_data = top.get("car", None, required=False)
+    if isinstance(cars_data, dict):
+        top.fail("car", "is one [car] table: give each car body as an array entry, [[car]], leading first")
     if not isinstance(cars_data, list) or not cars_data:
         top.fail("car", "missing: a [train] needs its car bodies, one [[car]] each, leading first")
     cars = []
@@ -632,7 +634,10 @@ def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, w
             top.fail("train.bogie_positions", f"bogie {i} is listed by cars {on}: a (Jacobs) bogie carries the "
                                               f"ends of at most two adjacent cars")
     couplings = []
-    for k, data in enumerate(top.get("coupling", [], required=False) or [], start=1):
+    coupling_data = top.get("coupling", [], required=False) or []
+    if not isinstance(coupling_data, list):
+        top.fail("coupling", "must be an array of tables, one [[coupling]] per pair of adjacent cars")
+    for k, data in enumerate(coupling_data, start=1):
         t = _Table(source, f"coupling[{k}]", data)
         pair = t.get("cars")
         if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(i, int) and not isinstance(i, bool)

@@ -87,6 +87,22 @@ def test_coupled_coaches_agree_with_the_planar_model():
     assert matched_error(Stability(layout).eigenvalues(50.0), planar_train_eigenvalues(layout, 50.0)) < 1e-6
 
 
+@pytest.mark.parametrize("speed", [20.0, 70.0])
+def test_the_shipped_articulated_set_agrees_with_the_planar_model(speed):
+    """Three cars, the end ones longer than the middle one's half-pitch: the couplings act
+    between the body ends, not between the centres (a test trains symmetric about x = 0
+    cannot tell), with all four coupling terms at work; linear creep, no flange. 1e-9: both
+    are exact linear models (measured 3e-14)."""
+    data = tomllib.loads((MODELS / "articulated-set" / "articulated-set.toml").read_text())
+    data["creep"] = {"f11": data["creep"]["f11"], "f22": data["creep"]["f22"]}
+    data.pop("flange", None)
+    data["wheelset"].pop("flangeway_clearance", None)
+    for c in data["coupling"]:
+        c.update(lateral_stiffness=5e6, yaw_stiffness=2e6, lateral_damping=3e4, yaw_damping=2e5)
+    layout = layout_from_dict(data)
+    assert matched_error(Stability(layout).eigenvalues(speed), planar_train_eigenvalues(layout, speed)) < 1e-9
+
+
 ARTICULATION = 5e6  # N/m: the lateral stiffness of the articulation between the two body ends
 
 
@@ -142,6 +158,8 @@ BAD = {
                               "coupling[1].cars: must be two adjacent cars"),
     "coupling typo": (lambda d: d.update(coupling=[{"cars": [1, 2], "yaw_dampin": 1.0}]),
                       "coupling[1].yaw_dampin: unknown key"),
+    "one [coupling] table": (lambda d: d.update(coupling={"cars": [1, 2]}), "coupling: must be an array of tables"),
+    "one [car] table": (lambda d: d.update(car=d["car"][0]), "car: is one [car] table"),
 }
 
 

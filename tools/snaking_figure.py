@@ -58,7 +58,9 @@ def main() -> None:
           f"| critical speed (m/s), conicity {base.wheelset.conicity:g} | conicity {LOW_CONICITY:g} |")
     print("|---|---|---|---|---|")
     for c, f, zeta, vc, vlow, mode, low_mode in rows:
-        print(f"| {c / 1e3:g} | {f:.3f} | {zeta:.3f} | {vc:.2f} | {vlow:.2f} |")
+        # A root no longer oscillating is overdamped: say so, not "0 Hz".
+        cells = f"{f:.3f} | {zeta:.3f}" if f > 0 else "— | overdamped"
+        print(f"| {c / 1e3:g} | {cells} | {vc:.2f} | {vlow:.2f} |")
     print(f"modes at the critical speed: {sorted({r[5] for r in rows})}, {sorted({r[6] for r in rows})}")
     c, f, zeta, vc, vlow = (np.array([r[k] for r in rows]) for k in range(5))
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.4, 6.0), sharex=True)
