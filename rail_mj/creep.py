@@ -361,7 +361,9 @@ flange_lead = _elementwise(_flange_lead)
 
 class ContactForces(NamedTuple):
     """The rails' forces on each wheelset, by origin: arrays shaped like the states, the
-    last axis the wheelsets; N and N m."""
+    last axis the wheelsets; N and N m. On profiles (`profiled_contact`) the flange entries
+    are the normal forces' lateral part (gravitational stiffness on the tread, the flange
+    force on the flange) and the moment of every lateral force at its contact's lead."""
 
     creep_lateral: np.ndarray  # Fy of both wheels' creep forces
     flange_lateral: np.ndarray  # the flange's lateral force, zero off the flange

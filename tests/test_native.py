@@ -10,29 +10,18 @@ import pytest
 from mujoco import rollout
 
 from rail_mj import native
-from rail_mj.forces import CreepForces
 from rail_mj.layout import load_layout
 from rail_mj.model import Vehicle, generate
 from rail_mj.runner import simulate
 
-from conftest import SHIPPED, passive_forces
+from conftest import SHIPPED, assert_callbacks_agree
 
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
 def test_native_and_python_callbacks_give_the_same_forces(layout_path):
     """Random states, on and off the flanges: qfrc_passive agrees to 1e-9 relative (both
     call one compiled law; only the kinematics and J^T are written twice)."""
-    vehicle = Vehicle(load_layout(layout_path))
-    model = vehicle.model
-    native.set_speed(model, 47.0)
-    python = CreepForces(model, vehicle.wheelset_names, 47.0)
-    rng = np.random.default_rng(7)
-    for _ in range(25):
-        qpos, qvel = rng.normal(scale=0.012, size=model.nq), rng.normal(scale=0.3, size=model.nv)
-        forces = [passive_forces(model, callback, qpos, qvel) for callback in (python, native.callback())]
-        scale = np.max(np.abs(forces[0]))
-        assert scale > 0
-        np.testing.assert_allclose(forces[1], forces[0], rtol=0, atol=1e-9 * scale)
+    assert_callbacks_agree(Vehicle(load_layout(layout_path)), 47.0, seed=7, samples=25, position=0.012, rate=0.3)
 
 
 def test_native_and_python_runs_follow_the_same_trajectory():

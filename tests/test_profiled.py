@@ -11,16 +11,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rail_mj import geometry, native, tables
+from rail_mj import geometry, tables
 from rail_mj.cli import main
 from rail_mj.creep import ContactParameters, contact_forces
-from rail_mj.forces import CreepForces
 from rail_mj.layout import LayoutError, load_layout
 from rail_mj.model import Vehicle
 from rail_mj.runner import simulate
 from rail_mj.stability import Stability
 
-from conftest import PROFILES_TOML, passive_forces
+from conftest import PROFILES_TOML, assert_callbacks_agree
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 PROFILES = PROFILES_TOML
@@ -136,16 +135,7 @@ def test_native_and_python_callbacks_agree_on_profiles(coach, law):
     """On the tread, across the jump to the flange and up it, with Polach's law and with
     FASTSIM at each contact point: qfrc_passive agrees to 1e-9."""
     vehicle = Vehicle(dataclasses.replace(coach, creep=dataclasses.replace(coach.creep, law=law)))
-    model = vehicle.model
-    native.set_speed(model, 61.0)
-    python = CreepForces(model, vehicle.wheelset_names, 61.0)
-    rng = np.random.default_rng(11)
-    for _ in range(15):
-        qpos, qvel = rng.normal(scale=0.005, size=model.nq), rng.normal(scale=0.2, size=model.nv)
-        out = [passive_forces(model, callback, qpos, qvel) for callback in (python, native.callback())]
-        scale = np.max(np.abs(out[0]))
-        assert scale > 0
-        np.testing.assert_allclose(out[1], out[0], rtol=0, atol=1e-9 * scale)
+    assert_callbacks_agree(vehicle, 61.0, seed=11, samples=15, position=0.005, rate=0.2)
 
 
 def test_equivalent_conicity_sets_the_linear_critical_speed(coach):
