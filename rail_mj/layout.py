@@ -657,8 +657,8 @@ def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, trai
         primary=primary, secondary=secondary, gravity=t.flag("gravity", True),
     )
     t.done()
-    if spatial.carbody_height <= spatial.bogie_height:
-        t.fail("carbody_height", f"must be above bogie_height ({spatial.bogie_height:g} m), "
+    if spatial.carbody_height < spatial.bogie_height:  # equal: the planar limit (docs/spatial.md)
+        t.fail("carbody_height", f"must not be below bogie_height ({spatial.bogie_height:g} m), "
                                  f"got {spatial.carbody_height:g} m")
     return spatial
 

@@ -172,6 +172,26 @@ def test_gravity_off_leaves_the_stiffness(coach):
     assert not other.model.tendon_lengthspring.any()
 
 
+def test_all_at_one_height_is_the_planar_model():
+    """Centres of mass and springs all at one height: the lateral and yaw motions part from the
+    vertical ones, and the eigenvalues of the planar layout made of the elements' planar
+    equivalents are all among the spatial model's (the vertical modes besides)."""
+    from rail_mj.stability import Stability
+
+    data = copy.deepcopy(SPATIAL)
+    data["spatial"].update(carbody_height=1.0, bogie_height=1.0)
+    data["primary"]["axlebox"]["height"] = data["secondary"]["spring"]["height"] = 1.0
+    layout = layout_from_dict(data)
+    planar = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("spatial", "primary", "secondary")}
+    for key, s in (("primary", layout.primary), ("secondary", layout.secondary)):
+        planar[key] = {"lateral_stiffness": s.lateral_stiffness, "yaw_stiffness": s.yaw_stiffness,
+                       "lateral_damping": s.lateral_damping, "yaw_damping": s.yaw_damping}
+    spatial = Stability(layout).eigenvalues(30.0)
+    for lam in Stability(layout_from_dict(planar)).eigenvalues(30.0):
+        assert np.min(np.abs(spatial - lam)) <= 1e-6 * abs(lam)
+    assert len(spatial) > len(Stability(layout_from_dict(planar)).eigenvalues(30.0))
+
+
 def test_planar_equivalent(coach):
     layout, _ = coach
     assert layout.primary.lateral_stiffness == 2 * 3884e3
@@ -185,7 +205,7 @@ def test_planar_equivalent(coach):
     (lambda d: d["primary"]["axlebox"].pop("kz"), r"primary\.axlebox\.kz: missing"),
     (lambda d: d["secondary"]["spring"].update(height=-1.0), r"secondary\.spring\.height: must be > 0"),
     (lambda d: d["secondary"]["spring"].update(spacing=7.0), r"secondary\.spring\.spacing: must be <= 2\.5"),
-    (lambda d: d["spatial"].update(carbody_height=0.5), r"spatial\.carbody_height: must be above bogie_height"),
+    (lambda d: d["spatial"].update(carbody_height=0.5), r"spatial\.carbody_height: must not be below bogie_height"),
     (lambda d: d["spatial"].update(heigth=0.5), r"spatial\.heigth: unknown key"),
     (lambda d: d["carbody"].update(fixed=True), r"spatial: needs a free car body"),
 ])
