@@ -192,6 +192,20 @@ def test_all_at_one_height_is_the_planar_model():
     assert len(spatial) > len(Stability(layout_from_dict(planar)).eigenvalues(30.0))
 
 
+def test_mode_names():
+    """The car body's bounce, pitch, yaw and its two sways, lower (roll centre below the centre of
+    mass) at the lower frequency; the frames' bounce and pitch."""
+    from rail_mj.stability import Stability
+
+    modes = Stability(layout_from_dict(copy.deepcopy(SPATIAL))).modes(30.0)
+    names = {m.name for m in modes}
+    for name in ("car body bounce", "car body pitch", "car body yaw", "car body lower sway", "car body upper sway"):
+        assert name in names
+    assert any(n.endswith("frame bounce") for n in names) and any(n.endswith("frame pitch") for n in names)
+    frequency = {m.name: m.frequency for m in sorted(modes, key=lambda m: -m.frequency)}  # lowest of each name
+    assert frequency["car body lower sway"] < frequency["car body upper sway"]
+
+
 def test_planar_equivalent(coach):
     layout, _ = coach
     assert layout.primary.lateral_stiffness == 2 * 3884e3
