@@ -52,7 +52,13 @@ class SpatialModes:
 
     def name(self, q: np.ndarray, share: dict[str, float], energy: dict[str, np.ndarray]) -> str:
         group_energy = {g: share[g] + sum(share[w] for w in ws) for g, ws in self.groups.items()}
-        top = max(group_energy, key=group_energy.get)
+        # The car body against the whole running gear first (as the planar names do in effect: a
+        # bogie hunting drags the body, which may then carry more than either bogie alone), then
+        # the bogie with most energy.
+        if group_energy["carbody"] >= 1.0 - group_energy["carbody"]:
+            top = "carbody"
+        else:
+            top = max((g for g in group_energy if g != "carbody"), key=group_energy.get)
         wheelsets = self.groups[top]
         label = "car body" if top == "carbody" else f"{top.replace('bogie', 'bogie ')} frame"
         if wheelsets and sum(share[w] for w in wheelsets) > share[top]:

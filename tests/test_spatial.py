@@ -204,6 +204,9 @@ def test_mode_names():
     assert any(n.endswith("frame bounce") for n in names) and any(n.endswith("frame pitch") for n in names)
     frequency = {m.name: m.frequency for m in sorted(modes, key=lambda m: -m.frequency)}  # lowest of each name
     assert frequency["car body lower sway"] < frequency["car body upper sway"]
+    for speed in (30.0, 60.0):  # a hunting bogie dragging the body is not a car-body mode
+        for m in Stability(layout_from_dict(copy.deepcopy(SPATIAL))).modes(speed):
+            assert m.name.startswith("car body") == (m.participation["carbody"] >= 0.5), (m.name, m.participation)
 
 
 def test_planar_equivalent(coach):
@@ -229,3 +232,28 @@ def test_bad_spatial_layouts_fail_with_one_line(edit, message):
     with pytest.raises(LayoutError, match=message) as e:
         layout_from_dict(data)
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("speed", [10.0, 30.0, 60.0])
+def test_mode_names_at_one_height_are_the_planar_ones(speed):
+    """All at one height, each planar mode is among the spatial ones (above) and carries the
+    planar model's name there: the spatial names add the vertical and roll modes, they do not
+    rename the hunting ones."""
+    from rail_mj.stability import Stability
+
+    data = copy.deepcopy(SPATIAL)
+    data["spatial"].update(carbody_height=1.0, bogie_height=1.0)
+    data["primary"]["axlebox"]["height"] = data["secondary"]["spring"]["height"] = 1.0
+    layout = layout_from_dict(data)
+    planar = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("spatial", "primary", "secondary")}
+    for key, s in (("primary", layout.primary), ("secondary", layout.secondary)):
+        planar[key] = {"lateral_stiffness": s.lateral_stiffness, "yaw_stiffness": s.yaw_stiffness,
+                       "lateral_damping": s.lateral_damping, "yaw_damping": s.yaw_damping}
+    spatial = Stability(layout).modes(speed)
+    for mode in Stability(layout_from_dict(planar)).modes(speed):
+        twin = min(spatial, key=lambda m: abs(m.eigenvalue - mode.eigenvalue))
+        assert abs(twin.eigenvalue - mode.eigenvalue) <= 1e-6 * abs(mode.eigenvalue)
+        # Which of two bogies (or wheelsets) a symmetric pair is named after is a tie broken by
+        # round-off; the kind of mode is not.
+        kind = lambda name: "".join(c for c in name if not c.isdigit())  # noqa: E731
+        assert kind(twin.name) == kind(mode.name), (mode.frequency, mode.name, twin.name)
