@@ -117,6 +117,39 @@ class Suspension:
 
 
 @dataclasses.dataclass(frozen=True)
+class Spring:
+    """A spatial suspension element ([primary.axlebox], [secondary.spring]; docs/spatial.md): one
+    spring-damper on each side, at y = +/-spacing and `height` above the rail, acting along x, y, z
+    between the attachment points of the two bodies it joins."""
+
+    kx: float  # N/m
+    ky: float
+    kz: float
+    cx: float = 0.0  # N s/m
+    cy: float = 0.0
+    cz: float = 0.0
+    spacing: float = 1.0  # m, lateral half-distance of the two sides
+    height: float = 0.0  # m above the rail
+
+    def planar(self) -> Suspension:
+        """The pair's planar equivalent (docs/manchester-coach.md): lateral 2*ky, yaw 2*kx*d^2."""
+        d2 = self.spacing ** 2
+        return Suspension(2 * self.ky, 2 * self.kx * d2, 2 * self.cy, 2 * self.cx * d2)
+
+
+@dataclasses.dataclass(frozen=True)
+class Spatial:
+    """[spatial] (docs/spatial.md): car body and bogie frames move laterally, vertically, in roll,
+    pitch and yaw; wheelsets laterally and in yaw. Heights are of the centres of mass above the rail."""
+
+    carbody_height: float
+    bogie_height: float
+    primary: Spring  # per axlebox
+    secondary: Spring  # per side of each bogie
+    gravity: bool = True
+
+
+@dataclasses.dataclass(frozen=True)
 class Bogie:
     mass: float
     inertia: tuple[float, float, float]
@@ -194,6 +227,9 @@ class Layout:
     # are the train's, x along the train; mass the cars' total) and the model is built flat,
     # with fixed tendons for the suspension (docs/trains.md).
     train: Train | None = None
+    # A spatial vehicle ([spatial], docs/spatial.md): built flat with a fixed tendon per element
+    # and direction; `primary` and `secondary` then hold the elements' planar equivalents.
+    spatial: Spatial | None = None
     source: str = "<layout>"
     # Legal values far outside railway practice (rail_mj.practice), one line each.
     warnings: tuple[str, ...] = dataclasses.field(default=(), compare=False)
@@ -449,7 +485,9 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         falling = {}
     creep_table = t
 
-    primary = _suspension(_Table(source, "primary", top.get("primary")))
+    is_spatial = top.get("spatial", None, required=False) is not None
+    primary, primary_spring = _suspension_or_elements(_Table(source, "primary", top.get("primary")), "axlebox",
+                                                      is_spatial)
 
     # Two wheels cannot be closer than their diameter: that is the overlap check.
     wheel_diameter = 2.0 * wheelset.rolling_radius
@@ -469,7 +507,8 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         _inertia_fits(t, bogie.mass, bogie.inertia, math.hypot(reach, b + 0.5), "bogie frame")
         if top.get("secondary", None, required=False) is None:
             top.fail("secondary", "missing: a layout with [bogie] needs [secondary]")
-        secondary = _suspension(_Table(source, "secondary", top.get("secondary")))
+        secondary, secondary_spring = _suspension_or_elements(
+            _Table(source, "secondary", top.get("secondary")), "spring", is_spatial)
     elif top.get("secondary", None, required=False) is not None:
         top.fail("secondary", "given without [bogie]: secondary suspension joins bogies to the body")
 
@@ -560,16 +599,69 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
                            high=math.radians(89.0)),
         )
         t.done()
+    spatial = None
+    if is_spatial:
+        spatial = _spatial(_Table(source, "spatial", top.get("spatial")), top, carbody, bogie, train, primary_spring,
+                           secondary_spring if bogie else None, r0)
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
         bogie=bogie, secondary=secondary, contact=contact, flange=flange, profiles=profiles, train=train,
-        source=source,
+        spatial=spatial, source=source,
         warnings=tuple(warnings),
     )
 
 
 GRAVITY = 9.81  # m/s^2
+# Heights above the rail (m) and a spring's half-spacing: beyond these no rail vehicle is meant.
+MAX_HEIGHT = 6.0
+MAX_SPACING = 2.5
+SPRING_KEYS = ("kx", "ky", "kz", "cx", "cy", "cz", "spacing", "height")
+
+
+def _suspension_or_elements(t: _Table, element: str, is_spatial: bool) -> tuple[Suspension, Spring | None]:
+    """[primary] or [secondary]: the planar whole-body keys, or with [spatial] the element table
+    [<section>.<element>] (its planar equivalent as the Suspension)."""
+    if not is_spatial:
+        if element in t.data:
+            t.fail(element, "needs [spatial]: per-element springs belong to a spatial vehicle (docs/spatial.md)")
+        return _suspension(t), None
+    planar = sorted(set(t.data) - {element})
+    if planar:
+        t.fail(planar[0], f"not used with [spatial]: give the elements as [{t.section}.{element}] "
+                          f"({', '.join(SPRING_KEYS)})")
+    e = _Table(t.source, f"{t.section}.{element}", t.get(element))
+    spring = Spring(
+        kx=e.non_negative("kx"), ky=e.non_negative("ky"), kz=e.positive("kz"),
+        cx=e.non_negative("cx", 0.0), cy=e.non_negative("cy", 0.0), cz=e.non_negative("cz", 0.0),
+        spacing=e.number("spacing", low=0.0, low_open=True, high=MAX_SPACING),
+        height=e.number("height", low=0.0, low_open=True, high=MAX_HEIGHT),
+    )
+    e.done()
+    t.done()
+    return spring.planar(), spring
+
+
+def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, train, primary: Spring,
+             secondary: Spring | None, r0: float) -> Spatial:
+    """[spatial], checked: a free car body on bogies, the heights of the centres of mass."""
+    if train is not None:
+        top.fail("spatial", "not yet with [train]: a spatial model is built for one car body on its bogies")
+    if bogie is None:
+        top.fail("spatial", "needs [bogie]: a spatial vehicle is a car body on bogies")
+    if carbody.fixed:
+        top.fail("spatial", "needs a free car body (carbody.fixed = false)")
+    spatial = Spatial(
+        carbody_height=t.number("carbody_height", low=0.0, low_open=True, high=MAX_HEIGHT),
+        bogie_height=t.number("bogie_height", low=0.0, low_open=True, high=MAX_HEIGHT),
+        primary=primary, secondary=secondary, gravity=t.flag("gravity", True),
+    )
+    t.done()
+    if spatial.carbody_height < spatial.bogie_height:  # equal: the planar limit (docs/spatial.md)
+        t.fail("carbody_height", f"must not be below bogie_height ({spatial.bogie_height:g} m), "
+                                 f"got {spatial.carbody_height:g} m")
+    return spatial
+
 # Two body ends nearer than this overlap (m): an articulated set's ends meet over the Jacobs bogie.
 END_TOLERANCE = 1e-6
 

@@ -97,6 +97,9 @@ NUMERIC_ELLIPSE = "rail_mj/ellipse"
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
 LATERAL, YAW = "lateral", "yaw"
+# A spatial vehicle's car body and bogie frames also move vertically, roll and pitch
+# (docs/spatial.md): joints <body>_vertical, <body>_roll, <body>_pitch.
+VERTICAL, ROLL, PITCH = "vertical", "roll", "pitch"
 
 
 def _g6(*values: float) -> list[float]:
@@ -338,10 +341,7 @@ def add_train(spec: mujoco.MjSpec, layout: Layout) -> None:
     n = len(bogie.wheelset_positions)
     for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
         name = f"bogie{i}"
-        body = world.add_body(name=name, pos=_pos(xb, BOGIE_HEIGHT))
-        _set_inertia(body, bogie.mass, bogie.inertia)
-        _add_planar_joints(body, None)
-        add_bogie_frame(body, name, layout)
+        add_flat_bogie(world, name, xb, BOGIE_HEIGHT, layout, spatial=False)
         x_of[name] = xb
         for j, xw in enumerate(bogie.wheelset_positions):
             wheelset = f"wheelset{(i - 1) * n + j + 1}"
@@ -360,6 +360,119 @@ def add_train(spec: mujoco.MjSpec, layout: Layout) -> None:
         _tendon(spec, f"coupling{c.cars[0]}_{LATERAL}", lateral, c.lateral_stiffness, c.lateral_damping)
         _tendon(spec, f"coupling{c.cars[0]}_{YAW}", {f"{rear}_{YAW}": 1.0, f"{front}_{YAW}": -1.0},
                 c.yaw_stiffness, c.yaw_damping)
+
+
+def _add_spatial_joints(body) -> None:
+    """Lateral slide and yaw hinge (as a planar body's), then vertical slide, roll and pitch
+    hinges, all at the centre of mass and with no spring: absolute coordinates."""
+    _add_planar_joints(body, None)
+    body.add_joint(name=f"{body.name}_{VERTICAL}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
+    body.add_joint(name=f"{body.name}_{ROLL}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[1, 0, 0])
+    body.add_joint(name=f"{body.name}_{PITCH}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0])
+
+
+def point_motion(body: str, r, joints) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
+    """The displacement (x, y, z) of the point at `r` = (rx, ry, rz) from `body`'s centre of mass,
+    linear in the body's joint coordinates (docs/spatial.md): the translation plus w x r for the
+    small rotation w = (roll, pitch, yaw). `joints`: the motions the body has; each component a
+    {joint name: coefficient}."""
+    rx, ry, rz = r
+    ux = {PITCH: rz, YAW: -ry}
+    uy = {LATERAL: 1.0, YAW: rx, ROLL: -rz}
+    uz = {VERTICAL: 1.0, ROLL: ry, PITCH: -rx}
+    return tuple({f"{body}_{m}": c for m, c in u.items() if m in joints and c != 0.0} for u in (ux, uy, uz))
+
+
+SPATIAL_BODY = (LATERAL, YAW, VERTICAL, ROLL, PITCH)
+SPATIAL_WHEELSET = (LATERAL, YAW)  # vertical and roll held by the (rigid) track
+AXES = "xyz"
+
+
+def spring_tendons(spec, name: str, point, lower: tuple[str, tuple, tuple], upper: tuple[str, tuple, tuple],
+                   spring) -> None:
+    """A spatial spring-damper (`spring`: kx..cz) at `point` (x, y, z in the vehicle's frame, z above
+    the rail) between `lower` and `upper`, each (body, centre (x, y, z), joints): three fixed tendons
+    <name>_x|y|z, their lengths the deflections u_upper - u_lower of the point along x, y, z."""
+    motions = []
+    for body, centre, joints in (upper, lower):
+        r = tuple(p - c for p, c in zip(point, centre))
+        motions.append(point_motion(body, r, joints))
+    for i, axis in enumerate(AXES):
+        coefficients = dict(motions[0][i])
+        for joint, c in motions[1][i].items():
+            coefficients[joint] = coefficients.get(joint, 0.0) - c
+        _tendon(spec, f"{name}_{axis}", coefficients, getattr(spring, f"k{axis}"), getattr(spring, f"c{axis}"))
+
+
+def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
+    """A spatial vehicle (layout.spatial; docs/spatial.md), built flat: the car body and bogie
+    frames children of the world with lateral, yaw, vertical, roll and pitch joints at their centres
+    of mass, the wheelsets with lateral and yaw; each spring-damper element one fixed tendon per
+    direction (x, y, z), its length the element's linearised deflection. Tendons are named
+    <lower>_<upper>_<side>_<axis>, e.g. wheelset1_bogie1_left_z."""
+    sp, bogie, world = layout.spatial, layout.bogie, spec.worldbody
+    hc, hb, r0 = sp.carbody_height, sp.bogie_height, layout.wheelset.rolling_radius
+    body = world.add_body(name="carbody", pos=[0, 0, _g6(hc)[0]])
+    _set_inertia(body, layout.carbody.mass, layout.carbody.inertia)
+    _add_spatial_joints(body)
+    add_carbody_shell(body, layout)
+    carbody = ("carbody", (0.0, 0.0, hc), SPATIAL_BODY)
+    spring_top = side_frame_heights(layout)[0]
+    n = len(bogie.wheelset_positions)
+    for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
+        name = f"bogie{i}"
+        add_flat_bogie(world, name, xb, hb, layout, spatial=True)
+        frame = (name, (xb, 0.0, hb), SPATIAL_BODY)
+        for j, xw in enumerate(bogie.wheelset_positions):
+            wheelset = f"wheelset{(i - 1) * n + j + 1}"
+            add_wheelset(world, wheelset, xb + xw, r0, layout, spring_top, nested=False)
+            for side, sign in SIDES:
+                e = sp.primary
+                spring_tendons(spec, f"{wheelset}_{name}_{side}", (xb + xw, sign * e.spacing, e.height),
+                               (wheelset, (xb + xw, 0.0, r0), SPATIAL_WHEELSET), frame, e)
+        for side, sign in SIDES:
+            e = sp.secondary
+            spring_tendons(spec, f"{name}_carbody_{side}", (xb, sign * e.spacing, e.height), frame, carbody, e)
+
+
+def preload(spec: mujoco.MjSpec, model: mujoco.MjModel) -> np.ndarray:
+    """Make the centred state (qpos = 0) the static equilibrium under gravity (docs/spatial.md):
+    solve K q_eq = f_gravity with the tendons' stiffness K, and give each tendon the spring length
+    -L(q_eq), so that at q = 0 it carries the force it would carry at q_eq. Returns q_eq, the
+    static sag the preload takes out. Linear tendons make this exact (up to the 6 figures the
+    MJCF keeps of each spring length)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    J = tendon_jacobian(model)
+    K = J.T @ (model.tendon_stiffness[:, None] * J)
+    q_eq = np.linalg.lstsq(K, -data.qfrc_bias, rcond=None)[0]  # gravity: -qfrc_bias at rest
+    lengths = J @ q_eq
+    for t, length in zip(spec.tendons, lengths):
+        stiff = model.tendon_stiffness[model.tendon(t.name).id] > 0
+        L0 = _g6(-length)[0] if stiff and abs(length) > 1e-12 else 0.0  # round-off of a zero: 0
+        t.springlength = [L0, L0]
+    return q_eq
+
+
+def tendon_jacobian(model: mujoco.MjModel) -> np.ndarray:
+    """The fixed tendons' coefficients as a dense (ntendon x nv) Jacobian, read from the model."""
+    J = np.zeros((model.ntendon, model.nv))
+    for t in range(model.ntendon):
+        for w in range(model.tendon_adr[t], model.tendon_adr[t] + model.tendon_num[t]):
+            J[t, model.jnt_dofadr[model.wrap_objid[w]]] += model.wrap_prm[w]
+    return J
+
+
+def add_flat_bogie(world, name: str, x: float, height: float, layout: Layout, spatial: bool) -> None:
+    """A bogie frame as a child of the world at (x, height): planar (lateral, yaw) or spatial
+    joints, with no spring (a train's or a spatial vehicle's; its wheelsets are added apart)."""
+    body = world.add_body(name=name, pos=_pos(x, height))
+    _set_inertia(body, layout.bogie.mass, layout.bogie.inertia)
+    if spatial:
+        _add_spatial_joints(body)
+    else:
+        _add_planar_joints(body, None)
+    add_bogie_frame(body, name, layout)
 
 
 def _suspension_tendons(spec, child: str, parent: str, x_of: dict[str, float], s: Suspension,
@@ -414,7 +527,9 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     stl = wheel_stl(w.rolling_radius, w.conicity)
     spec.add_mesh(name="wheel", file=mesh_file(layout))
     spec.assets = {mesh_file(layout): stl}
-    if layout.train is not None:
+    if layout.spatial is not None:
+        add_spatial(spec, layout)
+    elif layout.train is not None:
         add_train(spec, layout)
     else:
         add_carbody(spec.worldbody, layout)
@@ -470,6 +585,11 @@ def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
 
     spec = build_spec(layout)
     model = compile_spec(spec, layout)
+    if layout.spatial is not None:
+        if layout.spatial.gravity:
+            preload(spec, model)
+        else:
+            spec.option.gravity = [0.0, 0.0, 0.0]
     spec.numerics[0].data = native.block_for(model, layout.n_wheelsets).tolist()
     add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
     return spec, compile_spec(spec, layout)

@@ -145,6 +145,11 @@ class Stability:
             self._absolute[name] = (jacp[1].copy(), jacr[2].copy())
         self._mass = {n: (model.body(n).mass[0], model.body(n).inertia[2]) for n in self.bodies}
         self._yaw_arm = {n: self._arm(n) for n in self.bodies}
+        self._spatial_modes = None
+        if layout.spatial is not None:
+            from rail_mj.spatial import SpatialModes
+
+            self._spatial_modes = SpatialModes(layout, model)
         if layout.train is not None:
             from rail_mj.trains import TrainModes
 
@@ -216,6 +221,11 @@ class Stability:
         return m * abs(y) ** 2, iz * abs(psi) ** 2
 
     def _mode(self, eigenvalue: complex, q: np.ndarray) -> Mode:
+        if self._spatial_modes is not None:  # every coordinate absolute, five per body (docs/spatial.md)
+            energy = self._spatial_modes.energies(q)
+            total = sum(e.sum() for e in energy.values()) or 1.0
+            share = {n: float(e.sum() / total) for n, e in energy.items()}
+            return Mode(complex(eigenvalue), self._spatial_modes.name(q, share, energy), share)
         motion = {n: self._energies(n, jy @ q, jpsi @ q) for n, (jy, jpsi) in self._absolute.items()}
         total = sum(sum(e) for e in motion.values()) or 1.0
         share = {n: float(sum(e) / total) for n, e in motion.items()}

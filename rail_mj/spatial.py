@@ -1,0 +1,107 @@
+"""Mode names of a spatial vehicle (docs/spatial.md): the car body's and bogie frames' bounce,
+pitch, roll and lower/upper sway besides the planar names.
+
+The model is flat: every coordinate is absolute, so a body's modal motion is read straight off
+its joints: lateral y, yaw psi, vertical z, roll phi, pitch theta (docs/spatial.md). Each motion's
+kinetic-energy measure (m|y|^2, Iz|psi|^2, m|z|^2, Ix|phi|^2, Iy|theta|^2) decides the name.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rail_mj.layout import Layout
+from rail_mj.model import LATERAL, PITCH, ROLL, VERTICAL, YAW
+
+MOTIONS = (LATERAL, YAW, VERTICAL, ROLL, PITCH)
+# A sway's roll centre nearer the centre of mass than this (m): the body rolls about itself.
+ROLL_ABOUT_ITSELF = 0.05
+
+
+class SpatialModes:
+    """Names and energy shares of a spatial vehicle's modes from their eigenvectors."""
+
+    def __init__(self, layout: Layout, model):
+        self.layout = layout
+        dof = lambda body, m: int(model.joint(f"{body}_{m}").dofadr[0])  # noqa: E731
+        n = len(layout.bogie.wheelset_positions)
+        bogies = [f"bogie{i + 1}" for i in range(len(layout.carbody.bogie_positions))]
+        self.groups = {"carbody": []} | {b: [f"wheelset{i * n + j + 1}" for j in range(n)]
+                                          for i, b in enumerate(bogies)}
+        self.dofs, self.inertia, self.x, self.half = {}, {}, {}, {}
+        for body in ["carbody", *bogies]:
+            self.dofs[body] = [dof(body, m) for m in MOTIONS]
+        for group, wheelsets in self.groups.items():
+            for w in wheelsets:
+                self.dofs[w] = [dof(w, LATERAL), dof(w, YAW)]
+        for b in range(1, model.nbody):
+            name = model.body(b).name
+            m, (ix, iy, iz) = model.body_mass[b], model.body_inertia[b]
+            self.inertia[name] = np.array([m, iz, m, ix, iy])
+            self.x[name] = model.body_pos[b][0]
+        # Half the length over which a frame's pitch and yaw move its ends (bogie or wheelset spacing).
+        xs = layout.carbody.bogie_positions
+        self.half["carbody"] = max(abs(x) for x in xs)
+        for b in bogies:
+            self.half[b] = max(abs(x) for x in layout.bogie.wheelset_positions)
+        self.height = {"carbody": layout.spatial.carbody_height, **{b: layout.spatial.bogie_height for b in bogies}}
+
+    def energies(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """Each body's kinetic-energy measures per motion (its own coordinates only)."""
+        return {body: self.inertia[body][: len(d)] * np.abs(q[d]) ** 2 for body, d in self.dofs.items()}
+
+    def name(self, q: np.ndarray, share: dict[str, float], energy: dict[str, np.ndarray]) -> str:
+        group_energy = {g: share[g] + sum(share[w] for w in ws) for g, ws in self.groups.items()}
+        # The car body against the whole running gear first (as the planar names do in effect: a
+        # bogie hunting drags the body, which may then carry more than either bogie alone), then
+        # the bogie with most energy.
+        if group_energy["carbody"] >= 1.0 - group_energy["carbody"]:
+            top = "carbody"
+        else:
+            top = max((g for g in group_energy if g != "carbody"), key=group_energy.get)
+        wheelsets = self.groups[top]
+        label = "car body" if top == "carbody" else f"{top.replace('bogie', 'bogie ')} frame"
+        if wheelsets and sum(share[w] for w in wheelsets) > share[top]:
+            relative = sum(self._relative(q, top, w) for w in wheelsets)
+            absolute = sum(energy[w].sum() for w in wheelsets)
+            ws = max(wheelsets, key=share.get).removeprefix("wheelset")
+            if relative >= 0.5 * absolute:
+                return f"wheelset {ws} (secondary hunting)"
+            return f"{label} {'/'.join(self._planar(top, energy))} (primary hunting)"
+        return f"{label} {self._motion(q, top, energy)}"
+
+    def _planar(self, body: str, energy) -> tuple[str, str]:
+        """('lateral', 'yaw') or ('yaw', 'lateral'): the lateral motion at the centre against that
+        which yaw makes at the ends."""
+        e, m = energy[body], self.inertia[body]
+        at_ends = e[1] * self.half[body] ** 2 * m[0] / m[1]
+        return (LATERAL, YAW) if e[0] >= at_ends else (YAW, LATERAL)
+
+    def _motion(self, q, body: str, energy) -> str:
+        """bounce, pitch, lateral, yaw, roll, lower sway or upper sway: the plane (vertical: bounce and
+        pitch; lateral: lateral, yaw and roll) with most energy, then its largest motion, ends'
+        motion for pitch and yaw. Lateral with roll is a sway, named by where its roll centre is:
+        lower sway about a centre below the centre of mass (the lower-frequency pair member, the
+        roof swinging most), upper sway about one above it (the floor swinging most)."""
+        e, m = energy[body], self.inertia[body]
+        ends = self.half[body] ** 2 * m[0]
+        if e[2] + e[4] > e[0] + e[1] + e[3]:
+            return "bounce" if e[2] >= e[4] * ends / m[4] else "pitch"
+        first = self._planar(body, energy)[0]
+        if first == YAW or e[3] < 0.05 * e[0]:
+            return first
+        if body != "carbody":  # a frame's lateral and roll: no sway names (they are the body's)
+            return "lateral/roll"
+        y, phi = q[self.dofs[body][0]], q[self.dofs[body][3]]
+        centre = (y / phi).real  # u_y = y - phi*r_z vanishes at r_z = y/phi above the centre of mass
+        if abs(centre) < ROLL_ABOUT_ITSELF:
+            return ROLL
+        return "upper sway" if centre > 0 else "lower sway"
+
+    def _relative(self, q, frame: str, wheelset: str) -> float:
+        """Energy measure of a wheelset's motion relative to its frame (the primary's deflection)."""
+        f, w = self.dofs[frame], self.dofs[wheelset]
+        arm = self.x[wheelset] - self.x[frame]
+        y = q[w[0]] - q[f[0]] - arm * q[f[1]]
+        psi = q[w[1]] - q[f[1]]
+        return float(self.inertia[wheelset][0] * abs(y) ** 2 + self.inertia[wheelset][1] * abs(psi) ** 2)
