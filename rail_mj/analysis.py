@@ -57,6 +57,9 @@ def oscillation(t: np.ndarray, s: np.ndarray) -> tuple[float, float]:
 # (10 + 2*Q0/3)/2 kN = (10 + P0/3)/2 kN with Q0 the static wheel load and P0 = 2*Q0 the
 # static axle load, in kN (alpha = 1: passenger vehicles and locomotives). The filter keeps the hunting and drops its flange-contact harmonics (and, on real
 # track, the irregularities' broad band).
+# EN 14363's limit on the derailment quotient Y/Q of a wheel, for curve radii of 250 m and more
+# (tangent track included); the quotient itself is the one Nadal's formula bounds.
+Y_OVER_Q_LIMIT = 0.8
 HUNTING_WINDOW = 100.0  # m
 HUNTING_BAND = 2.0  # Hz either side of f0
 FILTER_ORDER = 4  # Butterworth, run forwards and backwards (no phase shift)
@@ -219,6 +222,9 @@ def summary(run: Run) -> dict:
             "frequency_hz": None if math.isnan(freq) else freq,
             "wavelength_m": None if math.isnan(freq) else run.speed / freq,
         })
+    safety = wheel_safety(run)
+    for w, per in zip(wheelsets, safety["wheelsets"]):
+        w.update(per)
     return {
         "layout": run.layout.name,
         "speed_m_per_s": run.speed,
@@ -228,4 +234,36 @@ def summary(run: Run) -> dict:
         "wheelsets": wheelsets,
         "hunting": hunting(run),
         "hunting_note": hunting_assessable(run),
+        **safety["run"],
     }
+
+
+WHEELS = ("left", "right")
+
+
+def wheel_safety(run: Run) -> dict:
+    """The largest derailment quotient Y/Q and the smallest wheel load Q, per wheelset and over
+    the run, with where they happened (None when the layout gives no wheel loads)."""
+    q, quotient = run.wheel_loads(), run.derailment_quotients()
+    if np.isnan(q).all():
+        none = {"largest_y_over_q": None, "smallest_wheel_load_n": None}
+        return {"wheelsets": [dict(none) for _ in range(run.n_wheelsets)], "run": dict(none)}
+
+    def at(values, pick) -> tuple[float | None, dict | None]:
+        finite = np.where(np.isnan(values), -np.inf if pick is np.nanargmax else np.inf, values)
+        if not np.isfinite(finite).any():
+            return None, None
+        j, i, side = np.unravel_index(pick(finite), values.shape)
+        return float(values[j, i, side]), {"wheelset": int(i) + 1, "wheel": WHEELS[side], "x_m": float(run.x[j]),
+                                           "t_s": float(run.t[j])}
+
+    per = []
+    for i in range(run.n_wheelsets):
+        largest, _ = at(quotient[:, i:i + 1], np.nanargmax)
+        smallest, _ = at(q[:, i:i + 1], np.nanargmin)
+        per.append({"largest_y_over_q": largest, "smallest_wheel_load_n": smallest})
+    largest, where_largest = at(quotient, np.nanargmax)
+    smallest, where_smallest = at(q, np.nanargmin)
+    return {"wheelsets": per, "run": {"largest_y_over_q": largest, "largest_y_over_q_at": where_largest,
+                                      "smallest_wheel_load_n": smallest, "smallest_wheel_load_at": where_smallest,
+                                      "y_over_q_limit": Y_OVER_Q_LIMIT}}

@@ -373,6 +373,16 @@ class ContactForces(NamedTuple):
     flange_moment: np.ndarray  # the flange force acting at the flange contact's lead
     lateral: np.ndarray  # Sigma Y: everything lateral, creep and flange
     yaw: np.ndarray  # every yaw moment
+    # Per wheel (docs/spatial.md, wheel loads): the vertical load Q and the lateral force Y of
+    # the rail on the wheel (track frame, + to the left). Q on cones is the nominal wheel load
+    # unless the model's suspension gives the axle loads (NaN if the layout has none).
+    load_left: np.ndarray
+    load_right: np.ndarray
+    lateral_left: np.ndarray
+    lateral_right: np.ndarray
+
+
+FORCE_ROWS = len(ContactForces._fields)
 
 
 @numba.njit(cache=True)
@@ -384,44 +394,92 @@ def _saturation_factor(law, fx, fy, limit):
 
 
 @numba.njit(cache=True)
-def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed):
+def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_left, q_right):
     """Both wheels' creep forces by Kalker's linear law, saturated by `law` (not FASTSIM):
-    (creep lateral, creep couple, spin moment), as `wheelset_contact` returns them."""
+    (creep lateral, creep couple, spin moment, left wheel's lateral, right wheel's lateral).
+
+    q_left, q_right: each wheel's load over the load the coefficients are given at (1, 1 on a
+    planar vehicle). Kalker's coefficients are G*(a*b)*C11, G*(a*b)*C22, G*(a*b)^(3/2)*C23 and
+    G*(a*b)^2*C33, and Hertz's semi-axes grow as N^(1/3) (docs/creep.md), so f11 and f22 scale
+    as q^(2/3), f23 as q and f33 as q^(4/3); the friction limit mu*N as q."""
     # Kalker per wheel: Fx = -f11*xi_x, Fy = -f22*xi_y - f23*xi_sp, Mz = f23*xi_y - f33*xi_sp.
-    fx_left, fx_right = -p[_F11] * xi_left, -p[_F11] * xi_right
-    fy, mz = -p[_F22] * xi_y - p[_F23] * xi_sp, p[_F23] * xi_y - p[_F33] * xi_sp
+    if q_left == 1.0 and q_right == 1.0:  # equal nominal loads: the classical arithmetic, bit for bit
+        fx_left, fx_right = -p[_F11] * xi_left, -p[_F11] * xi_right
+        fy_left = fy_right = -p[_F22] * xi_y - p[_F23] * xi_sp
+        mz_left = mz_right = p[_F23] * xi_y - p[_F33] * xi_sp
+    else:
+        area_left, area_right = q_left ** (2.0 / 3.0), q_right ** (2.0 / 3.0)
+        fx_left, fx_right = -p[_F11] * area_left * xi_left, -p[_F11] * area_right * xi_right
+        fy_left = -p[_F22] * area_left * xi_y - p[_F23] * q_left * xi_sp
+        fy_right = -p[_F22] * area_right * xi_y - p[_F23] * q_right * xi_sp
+        mz_left = p[_F23] * q_left * xi_y - p[_F33] * area_left * area_left * xi_sp
+        mz_right = p[_F23] * q_right * xi_y - p[_F33] * area_right * area_right * xi_sp
     scale_left = scale_right = 1.0
     if law != LINEAR:
-        limit_left = limit_right = p[_LIMIT]
+        limit_left, limit_right = p[_LIMIT] * q_left, p[_LIMIT] * q_right
         if falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
-            limit_left = _falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
+            limit_left = _falling_friction(limit_left, p[_FALL_RATIO], p[_FALL_RATE],
                                            speed * math.hypot(xi_left, xi_y))
-            limit_right = _falling_friction(p[_LIMIT], p[_FALL_RATIO], p[_FALL_RATE],
+            limit_right = _falling_friction(limit_right, p[_FALL_RATIO], p[_FALL_RATE],
                                             speed * math.hypot(xi_right, xi_y))
         # Fx, Fy and the spin moment of a wheel all saturate by one factor (a common
-        # simplification: Kalker's full theory saturates the moment its own way).
-        scale_left = _saturation_factor(law, fx_left, fy, limit_left)
-        scale_right = _saturation_factor(law, fx_right, fy, limit_right)
-    creep_lateral = (scale_left + scale_right) * fy
+        # simplification: Kalker's full theory saturates the moment its own way). An unloaded
+        # wheel (limit 0) carries nothing.
+        scale_left = _saturation_factor(law, fx_left, fy_left, limit_left) if limit_left > 0.0 else 0.0
+        scale_right = _saturation_factor(law, fx_right, fy_right, limit_right) if limit_right > 0.0 else 0.0
+    if q_left == 1.0 and q_right == 1.0:
+        creep_lateral = (scale_left + scale_right) * fy_left
+        spin = (scale_left + scale_right) * mz_left
+    else:
+        creep_lateral = scale_left * fy_left + scale_right * fy_right
+        spin = scale_left * mz_left + scale_right * mz_right
     couple = p[_B] * (scale_right * fx_right - scale_left * fx_left)  # Fx_left at y = +b
-    spin = (scale_left + scale_right) * mz
-    return creep_lateral, couple, spin
+    return creep_lateral, couple, spin, scale_left * fy_left, scale_right * fy_right
 
 
 @numba.njit(cache=True)
-def _fastsim_wheel(p, xi_x, xi_y, xi_sp):
+def _fastsim_wheel(p, xi_x, xi_y, xi_sp, q):
     """One wheel's (Fx, Fy, Mz) by FASTSIM on the default grid, from its column `p` of
-    `ContactParameters.table`; mu*N is the table's friction limit."""
-    return _fastsim(p[_SEMI_A], p[_SEMI_B], p[_NORMAL], p[_LIMIT] / p[_NORMAL], p[_SHEAR] * GPA, p[_C11], p[_C22],
-                    p[_C23], xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS)
+    `ContactParameters.table`; mu*N is the table's friction limit. `q`: the wheel's load over
+    the table's (Hertz: the semi-axes grow as q^(1/3)); an unloaded wheel carries nothing."""
+    if q <= 0.0:
+        return 0.0, 0.0, 0.0
+    grow = 1.0 if q == 1.0 else q ** (1.0 / 3.0)
+    return _fastsim(p[_SEMI_A] * grow, p[_SEMI_B] * grow, p[_NORMAL] * q, p[_LIMIT] / p[_NORMAL], p[_SHEAR] * GPA,
+                    p[_C11], p[_C22], p[_C23], xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS)
 
 
 @numba.njit(cache=True)
-def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
+def cone_wheel_loads(load, moment, b):
+    """Each wheel's vertical load (N) on coned wheels from the wheelset's axle load `load` (N)
+    and the roll moment `moment` (N m, positive rolling it to the left, i.e. about +x) of every
+    other force on it about the rail level under its centre (docs/spatial.md, wheel loads):
+    Q_left + Q_right = load, b*(Q_left - Q_right) + moment = 0. A wheel that would pull on
+    its rail lifts: the other carries the axle."""
+    q_left = 0.5 * load - 0.5 * moment / b
+    q_right = load - q_left
+    if not load > 0.0:
+        return 0.0, 0.0
+    if q_left < 0.0:
+        return 0.0, load
+    if q_right < 0.0:
+        return load, 0.0
+    return q_left, q_right
+
+
+@numba.njit(cache=True)
+def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0,
+                     nominal=math.nan):
     """The rails' forces on one wheelset, by origin: (creep lateral, flange lateral, creep
-    couple, spin moment, flange moment), N and N m (see `ContactForces`). `p`: its column
+    couple, spin moment, flange moment), N and N m (see `ContactForces`), then each wheel's
+    vertical load Q and lateral force Y (Q_left, Q_right, Y_left, Y_right). `p`: its column
     of `ContactParameters.table`. The one implementation of the contact law: the array
-    kernel below and the native passive-force callback (rail_mj.native) both call it."""
+    kernel below and the native passive-force callback (rail_mj.native) both call it.
+
+    `load` and `moment`: the wheelset's axle load and the roll moment on it about the rail
+    level from the model's suspension (`cone_wheel_loads`; a spatial vehicle's, docs/spatial.md),
+    `nominal` the wheel load the coefficients are given at; a NaN `load` (a planar vehicle):
+    both wheels carry `nominal` and the coefficients are used as given."""
     # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and
     # xi_x_right is its negative; the lateral creepage is the same on both wheels, and the
     # spin differs between them only by the constant contact-angle term, which cancels
@@ -435,21 +493,32 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed):
     xi_right = turning - rise_right / p[_R0]
     xi_y = y_dot / speed - psi
     xi_sp = psi_dot / speed
+    if math.isnan(load):
+        wheel_left = wheel_right = nominal
+        q_left = q_right = 1.0
+    else:
+        wheel_left, wheel_right = cone_wheel_loads(load, moment, p[_B])
+        q_left, q_right = wheel_left / nominal, wheel_right / nominal
     if law == FASTSIM:  # each wheel's contact ellipse through Kalker's FASTSIM
-        fx_left, fy_left, mz_left = _fastsim_wheel(p, xi_left, xi_y, xi_sp)
-        fx_right, fy_right, mz_right = _fastsim_wheel(p, xi_right, xi_y, xi_sp)
-        creep_lateral = fy_left + fy_right
+        fx_left, y_left, mz_left = _fastsim_wheel(p, xi_left, xi_y, xi_sp, q_left)
+        fx_right, y_right, mz_right = _fastsim_wheel(p, xi_right, xi_y, xi_sp, q_right)
+        creep_lateral = y_left + y_right
         couple = p[_B] * (fx_right - fx_left)  # Fx_left at y = +b
         spin = mz_left + mz_right
     else:
-        creep_lateral, couple, spin = _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed)
+        creep_lateral, couple, spin, y_left, y_right = _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y,
+                                                                        xi_sp, speed, q_left, q_right)
     flange_lateral = flange_moment = 0.0
     if flange:
         flange_lateral = _flange_force(y, y_dot, p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
         if flange_lateral != 0.0:
             radius = p[_R0] + max(rise_left, rise_right)  # the flanging wheel's
             flange_moment = flange_lateral * _flange_lead(y, psi, radius, p[_SLOPE], p[_B])
-    return creep_lateral, flange_lateral, couple, spin, flange_moment
+            if y > 0.0:  # the left flange against the left rail
+                y_left += flange_lateral
+            else:
+                y_right += flange_lateral
+    return creep_lateral, flange_lateral, couple, spin, flange_moment, wheel_left, wheel_right, y_left, y_right
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -459,39 +528,48 @@ def _between(lo, hi, t, column):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _normal_loads(lo, hi, t, axle_load, r0):
+def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail):
     """Each wheel's normal load (N) from the wheelset's vertical and roll equilibrium under
-    its axle load: N_L*V_L + N_R*V_R = W, N_L*M_L + N_R*M_R = 0 with V = sum w*cos(g) and
-    M = sum w*(l*cos(g) - s*r*sin(g)) over the wheel's points (the roll moment of its
-    normal forces per unit load, about the wheelset's centre). Where that would have a
-    wheel pull on its rail, one wheel carries the axle alone: the one whose own normal
-    force rolls the wheelset onto it (M_L <= 0: the left; M_R >= 0: the right)."""
+    its axle load: N_L*V_L + N_R*V_R = W, N_L*M_L + N_R*M_R + moment = 0 with V = sum w*cos(g)
+    and M = sum w*(l*cos(g) - s*h*sin(g)) over the wheel's points (the roll moment of its
+    normal forces per unit load). A planar vehicle (`about_rail` false, `moment` 0) takes
+    moments about the wheelset's centre (h = r, the creep forces left out); a spatial one
+    about the rail level under it (h = r - r0), `moment` being the suspension's there, whose
+    lateral force the rails' lateral forces balance (docs/spatial.md, wheel loads). Where
+    that would have a wheel pull on its rail, one wheel carries the axle alone: the one
+    whose own normal force rolls the wheelset onto it (M_L <= 0: the left; M_R >= 0: the
+    right). Returns (N_left, N_right, V_left, V_right)."""
     v_left = v_right = m_left = m_right = 0.0
     for side in range(2):
         s = 1.0 - 2.0 * side
         for slot in range(_t.SLOTS):
             c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
             w = _between(lo, hi, t, c + _t.WEIGHT)
-            r = r0 + _between(lo, hi, t, c + _t.RADIUS) * _t.MM
+            rise = _between(lo, hi, t, c + _t.RADIUS) * _t.MM
+            h = rise if about_rail else r0 + rise
             g = _between(lo, hi, t, c + _t.ANGLE)
             lever = _between(lo, hi, t, c + _t.LEVER) * _t.MM
-            v, m = w * math.cos(g), w * (lever * math.cos(g) - s * r * math.sin(g))
+            v, m = w * math.cos(g), w * (lever * math.cos(g) - s * h * math.sin(g))
             if side == 0:
                 v_left, m_left = v_left + v, m_left + m
             else:
                 v_right, m_right = v_right + v, m_right + m
     det = v_left * m_right - v_right * m_left
-    n_left, n_right = axle_load * m_right / det, -axle_load * m_left / det
+    n_left = (axle_load * m_right + moment * v_right) / det
+    n_right = (-axle_load * m_left - moment * v_left) / det
+    if not axle_load > 0.0:
+        return 0.0, 0.0, v_left, v_right
     if not (n_left >= 0.0 and n_right >= 0.0):
-        if m_left <= 0.0:
+        left_carries = n_right < 0.0 if about_rail else m_left <= 0.0
+        if left_carries:
             n_left, n_right = axle_load / v_left, 0.0
         else:
             n_left, n_right = 0.0, axle_load / v_right
-    return n_left, n_right
+    return n_left, n_right, v_left, v_right
 
 
 @numba.njit(cache=True, error_model="numpy")
-def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
+def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0):
     """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
     them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
     its contact table (rail_mj.tables), interpolated linearly in y and held at its end rows
@@ -508,6 +586,10 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
         or FASTSIM on that ellipse;
       the normal force's lateral part -s*N*sin(g): gravitational stiffness and the flange.
     The table's header switches gravitational stiffness and spin creep (f23 = f33 = 0) off.
+    `load`, `moment`: a spatial vehicle's axle load and suspension roll moment about the rail
+    level (`_normal_loads`); NaN: the table's axle load, moments about the centre. Returns
+    the five forces, then each wheel's vertical load and lateral force (Q_left, Q_right,
+    Y_left, Y_right) as `wheelset_contact` does.
     """
     # The table is stored in mm, kN and GPa (rail_mj.tables): SI from here on.
     y0, dy, rows = geo[0, _t.HEADER_Y0] * _t.MM, geo[0, _t.HEADER_DY] * _t.MM, int(geo[0, _t.HEADER_ROWS])
@@ -515,13 +597,16 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
     mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0] * _t.MM
     gravity, spinning = geo[0, _t.HEADER_GRAVITY] != 0.0, geo[0, _t.HEADER_SPIN] != 0.0
     if math.isnan(y):  # a diverged state: no table row, and the runner reports it
-        return math.nan, math.nan, math.nan, math.nan, math.nan
+        return math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
     u = min(max((y - y0) / dy, 0.0), rows - 1.0)
     i = min(int(u), rows - 2)
     t = u - i
     lo, hi = geo[1 + i], geo[2 + i]
-    n_left, n_right = _normal_loads(lo, hi, t, axle_load, r0)
+    spatial = not math.isnan(load)
+    n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load if spatial else axle_load, r0,
+                                                     moment if spatial else 0.0, spatial)
     creep_lateral = normal_lateral = couple = spin = lead_moment = 0.0
+    y_left = y_right = 0.0
     for side in range(2):
         s = 1.0 - 2.0 * side
         wheel = n_left if side == 0 else n_right
@@ -566,44 +651,58 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed):
             pushed = -s * normal * sin_g if gravity else 0.0
             creep_lateral += lateral
             normal_lateral += pushed
+            if side == 0:
+                y_left += lateral + pushed
+            else:
+                y_right += lateral + pushed
             couple -= lever * scale * fx
             spin += scale * mz * cos_g
             # Where the point lies along the track: a yawed wheel touches a straight rail
             # ahead of its axle by r*tan(g) (see _flange_lead), its centre sits l*psi behind.
             lead_moment += psi * (s * r * math.tan(g) - lever) * (lateral + pushed)
-    return creep_lateral, normal_lateral, couple, spin, lead_moment
+    return (creep_lateral, normal_lateral, couple, spin, lead_moment, n_left * v_left, n_right * v_right,
+            y_left, y_right)
 
 
 @numba.njit(cache=True, nogil=True)  # summaries on one thread while another steps
-def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed):
+def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed, load, moment, nominal):
     """`contact_forces` over flat, contiguous state arrays: the last axis of the original
     shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
     ContactForces, in order. A non-empty `geometry` is the wheelsets' contact table."""
     n = table.shape[1]
-    out = np.zeros((7, y.size))
+    out = np.zeros((FORCE_ROWS, y.size))
     profiled = geometry.shape[0] > 0
     for k in range(y.size):
         if profiled:
             forces = profiled_contact(geometry, table[:, k % n], law, falling, y[k], psi[k], y_dot[k],
-                                      psi_dot[k], speed)
+                                      psi_dot[k], speed, load[k], moment[k])
         else:
             forces = wheelset_contact(table[:, k % n], law, flange, falling, y[k], psi[k], y_dot[k],
-                                      psi_dot[k], speed)
+                                      psi_dot[k], speed, load[k], moment[k], nominal)
         for row in range(5):
             out[row, k] = forces[row]
         out[5, k] = out[0, k] + out[1, k]
         out[6, k] = out[2, k] + out[3, k] + out[4, k]
+        for row in range(4):
+            out[7 + row, k] = forces[5 + row]
     return out
 
 
-def _evaluate(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
+def _evaluate(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
+              nominal: float | None = None):
     """The kernel's rows, each shaped like the states."""
     shape = np.shape(y)
     flat = [np.ascontiguousarray(v, dtype=np.float64).reshape(-1) for v in (y, psi, y_dot, psi_dot)]
-    return _kernel(p.table, p.geometry, p.law, p.flange, p.falling, *flat, float(speed)).reshape((7,) + shape)
+    if load is None:
+        loads = [np.full(flat[0].size, np.nan), np.zeros(flat[0].size)]
+    else:
+        loads = [np.ascontiguousarray(np.broadcast_to(v, shape), dtype=np.float64).reshape(-1) for v in (load, moment)]
+    return _kernel(p.table, p.geometry, p.law, p.flange, p.falling, *flat, float(speed), *loads,
+                   np.nan if nominal is None else float(nominal)).reshape((FORCE_ROWS,) + shape)
 
 
-def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float) -> ContactForces:
+def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
+                   nominal: float | None = None) -> ContactForces:
     """The rails' forces on each wheelset, by origin: see `ContactForces`. States are
     arrays of one shape whose last axis is the wheelsets.
 
@@ -613,16 +712,22 @@ def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float) -
     FASTSIM on its contact ellipse instead (`fastsim`). The longitudinal forces, Fx_left at
     y = +b and Fx_right at y = -b, make the yaw moment b*(Fx_right - Fx_left). On the flange
     the rail adds its lateral force, applied at the contact's lead (`flange_lead`).
+
+    `load`, `moment` (shaped like the states, or None: a planar vehicle): a spatial vehicle's
+    axle loads and suspension roll moments about the rail level (docs/spatial.md, wheel
+    loads); `nominal`: the wheel load the coefficients hold at (on cones each wheel's are
+    scaled to its load; without `load` both wheels carry it).
     """
-    return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed))
+    return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal))
 
 
-def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float):
+def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
+                    nominal: float | None = None):
     """Lateral force Fy (N) and yaw moment Mz (N m) of the rails on each wheelset: the
     sums of `contact_forces`. On the tread, with the linear law and f23 = f33 = 0, this is
     exactly
 
         Fy = -2*f22*(y_dot/V - psi),   Mz = -2*f11*b*(b*psi_dot/V + lam*y/r0).
     """
-    rows = _evaluate(p, y, psi, y_dot, psi_dot, speed)
+    rows = _evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal)
     return rows[5], rows[6]

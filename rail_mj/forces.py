@@ -33,6 +33,7 @@ import numpy as np
 from rail_mj.creep import GPA, ContactParameters, wheelset_forces
 from rail_mj.model import (NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE, NUMERIC_GEOMETRY, NUMERIC_SATURATION,
                            NUMERIC_WHEEL)
+from rail_mj.loads import AxleLoads
 from rail_mj.tables import COLUMNS
 
 
@@ -74,6 +75,7 @@ class CreepForces:
         self.body_ids = np.array([model.body(n).id for n in wheelset_names], dtype=np.int64)
         self.params = contact_parameters(model, len(self.body_ids))
         n, nv = len(self.body_ids), model.nv
+        self.loads = AxleLoads.of(model, wheelset_names)  # a spatial vehicle's: Q from its suspension
         self._jacp = np.zeros((n, 3, nv))
         self._jacr = np.zeros((n, 3, nv))
 
@@ -90,7 +92,11 @@ class CreepForces:
 
     def __call__(self, model, data):
         states, jy, jpsi = self._kinematics(model, data)
-        fy, mz = wheelset_forces(self.params, *states, self.speed)
+        if self.loads is None:
+            fy, mz = wheelset_forces(self.params, *states, self.speed)
+        else:
+            load, moment = self.loads.evaluate(model, data.ten_length, data.ten_velocity)
+            fy, mz = wheelset_forces(self.params, *states, self.speed, load, moment, self.loads.nominal)
         data.qfrc_passive += fy @ jy + mz @ jpsi  # J^T [Fy, Mz] over every wheelset
 
 

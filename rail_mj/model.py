@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.files import staged
-from rail_mj.layout import LAWS, Layout, Suspension
+from rail_mj.layout import GRAVITY, LAWS, Layout, Suspension
 from rail_mj.tables import GPA
 from rail_mj.wheel import wheel_profile, wheel_stl
 
@@ -529,6 +529,11 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     spec.assets = {mesh_file(layout): stl}
     if layout.spatial is not None:
         add_spatial(spec, layout)
+        if layout.spatial.gravity:  # the wheel loads come from the suspension (rail_mj.loads)
+            from rail_mj.loads import NUMERIC_LOADS
+
+            e = layout.spatial.primary
+            spec.add_numeric(name=NUMERIC_LOADS, data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height))
     elif layout.train is not None:
         add_train(spec, layout)
     else:
@@ -592,6 +597,7 @@ def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
             spec.option.gravity = [0.0, 0.0, 0.0]
     spec.numerics[0].data = native.block_for(model, layout.n_wheelsets).tolist()
     add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
+    add_load_sensors(spec, model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)])
     return spec, compile_spec(spec, layout)
 
 
@@ -610,6 +616,21 @@ def add_sensors(spec: mujoco.MjSpec, bodies: list[str]) -> None:
                             objname=body)
 
 
+def add_load_sensors(spec: mujoco.MjSpec, model: mujoco.MjModel, wheelsets: list[str]) -> None:
+    """A spatial vehicle's axlebox tendons' lengths and rates, what its wheel loads come from
+    (rail_mj.loads): <tendon>_length and <tendon>_rate."""
+    from rail_mj.loads import AxleLoads
+
+    loads = AxleLoads.of(model, wheelsets)
+    if loads is None:
+        return
+    for name in sorted({name for tendons in loads.tendons for name, _, _ in tendons}):
+        spec.add_sensor(name=f"{name}_length", type=mujoco.mjtSensor.mjSENS_TENDONPOS,
+                        objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=name)
+        spec.add_sensor(name=f"{name}_rate", type=mujoco.mjtSensor.mjSENS_TENDONVEL,
+                        objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=name)
+
+
 class Sensors:
     """Where `add_sensors`' readings sit in MuJoCo's sensordata, and what they mean."""
 
@@ -625,6 +646,17 @@ class Sensors:
         # The lateral velocity and yaw rate of each wheelset, in the world (track) frame.
         self.lateral_rate = np.array([address(f"{w}_linvel") + 1 for w in wheelset_names])
         self.yaw_rate = np.array([address(f"{w}_angvel") + 2 for w in wheelset_names])
+        # A spatial vehicle's axlebox tendons (rail_mj.loads), read as the model's ten_length/velocity.
+        from rail_mj.loads import AxleLoads
+
+        self.model, self.prefix = model, prefix
+        self.axle_loads = AxleLoads.of(model, wheelset_names, prefix)
+        self.tendons = np.zeros(0, dtype=np.int64)
+        if self.axle_loads is not None:
+            names = sorted({n for tendons in self.axle_loads.tendons for n, _, _ in tendons})
+            self.tendons = np.array([model.tendon(prefix + n).id for n in names], dtype=np.int64)
+            self.tendon_length = np.array([address(f"{n}_length") for n in names])
+            self.tendon_rate = np.array([address(f"{n}_rate") for n in names])
 
     def poses(self, readings: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
         """Fill every moving body's position and quaternion (w, x, y, z) from sensor readings
@@ -636,6 +668,18 @@ class Sensors:
         """Fill each wheelset's (y_dot, psi_dot) from sensor readings."""
         rates[..., 0] = readings[:, self.lateral_rate]
         rates[..., 1] = readings[:, self.yaw_rate]
+
+    def loads(self, readings: np.ndarray, loads: np.ndarray) -> None:
+        """Fill each wheelset's (axle load P, roll moment M) from sensor readings (rail_mj.loads);
+        NaN for a vehicle whose wheels carry the layout's static load."""
+        if self.axle_loads is None:
+            loads[...] = np.nan
+            return
+        lengths = np.zeros((len(readings), self.model.ntendon))
+        rates = np.zeros_like(lengths)
+        lengths[:, self.tendons] = readings[:, self.tendon_length]
+        rates[:, self.tendons] = readings[:, self.tendon_rate]
+        loads[..., 0], loads[..., 1] = self.axle_loads.evaluate(self.model, lengths, rates, self.prefix)
 
 
 class Vehicle:

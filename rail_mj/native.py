@@ -50,6 +50,7 @@ from numba.extending import intrinsic
 from rail_mj.creep import ROWS, profiled_contact, wheelset_contact
 from rail_mj.tables import COLUMNS
 from rail_mj.forces import contact_parameters
+from rail_mj.loads import AxleLoads
 from rail_mj.model import NUMERIC_NATIVE
 
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
@@ -99,8 +100,8 @@ def _struct(name: str, structs) -> type:
 
 
 # What the callback reads: model sizes and the numeric data; data arrays it reads and writes.
-MODEL_FIELDS = ("nnumeric", "numeric_data")
-DATA_FIELDS = ("qvel", "xpos", "xmat", "xanchor", "xaxis", "qfrc_passive")
+MODEL_FIELDS = ("nnumeric", "numeric_data", "tendon_stiffness", "tendon_damping", "tendon_lengthspring")
+DATA_FIELDS = ("qvel", "xpos", "xmat", "xanchor", "xaxis", "ten_length", "ten_velocity", "qfrc_passive")
 
 
 def _offsets() -> tuple[int, ...]:
@@ -116,7 +117,8 @@ def _offsets() -> tuple[int, ...]:
                           f"({e}); use the Python callback (rail_mj.forces)") from None
     model = mujoco.MjModel.from_xml_string(
         '<mujoco><custom><numeric name="probe" data="1 2 3"/></custom><worldbody><body>'
-        '<joint type="hinge"/><geom size="0.1"/></body></worldbody></mujoco>')
+        '<joint name="j" type="hinge"/><geom size="0.1"/></body></worldbody>'
+        '<tendon><fixed stiffness="1"><joint joint="j" coef="1"/></fixed></tendon></mujoco>')
     data = mujoco.MjData(model)
     offsets = []
     for layout, obj, names in ((model_layout, model, MODEL_FIELDS), (data_layout, data, DATA_FIELDS)):
@@ -135,24 +137,28 @@ def _offsets() -> tuple[int, ...]:
 
 # The block's first number, "this is rail-mj's native block, version 2": six significant
 # figures, as MuJoCo's MJCF writer keeps them.
-MAGIC = 7043.02
+MAGIC = 7043.03
 # Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
 # of rows of its profile contact table (0: coned wheels), then the contact parameters
 # (ContactParameters.table, row-major), the profile contact table (rail_mj.tables,
 # row-major), then per wheelset its body and the joints from it to the world: count, then
-# (joint, dof, 1 for a hinge / 0 for a slide).
+# (joint, dof, 1 for a hinge / 0 for a slide); then its weight (N), the nominal wheel load
+# (N) and its axlebox tendons (rail_mj.loads): count, then (tendon, on P, on M); count 0:
+# the wheels carry the static load.
 VEHICLE_HEADER = 6
 _SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE)
 SPEED = 0  # offset of the speed within a vehicle's entries
 
 
-def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0) -> np.ndarray:
-    """One vehicle's entries of the block: see VEHICLE_HEADER."""
+def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0, loads=None,
+                  prefix: str = "") -> np.ndarray:
+    """One vehicle's entries of the block: see VEHICLE_HEADER. `loads`: its AxleLoads
+    (rail_mj.loads), its tendons named in `model` under `prefix`; None: static loads."""
     table, geometry = params.table, params.geometry
     entries = [speed, len(wheelset_bodies), params.law, float(params.flange), float(params.falling),
                float(geometry.shape[0])]
     entries += list(table.reshape(-1)) + list(geometry.reshape(-1))
-    for body in wheelset_bodies:
+    for i, body in enumerate(wheelset_bodies):
         chain = []
         b = int(body)
         while b:
@@ -164,6 +170,11 @@ def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float =
                 chain += [j, model.jnt_dofadr[j], float(kind == _HINGE)]
             b = model.body_parentid[b]
         entries += [body, len(chain) // 3] + chain
+        if loads is None:
+            entries += [0.0, 0.0, 0.0]
+        else:
+            rows = loads.rows(model, i, prefix)
+            entries += [loads.weight, loads.nominal, float(len(rows))] + list(rows.reshape(-1))
     return np.asarray(entries, dtype=np.float64)
 
 
@@ -175,8 +186,9 @@ def block(vehicles: list[np.ndarray]) -> np.ndarray:
 def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
     """The block of a model built by rail_mj.model: one vehicle, wheelset1..N, its contact
     parameters read from the model's named numerics, no speed yet."""
-    bodies = [model.body(f"wheelset{i + 1}").id for i in range(n_wheelsets)]
-    return block([vehicle_block(model, bodies, contact_parameters(model, n_wheelsets))])
+    names = [f"wheelset{i + 1}" for i in range(n_wheelsets)]
+    bodies = [model.body(name).id for name in names]
+    return block([vehicle_block(model, bodies, contact_parameters(model, n_wheelsets), loads=AxleLoads.of(model, names))])
 
 
 def _block_of(model: mujoco.MjModel) -> np.ndarray:
@@ -196,6 +208,7 @@ def vehicle_starts(model: mujoco.MjModel) -> list[int]:
         k += VEHICLE_HEADER + ROWS * n + rows * COLUMNS
         for _ in range(n):
             k += 2 + 3 * int(data[k + 1])
+            k += 3 + 3 * int(data[k + 2])
     return starts
 
 
@@ -255,8 +268,8 @@ def _wheelset_rates(chain, n, qvel, xpos, xanchor, xaxis, body):
 
 
 @numba.njit(cache=True)
-def _apply(model, data, off_nnumeric, off_numeric, off_qvel, off_xpos, off_xmat, off_xanchor, off_xaxis,
-           off_force):
+def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, off_springlength, off_qvel, off_xpos,
+           off_xmat, off_xanchor, off_xaxis, off_length, off_velocity, off_force):
     """Add every vehicle's contact forces to qfrc_passive: J^T [Fy, Mz] at each wheelset's
     origin, over the slide and hinge joints between it and the world. A model without the
     block (not rail-mj's) is left alone."""
@@ -271,6 +284,9 @@ def _apply(model, data, off_nnumeric, off_numeric, off_qvel, off_xpos, off_xmat,
     xanchor = _pointer_at(data, off_xanchor)
     xaxis = _pointer_at(data, off_xaxis)
     force = _pointer_at(data, off_force)
+    stiffness, damping = _pointer_at(model, off_stiffness), _pointer_at(model, off_damping)
+    springlength = _pointer_at(model, off_springlength)
+    length, velocity = _pointer_at(data, off_length), _pointer_at(data, off_velocity)
     k = 2
     for _ in range(int(block[1])):
         speed, n = block[k], int(block[k + 1])
@@ -285,15 +301,27 @@ def _apply(model, data, off_nnumeric, off_numeric, off_qvel, off_xpos, off_xmat,
             body, count = int(block[k]), int(block[k + 1])
             chain = numba.carray(block, (k + 2 + 3 * count,))[k + 2:]
             k += 2 + 3 * count
+            weight, nominal, tendons = block[k], block[k + 1], int(block[k + 2])
+            k += 3
+            load, moment = math.nan, 0.0
+            if tendons:  # a spatial vehicle: its axle load and roll moment (rail_mj.loads)
+                load = weight
+                for c in range(tendons):
+                    t = int(block[k + 3 * c])
+                    f = -stiffness[t] * (length[t] - springlength[2 * t]) - damping[t] * velocity[t]
+                    load += block[k + 3 * c + 1] * f
+                    moment += block[k + 3 * c + 2] * f
+                k += 3 * tendons
             if speed <= 0.0:
                 continue  # no speed set: no rolling, no creep
             y = xpos[3 * body + 1]
             psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
             if rows > 0:
-                f = profiled_contact(geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed)
+                f = profiled_contact(geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed, load, moment)
             else:
-                f = wheelset_contact(table[:, i], law, flange, falling, y, psi, y_dot, psi_dot, speed)
+                f = wheelset_contact(table[:, i], law, flange, falling, y, psi, y_dot, psi_dot, speed, load, moment,
+                                     nominal)
             fy, mz = f[0] + f[1], f[2] + f[3] + f[4]
             px, pz = xpos[3 * body], xpos[3 * body + 2]
             for c in range(count):

@@ -32,6 +32,7 @@ from mujoco import rollout
 from rail_mj.creep import ContactForces, contact_forces
 from rail_mj.forces import CreepForces, contact_parameters, installed
 from rail_mj.layout import Layout
+from rail_mj.loads import AxleLoads
 from rail_mj.practice import DERAILMENT_LATERAL
 from rail_mj.linear import modal_roots, state_matrix
 from rail_mj.model import NUMERIC_GEOMETRY, YAW, Vehicle
@@ -80,6 +81,9 @@ class Run:
     body_quat: np.ndarray  # (n_samples, nbody, 4): and orientation, MuJoCo's w, x, y, z
     wheelset_rates: np.ndarray  # (n_samples, n_wheelsets, 2): y_dot (m/s) and psi_dot (rad/s)
     final_state: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at the end
+    # (n_samples, n_wheelsets, 2): a spatial vehicle's axle load P (N) and roll moment M (N m)
+    # from its suspension (rail_mj.loads); None or NaN: the wheels carry the layout's static load.
+    axle_loads: np.ndarray | None = None
 
     def contact_forces(self) -> ContactForces:
         """The rails' forces on each wheelset at every sample, by origin: arrays of shape
@@ -91,12 +95,41 @@ class Run:
     def _contact_forces(self) -> ContactForces:
         params = contact_parameters(self.vehicle.model, len(self.vehicle.wheelset_names))
         rates = self.wheelset_rates
-        return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed)
+        loads = self.axle_loads
+        if loads is None or np.isnan(loads).all():
+            return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed,
+                                  nominal=self.layout.wheelset.wheel_load)
+        nominal = AxleLoads.of(self.vehicle.model, self.vehicle.wheelset_names).nominal
+        return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed,
+                              loads[..., 0], loads[..., 1], nominal)
 
     def guiding_forces(self) -> np.ndarray:
         """(n_samples, n_wheelsets): the sum of guiding forces (Sigma Y, N) of each
         wheelset, creep and flange."""
         return self.contact_forces().lateral
+
+    def wheel_loads(self) -> np.ndarray:
+        """(n_samples, n_wheelsets, 2): each wheel's vertical load Q (N), left then right. A
+        spatial vehicle's come from its suspension (rail_mj.loads) and the contact; a planar
+        one's are the static share, or on profiles the contact's equilibrium under it (NaN
+        when the layout gives no wheel load)."""
+        f = self.contact_forces()
+        return np.stack([f.load_left, f.load_right], axis=-1)
+
+    def wheel_lateral_forces(self) -> np.ndarray:
+        """(n_samples, n_wheelsets, 2): the rail's lateral force Y on each wheel (N, track
+        frame, + to the left), creep, flange and the normal force's lateral part."""
+        f = self.contact_forces()
+        return np.stack([f.lateral_left, f.lateral_right], axis=-1)
+
+    def derailment_quotients(self) -> np.ndarray:
+        """(n_samples, n_wheelsets, 2): Y/Q of each wheel (EN 14363), Y the force the wheel puts
+        on its rail towards the outside of the track (positive: the flange-climbing direction:
+        the left wheel pushing its rail to the left). NaN where a wheel is off its rail (Q = 0)."""
+        outward = self.wheel_lateral_forces() * np.array([-1.0, 1.0])
+        q = self.wheel_loads()
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(q > 0.0, outward / np.where(q > 0.0, q, 1.0), np.nan)
 
     @property
     def layout(self) -> Layout:
@@ -154,6 +187,10 @@ class Run:
                                         stiffness included)
         y_bogie1, psi_bogie1, ...       each moving frame's lateral displacement and yaw
         (y_carbody, psi_carbody)        (bogies, then the car body unless it is fixed)
+        q_left1, q_right1, ...          each wheel's vertical load Q and lateral force Y (the
+        ylat_left1, ylat_right1, ...    rail's, + to the left) and its derailment quotient Y/Q
+        y_over_q_left1, ...             (`derailment_quotients`; NaN where the wheel is off its
+                                        rail), for a spatial vehicle (the summary has them for all)
         """
         names = ["t", "x"]
         cols = [self.t, self.x]
@@ -169,6 +206,13 @@ class Run:
         for k, name in enumerate(self.frame_names):
             names += [f"y_{name}", f"psi_{name}"]
             cols += [frame_y[:, k], frame_psi[:, k]]
+        if self.layout.spatial is not None:  # a planar run's columns stay as they were
+            q = self.wheel_loads()
+            lateral, quotient = self.wheel_lateral_forces(), self.derailment_quotients()
+            for i in range(self.n_wheelsets):
+                for what, values in (("q", q), ("ylat", lateral), ("y_over_q", quotient)):
+                    names += [f"{what}_left{i + 1}", f"{what}_right{i + 1}"]
+                    cols += [values[:, i, 0], values[:, i, 1]]
         return names, np.column_stack(cols)
 
 
@@ -470,7 +514,7 @@ class _Running:
         self.index, self.prepared = index, prepared
         self.every = max(1, round(SAMPLE_INTERVAL / prepared.timestep))
         self.count = -(-prepared.n_steps // self.every) + 1  # samples: the last at or past the distance
-        self.pos, self.quat, self.rates = _records(prepared.vehicle, self.count)
+        self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, self.count)
         self.done = 0  # samples recorded
         self.state = prepared.request.state
         self.seconds = prepared.seconds  # and its share of the time of the models it was stepped in
@@ -480,13 +524,13 @@ class _Running:
 
     def run(self, final) -> Run:
         p = self.prepared
-        return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final)
+        return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads)
 
     def partial(self, k: int) -> Run:
         """The Run of its first k samples (what was simulated before a failure)."""
         p = self.prepared
         return Run(p.vehicle, p.request.speed, p.timestep, self.t()[:k], self.pos[:k].copy(), self.quat[:k].copy(),
-                   self.rates[:k].copy())
+                   self.rates[:k].copy(), axle_loads=self.loads[:k].copy())
 
 
 @dataclasses.dataclass
@@ -597,7 +641,9 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     entries = []
     for k, (vehicle, speed) in enumerate(zip(vehicles, speeds)):
         bodies = [model.body(f"v{k}/{w}").id for w in vehicle.wheelset_names]
-        entries.append(native.vehicle_block(model, bodies, contact_parameters(vehicle.model, len(bodies)), speed))
+        loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
+        entries.append(native.vehicle_block(model, bodies, contact_parameters(vehicle.model, len(bodies)), speed,
+                                            loads, prefix=f"v{k}/"))
     native_numeric.data = native.block(entries).tolist()
     model = compile_spec(parent, layout)
     places = []
@@ -704,6 +750,7 @@ def _drive(pack: _Pack, roller: _Roller, done, derailment_lateral: float, forces
             r.pos[mine, 0], r.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
             place.sensors.poses(readings[:n], r.pos[mine], r.quat[mine])
             place.sensors.rates(readings[:n], r.rates[mine])
+            place.sensors.loads(readings[:n], r.loads[mine])
             lateral = np.abs(r.pos[mine][:, r.prepared.vehicle.wheelset_ids, 1])
             off = np.nonzero(np.max(lateral, axis=1) > r.prepared.derailment(derailment_lateral))[0]
             if len(off):
@@ -790,8 +837,9 @@ def _untimed():
 def _records(vehicle: Vehicle, n_samples: int):
     """Empty arrays for a run's body positions, quaternions and rates, filled as it goes
     (the memory is touched then, a chunk at a time, not all before the first step)."""
-    nbody = vehicle.model.nbody
-    return np.empty((n_samples, nbody, 3)), np.empty((n_samples, nbody, 4)), np.empty((n_samples, vehicle.n_wheelsets, 2))
+    nbody, n = vehicle.model.nbody, vehicle.n_wheelsets
+    return (np.empty((n_samples, nbody, 3)), np.empty((n_samples, nbody, 4)), np.empty((n_samples, n, 2)),
+            np.empty((n_samples, n, 2)))
 
 
 def _derailed(p: _Prepared, worst: int, j: int, t, derailment_lateral: float, forces, run) -> "Derailed":

@@ -172,6 +172,9 @@ def test_gravity_off_leaves_the_stiffness(coach):
     assert not other.model.tendon_lengthspring.any()
 
 
+LOAD_ROUNDING = 5e-6  # relative: the static wheel loads from spring lengths kept to 6 figures
+
+
 def test_all_at_one_height_is_the_planar_model():
     """Centres of mass and springs all at one height: the lateral and yaw motions part from the
     vertical ones, and the eigenvalues of the planar layout made of the elements' planar
@@ -188,7 +191,10 @@ def test_all_at_one_height_is_the_planar_model():
                        "lateral_damping": s.lateral_damping, "yaw_damping": s.yaw_damping}
     spatial = Stability(layout).eigenvalues(30.0)
     for lam in Stability(layout_from_dict(planar)).eigenvalues(30.0):
-        assert np.min(np.abs(spatial - lam)) <= 1e-6 * abs(lam)
+        # The spatial wheels carry the loads their preloaded springs give, the spring lengths
+        # kept to the MJCF's 6 significant figures (docs/spatial.md): loads within 5e-6 of the
+        # planar static share, Kalker's coefficients (as load^(2/3)) within 3.4e-6.
+        assert np.min(np.abs(spatial - lam)) <= LOAD_ROUNDING * abs(lam)
     assert len(spatial) > len(Stability(layout_from_dict(planar)).eigenvalues(30.0))
 
 
@@ -252,7 +258,7 @@ def test_mode_names_at_one_height_are_the_planar_ones(speed):
     spatial = Stability(layout).modes(speed)
     for mode in Stability(layout_from_dict(planar)).modes(speed):
         twin = min(spatial, key=lambda m: abs(m.eigenvalue - mode.eigenvalue))
-        assert abs(twin.eigenvalue - mode.eigenvalue) <= 1e-6 * abs(mode.eigenvalue)
+        assert abs(twin.eigenvalue - mode.eigenvalue) <= LOAD_ROUNDING * abs(mode.eigenvalue)
         # Which of two bogies (or wheelsets) a symmetric pair is named after is a tie broken by
         # round-off; the kind of mode is not.
         kind = lambda name: "".join(c for c in name if not c.isdigit())  # noqa: E731

@@ -1,0 +1,90 @@
+"""Axle loads and roll moments from a spatial vehicle's suspension: what the wheel loads Q
+come from (docs/spatial.md, "Wheel loads").
+
+A wheelset's vertical motion and roll are held by the rails, so the rails carry whatever the
+primary suspension and the wheelset's weight put on it. Per wheelset, from the forces `f` of
+its axlebox tendons (f = -k*(L - L0) - c*L', positive pushing the frame up or to +y and the
+wheelset the other way):
+
+    axle load         P = W_wheelset + sum over the z tendons of f
+    roll moment       M = sum over z tendons of -s*d*f  +  sum over y tendons of h*f
+
+M is about the rail level under the wheelset's centre (x axis, positive rolling it to the
+left); s = +1 left, -1 right, d the axleboxes' half spacing, h their height above the rail.
+Taking moments about the rail level leaves out the rails' lateral forces, which act there;
+the wheelset's own lateral inertia (m*y''*r0) is left out, as the wheels' loads are read
+quasi-statically from the suspension. `rail_mj.creep` turns (P, M) into Q_left and Q_right
+(`cone_wheel_loads` on cones, the contact table's equilibrium on profiles).
+
+The same numbers serve the native callback (its block carries each wheelset's tendons with
+their coefficients), the Python callback and the runs' outputs (tendon sensors).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+
+NUMERIC_LOADS = "rail_mj/loads"  # wheelset weight (N), nominal wheel load (N), axlebox half spacing, height (m)
+SIDES = {"left": 1.0, "right": -1.0}
+
+
+@dataclasses.dataclass(frozen=True)
+class AxleLoads:
+    """Each wheelset's axlebox tendons and what their forces put on the rails.
+
+    Example:
+
+        >>> from rail_mj.layout import load_layout
+        >>> from rail_mj.model import Vehicle
+        >>> vehicle = Vehicle(load_layout("tests/data/manchester-coach-spatial.toml"))
+        >>> loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
+        >>> [name for name, _, _ in loads.tendons[0]][:2]
+        ['wheelset1_bogie1_left_y', 'wheelset1_bogie1_left_z']
+    """
+
+    weight: float  # N, one wheelset
+    nominal: float  # N, the wheel load the contact's coefficients are given at
+    tendons: tuple[tuple[tuple[str, float, float], ...], ...]  # per wheelset: (tendon, on P, on M)
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, wheelset_names, prefix: str = "") -> "AxleLoads | None":
+        """Read from a model built by rail_mj.model (None: not a spatial vehicle with gravity,
+        whose wheels carry the layout's static load)."""
+        try:
+            weight, nominal, spacing, height = model.numeric(prefix + NUMERIC_LOADS).data
+        except KeyError:
+            return None
+        names = [model.tendon(t).name.removeprefix(prefix) for t in range(model.ntendon)]
+        tendons = []
+        for w in wheelset_names:
+            mine = []
+            for name in sorted(n for n in names if n.startswith(f"{w}_bogie")):
+                side, axis = name.split("_")[-2:]
+                if side in SIDES and axis == "z":
+                    mine.append((name, 1.0, -SIDES[side] * spacing))
+                elif side in SIDES and axis == "y":
+                    mine.append((name, 0.0, height))
+            tendons.append(tuple(mine))
+        return cls(float(weight), float(nominal), tuple(tendons))
+
+    def rows(self, model: mujoco.MjModel, wheelset: int, prefix: str = "") -> np.ndarray:
+        """(n, 3): tendon id in `model`, coefficient on P, coefficient on M."""
+        return np.array([(model.tendon(prefix + name).id, a, b) for name, a, b in self.tendons[wheelset]],
+                        dtype=np.float64).reshape(-1, 3)
+
+    def evaluate(self, model: mujoco.MjModel, lengths: np.ndarray, rates: np.ndarray, prefix: str = ""):
+        """(P, M), each (..., n_wheelsets), from tendon lengths and rates (..., ntendon) of
+        `model` (MuJoCo's data.ten_length and ten_velocity, or recorded)."""
+        shape = lengths.shape[:-1] + (len(self.tendons),)
+        load, moment = np.full(shape, self.weight), np.zeros(shape)
+        for i in range(len(self.tendons)):
+            rows = self.rows(model, i, prefix)
+            ids = rows[:, 0].astype(int)
+            force = (-model.tendon_stiffness[ids] * (lengths[..., ids] - model.tendon_lengthspring[ids, 0])
+                     - model.tendon_damping[ids] * rates[..., ids])
+            load[..., i] += force @ rows[:, 1]
+            moment[..., i] += force @ rows[:, 2]
+        return load, moment

@@ -1,0 +1,168 @@
+"""Wheel loads Q of a spatial vehicle from its suspension (rail_mj.loads, docs/spatial.md):
+static loads sum to the weight and follow the layout, a frame's roll moves load between the
+wheels as the springs' moments say, both callbacks agree with the loads in, and runs report
+each wheel's Q, Y and Y/Q."""
+
+from __future__ import annotations
+
+import copy
+import json
+import tomllib
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from conftest import MODELS, assert_callbacks_agree
+from rail_mj.cli import cli
+from rail_mj.creep import contact_forces
+from rail_mj.forces import contact_parameters
+from rail_mj.layout import layout_from_dict
+from rail_mj.loads import AxleLoads
+from rail_mj.model import Vehicle
+from test_spatial import G, SPATIAL
+
+# The static loads come from spring lengths kept to 6 significant figures (docs/spatial.md).
+ROUNDING = 5e-6
+
+
+def static_wheel_loads(vehicle: Vehicle, qpos=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Q (n_wheelsets, 2), P, M) at rest in `qpos` (default: the centred state)."""
+    model = vehicle.model
+    data = mujoco.MjData(model)
+    if qpos is not None:
+        data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
+    loads = AxleLoads.of(model, vehicle.wheelset_names)
+    load, moment = loads.evaluate(model, data.ten_length, data.ten_velocity)
+    n = len(vehicle.wheelset_names)
+    zero = np.zeros(n)
+    f = contact_forces(contact_parameters(model, n), zero, zero, zero, zero, 30.0, load, moment, loads.nominal)
+    return np.stack([f.load_left, f.load_right], axis=-1), load, moment
+
+
+def spatial_on_profiles() -> dict:
+    data = copy.deepcopy(SPATIAL)
+    s1002 = tomllib.loads((MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml").read_text())
+    data["profiles"], data["creep"], data["wheelset"] = s1002["profiles"], s1002["creep"], s1002["wheelset"]
+    return data
+
+
+def weight(layout) -> float:
+    n_bogies = len(layout.carbody.bogie_positions)
+    return G * (layout.carbody.mass + n_bogies * layout.bogie.mass + layout.n_wheelsets * layout.wheelset.mass)
+
+
+@pytest.mark.parametrize("data", [SPATIAL, spatial_on_profiles()], ids=["cones", "profiles"])
+def test_static_wheel_loads_sum_to_the_weight_in_equal_shares(data):
+    layout = layout_from_dict(copy.deepcopy(data))
+    q, _, moment = static_wheel_loads(Vehicle(layout))
+    total = weight(layout)
+    assert q.sum() == pytest.approx(total, rel=ROUNDING)
+    np.testing.assert_allclose(q, total / q.size, rtol=ROUNDING)  # a symmetric layout: equal shares
+    assert np.all(np.abs(moment) <= ROUNDING * total)
+
+
+def test_unequal_bogie_positions_give_unequal_axle_loads():
+    """Bogies at +9.5 m and -7.5 m: the car body's weight parts as the lever rule says
+    (7.5/17 and 9.5/17), each bogie's load on its two wheelsets equally. Without longitudinal
+    springs: the car body is held along x at its centre of mass, so the pitched body's
+    longitudinal springs (below that centre) would carry a part of its moment (0.05 % of the
+    loads on the spatial coach, docs/spatial.md)."""
+    data = copy.deepcopy(SPATIAL)
+    data["carbody"]["bogie_positions"] = [9.5, -7.5]
+    data["primary"]["axlebox"]["kx"] = data["secondary"]["spring"]["kx"] = 0.0
+    layout = layout_from_dict(data)
+    q, load, _ = static_wheel_loads(Vehicle(layout))
+    c, b, w = layout.carbody.mass * G, layout.bogie.mass * G, layout.wheelset.mass * G
+    expected = [w + (b + c * 7.5 / 17.0) / 2] * 2 + [w + (b + c * 9.5 / 17.0) / 2] * 2
+    np.testing.assert_allclose(load, expected, rtol=ROUNDING)
+    np.testing.assert_allclose(q.sum(axis=1), expected, rtol=ROUNDING)
+    assert q.sum() == pytest.approx(weight(layout), rel=ROUNDING)
+
+
+def test_frame_roll_moves_load_between_the_wheels():
+    """A bogie frame rolled by phi (left side up): each of its axleboxes' vertical springs
+    changes by -s*d*phi*kz, its lateral springs by kz-free ky*phi*(h - H_b), so about the rail
+    level M = 2*kz*d^2*phi + 2*h*ky*phi*(h - H_b), and on cones Q_left - Q_right = -M/b with
+    the axle load unchanged."""
+    layout, vehicle = layout_from_dict(copy.deepcopy(SPATIAL)), None
+    vehicle = Vehicle(layout)
+    model, phi = vehicle.model, 1e-3
+    qpos = np.zeros(model.nq)
+    qpos[model.joint("bogie1_roll").qposadr[0]] = phi
+    q0, load0, _ = static_wheel_loads(vehicle)
+    q, load, moment = static_wheel_loads(vehicle, qpos)
+    e, hb, b = layout.spatial.primary, layout.spatial.bogie_height, layout.wheelset.contact_half_spacing
+    m = 2 * e.kz * e.spacing**2 * phi + 2 * e.height * e.ky * phi * (e.height - hb)
+    np.testing.assert_allclose(moment[:2], m, rtol=1e-9)  # linear tendons: exact to round-off
+    np.testing.assert_allclose(load, load0, rtol=1e-12)
+    np.testing.assert_allclose(q[:2, 0] - q[:2, 1], -m / b, rtol=1e-9)
+    np.testing.assert_allclose(q[2:], q0[2:], rtol=1e-12)  # the other bogie's wheels keep theirs
+    assert q[0, 0] < q[0, 1]  # left side up: the left wheel unloaded
+
+
+@pytest.mark.parametrize("data, law", [(SPATIAL, "linear"), (SPATIAL, "polach"),
+                                       (spatial_on_profiles(), "polach"), (spatial_on_profiles(), "fastsim")],
+                         ids=["cones-linear", "cones-polach", "profiles-polach", "profiles-fastsim"])
+def test_native_and_python_callbacks_agree_with_the_loads_in(data, law):
+    """The native callback sums the axlebox tendons' forces in its block; the Python one reads
+    them through rail_mj.loads: at random states (the frames rolled, pitched and bouncing) both
+    give one qfrc_passive."""
+    data = copy.deepcopy(data)
+    data.setdefault("creep", {})["law"] = law
+    data["creep"].setdefault("friction", 0.35)
+    assert_callbacks_agree(Vehicle(layout_from_dict(data)), 40.0, seed=3, samples=10, position=0.003, rate=0.05)
+
+
+def test_loads_change_the_creep_forces():
+    """A loaded wheel's creep coefficients grow as Q^(2/3) (Hertz, Kalker): with the left
+    wheels of bogie 1 unloaded by a frame roll, its wheelsets' lateral creep force under one
+    lateral creepage follows, wheel by wheel, (Q/Q0)^(2/3)."""
+    layout = layout_from_dict(copy.deepcopy(SPATIAL))
+    vehicle = Vehicle(layout)
+    model = vehicle.model
+    qpos = np.zeros(model.nq)
+    qpos[model.joint("bogie1_roll").qposadr[0]] = 2e-3
+    q, load, moment = static_wheel_loads(vehicle, qpos)
+    n, slip = layout.n_wheelsets, np.full(layout.n_wheelsets, 0.3)  # y_dot: xi_y = 0.01 at 30 m/s
+    zero = np.zeros(n)
+    p, nominal = contact_parameters(model, n), AxleLoads.of(model, vehicle.wheelset_names).nominal
+    loaded = contact_forces(p, zero, zero, slip, zero, 30.0, load, moment, nominal)
+    planar = contact_forces(p, zero, zero, slip, zero, 30.0)
+    factor = (q / nominal) ** (2 / 3)
+    np.testing.assert_allclose(loaded.lateral_left, planar.lateral_left * factor[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(loaded.lateral_right, planar.lateral_right * factor[:, 1], rtol=1e-12)
+    assert factor[0, 0] < 0.99 < 1.01 < factor[0, 1]  # the roll's load transfer matters at this size
+
+
+def test_run_reports_wheel_loads_and_derailment_quotients(tmp_path):
+    """run --json carries the largest Y/Q and the smallest Q, the CSV each wheel's Q, Y and
+    Y/Q; per wheelset the wheels' Y add up to its Sigma Y and the quotient is Y/Q, outward."""
+    layout = Path(__file__).parent / "data" / "manchester-coach-spatial.toml"
+    out = tmp_path / "coach.csv"
+    result = CliRunner().invoke(cli, ["run", str(layout), "--speed", "40", "--distance", "200", "--json",
+                                      "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    names = out.read_text().splitlines()[0].split(",")
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    column = lambda name: table[:, names.index(name)]  # noqa: E731
+    quotients, loads = [], []
+    for i in range(1, 5):
+        np.testing.assert_allclose(column(f"ylat_left{i}") + column(f"ylat_right{i}"), column(f"sum_y{i}"),
+                                   rtol=0, atol=1e-6 * np.max(np.abs(column(f"sum_y{i}"))))
+        for side, outward in (("left", -1.0), ("right", 1.0)):
+            q, y = column(f"q_{side}{i}"), column(f"ylat_{side}{i}")
+            np.testing.assert_allclose(column(f"y_over_q_{side}{i}"), outward * y / q, rtol=1e-8)
+            quotients.append(outward * y / q)
+            loads.append(q)
+        assert summary["wheelsets"][i - 1]["largest_y_over_q"] == pytest.approx(
+            max(np.max(v) for v in quotients[-2:]), rel=1e-8)
+    assert summary["largest_y_over_q"] == pytest.approx(max(np.max(v) for v in quotients), rel=1e-8)
+    assert summary["smallest_wheel_load_n"] == pytest.approx(min(np.min(v) for v in loads), rel=1e-8)
+    assert 0.0 < summary["largest_y_over_q"] < summary["y_over_q_limit"]  # a stable coach at 40 m/s
+    # The loads move: the suspension's dynamic forces are in them (not a static share).
+    assert np.ptp(column("q_left1")) > 1e-3 * np.mean(column("q_left1"))
