@@ -461,3 +461,25 @@ def test_secondary_elements_need_spatial(table):
     with pytest.raises(LayoutError, match=rf"secondary\.{table}: needs \[spatial\]") as e:
         layout_from_dict(data)
     assert "\n" not in str(e.value)
+
+
+def test_preload_leaves_out_the_deadband_tendons():
+    """preload on a body hanging on a spring (k) beside a stiffer deadband spring whose play it does
+    not reach: the sag is m g / k alone (1e-6, the 6 figures of a spring length), so q = 0 is the
+    equilibrium, and the deadband is kept. (A lateral stop on the coach cannot show this: gravity
+    has no lateral part.)"""
+    from rail_mj.model import preload
+
+    spec = mujoco.MjSpec()
+    body = spec.worldbody.add_body(name="b", mass=2.0, inertia=[1.0, 1.0, 1.0])
+    body.add_joint(name="z", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
+    for name, k, play in (("spring", 1.0e3, 0.0), ("stop", 1.0e5, 0.5)):
+        tendon = spec.add_tendon(name=name, stiffness=[k, 0, 0], springlength=[-play, play])
+        tendon.wrap_joint("z", 1.0)
+    q_eq = preload(spec, spec.compile())
+    assert q_eq[0] == pytest.approx(-2.0 * G / 1.0e3, rel=1e-12)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert abs(data.qacc[0]) <= 1e-6 * G
+    assert list(model.tendon_lengthspring[model.tendon("stop").id]) == [-0.5, 0.5]
