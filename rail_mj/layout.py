@@ -138,6 +138,37 @@ class Spring:
 
 
 @dataclasses.dataclass(frozen=True)
+class Damper:
+    """A secondary damper of a spatial vehicle, between each bogie frame and the car body
+    ([secondary.lateral_damper]: one on the centreline, acting along y; [secondary.yaw_damper]: one
+    on each side at y = +/-spacing, acting along x; docs/spatial.md). Damping only."""
+
+    c: float  # N s/m, each damper
+    height: float  # m above the rail
+    spacing: float = 0.0  # m; 0: on the centreline
+
+
+@dataclasses.dataclass(frozen=True)
+class BumpStop:
+    """[secondary.bump_stop] (docs/spatial.md): a lateral stop between each bogie frame and the car
+    body, over the bogie centre at `height`. No force within +/-free_play; beyond it the force
+    interpolates linearly through (free_play, 0) and (deflection[i], force[i]), the last segment's
+    slope continuing past the table; the same either way."""
+
+    free_play: float  # m
+    deflection: tuple[float, ...]  # m, increasing, the first beyond free_play
+    force: tuple[float, ...]  # N at each deflection, non-decreasing
+    height: float  # m above the rail
+
+    def deadbands(self) -> tuple[tuple[float, float], ...]:
+        """(half-width d_i, stiffness k_i) of each breakpoint, the free play first: a deadband
+        spring per breakpoint, k_i the rise of the table's slope there, sums to the table exactly."""
+        ds, fs = (self.free_play, *self.deflection), (0.0, *self.force)
+        slopes = [(f1 - f0) / (d1 - d0) for d0, d1, f0, f1 in zip(ds, ds[1:], fs, fs[1:])]
+        return tuple((d, s - before) for d, s, before in zip(ds, slopes, [0.0, *slopes]))
+
+
+@dataclasses.dataclass(frozen=True)
 class Spatial:
     """[spatial] (docs/spatial.md): car body and bogie frames move laterally, vertically, in roll,
     pitch and yaw; wheelsets laterally and in yaw. Heights are of the centres of mass above the rail."""
@@ -147,6 +178,11 @@ class Spatial:
     primary: Spring  # per axlebox
     secondary: Spring  # per side of each bogie
     gravity: bool = True
+    # [secondary.*] besides the springs, each per bogie (docs/spatial.md); None: not fitted.
+    lateral_damper: Damper | None = None
+    yaw_damper: Damper | None = None
+    anti_roll_bar: float | None = None  # N m/rad, on the relative roll of car body and frame
+    bump_stop: BumpStop | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -492,6 +528,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     # Two wheels cannot be closer than their diameter: that is the overlap check.
     wheel_diameter = 2.0 * wheelset.rolling_radius
     bogie = secondary = None
+    secondary_elements: dict = {}
     has_bogie = top.get("bogie", None, required=False) is not None
     if has_bogie:
         t = _Table(source, "bogie", top.get("bogie"))
@@ -507,8 +544,10 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         _inertia_fits(t, bogie.mass, bogie.inertia, math.hypot(reach, b + 0.5), "bogie frame")
         if top.get("secondary", None, required=False) is None:
             top.fail("secondary", "missing: a layout with [bogie] needs [secondary]")
+        secondary_data, secondary_elements = _secondary_elements(source, top.get("secondary"), is_spatial)
         secondary, secondary_spring = _suspension_or_elements(
-            _Table(source, "secondary", top.get("secondary")), "spring", is_spatial)
+            _Table(source, "secondary", secondary_data), "spring", is_spatial)
+        secondary = _planar_dampers(secondary, secondary_elements)
     elif top.get("secondary", None, required=False) is not None:
         top.fail("secondary", "given without [bogie]: secondary suspension joins bogies to the body")
 
@@ -603,6 +642,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if is_spatial:
         spatial = _spatial(_Table(source, "spatial", top.get("spatial")), top, carbody, bogie, train, primary_spring,
                            secondary_spring if bogie else None, r0)
+        spatial = dataclasses.replace(spatial, **secondary_elements)
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
@@ -640,6 +680,78 @@ def _suspension_or_elements(t: _Table, element: str, is_spatial: bool) -> tuple[
     e.done()
     t.done()
     return spring.planar(), spring
+
+
+SECONDARY_ELEMENTS = ("lateral_damper", "yaw_damper", "anti_roll_bar", "bump_stop")
+# A lateral stop's deflections beyond this (m) are no vehicle's: most likely millimetres.
+MAX_STOP = 0.5
+
+
+def _secondary_elements(source: str, data: Any, is_spatial: bool) -> tuple[Any, dict]:
+    """[secondary]'s element tables besides [secondary.spring] (SECONDARY_ELEMENTS), read and
+    checked: `data` without them (for _suspension_or_elements) and the Spatial fields they give."""
+    if not isinstance(data, dict):
+        return data, {}
+    t = _Table(source, "secondary", data)
+    given = [k for k in SECONDARY_ELEMENTS if k in data]
+    if given and not is_spatial:
+        t.fail(given[0], "needs [spatial]: per-element dampers, anti-roll bars and bump stops belong to a "
+                         "spatial vehicle (docs/spatial.md)")
+    if is_spatial:  # a misspelt element table would otherwise read as a stray planar key
+        for key, value in data.items():
+            if isinstance(value, dict) and key not in ("spring", *SECONDARY_ELEMENTS):
+                known = ", ".join(("spring", *SECONDARY_ELEMENTS))
+                t.fail(key, f"unknown element table: [secondary] holds {known}")
+    elements: dict = {}
+    for key in given:
+        e = _Table(source, f"secondary.{key}", data[key])
+        if key == "anti_roll_bar":
+            elements[key] = e.positive("stiffness")
+        elif key == "bump_stop":
+            elements[key] = _bump_stop(e)
+        else:
+            yaw = key == "yaw_damper"
+            elements[key] = Damper(
+                c=e.positive("c"), height=e.number("height", low=0.0, low_open=True, high=MAX_HEIGHT),
+                spacing=e.number("spacing", low=0.0, low_open=True, high=MAX_SPACING) if yaw else 0.0)
+        e.done()
+    return {k: v for k, v in data.items() if k not in SECONDARY_ELEMENTS}, elements
+
+
+def _bump_stop(t: _Table) -> BumpStop:
+    """[secondary.bump_stop]: its force-deflection table, checked (the BumpStop docstring)."""
+    free_play = t.number("free_play", low=0.0, high=MAX_STOP)
+    tables = {}
+    for key, unit in (("deflection", "m"), ("force", "N")):
+        value = t.get(key)
+        if not isinstance(value, list) or not value:
+            t.fail(key, f"must be a non-empty list of numbers ({unit}), got {_kind(value)}")
+        for v in value:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not abs(_float(v)) <= MAX_MAGNITUDE:
+                t.fail(key, f"must hold numbers ({unit}) only, up to {MAX_MAGNITUDE:g} in size, got {v!r}")
+        tables[key] = tuple(_float(v) for v in value)
+    deflection, force = tables["deflection"], tables["force"]
+    if deflection[0] <= free_play:
+        t.fail("deflection", f"must start beyond free_play ({free_play:g} m), got {deflection[0]:g} m")
+    if any(b <= a for a, b in zip(deflection, deflection[1:])):
+        t.fail("deflection", f"must increase strictly, got {list(deflection)}")
+    if deflection[-1] > MAX_STOP:
+        t.fail("deflection", f"must be <= {MAX_STOP:g} m, got {deflection[-1]:g}: check the units (m)")
+    if len(force) != len(deflection):
+        t.fail("force", f"must give one force per deflection: {len(deflection)} deflections, {len(force)} forces")
+    if min(force) < 0.0:
+        t.fail("force", f"must be >= 0 (N), got {min(force):g}")
+    if any(b < a for a, b in zip(force, force[1:])):
+        t.fail("force", f"must not decrease, got {list(force)}")
+    return BumpStop(free_play, deflection, force, t.number("height", low=0.0, low_open=True, high=MAX_HEIGHT))
+
+
+def _planar_dampers(s: Suspension, elements: dict) -> Suspension:
+    """The planar equivalent with the secondary dampers added: the lateral damper's c, and the yaw
+    dampers' 2 c d^2 (as Spring.planar's), so that what reads Layout.secondary sees them."""
+    lateral, yaw = elements.get("lateral_damper"), elements.get("yaw_damper")
+    return dataclasses.replace(s, lateral_damping=s.lateral_damping + (lateral.c if lateral else 0.0),
+                               yaw_damping=s.yaw_damping + (2 * yaw.c * yaw.spacing ** 2 if yaw else 0.0))
 
 
 def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, train, primary: Spring,

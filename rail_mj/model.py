@@ -393,15 +393,56 @@ def spring_tendons(spec, name: str, point, lower: tuple[str, tuple, tuple], uppe
     """A spatial spring-damper (`spring`: kx..cz) at `point` (x, y, z in the vehicle's frame, z above
     the rail) between `lower` and `upper`, each (body, centre (x, y, z), joints): three fixed tendons
     <name>_x|y|z, their lengths the deflections u_upper - u_lower of the point along x, y, z."""
+    for axis, coefficients in zip(AXES, deflections(point, lower, upper)):
+        _tendon(spec, f"{name}_{axis}", coefficients, getattr(spring, f"k{axis}"), getattr(spring, f"c{axis}"))
+
+
+def deflections(point, lower: tuple[str, tuple, tuple],
+                upper: tuple[str, tuple, tuple]) -> tuple[dict, dict, dict]:
+    """The deflections (x, y, z) u_upper - u_lower at `point` of two bodies, each (body, centre, joints)
+    as in `spring_tendons`: each a {joint name: coefficient}."""
     motions = []
     for body, centre, joints in (upper, lower):
         r = tuple(p - c for p, c in zip(point, centre))
         motions.append(point_motion(body, r, joints))
-    for i, axis in enumerate(AXES):
-        coefficients = dict(motions[0][i])
-        for joint, c in motions[1][i].items():
+    out = []
+    for up, low in zip(*motions):
+        coefficients = dict(up)
+        for joint, c in low.items():
             coefficients[joint] = coefficients.get(joint, 0.0) - c
-        _tendon(spec, f"{name}_{axis}", coefficients, getattr(spring, f"k{axis}"), getattr(spring, f"c{axis}"))
+        out.append(coefficients)
+    return tuple(out)
+
+
+def secondary_elements(spec, bogie: str, x: float, frame: tuple[str, tuple, tuple],
+                       carbody: tuple[str, tuple, tuple], sp) -> None:
+    """The secondary elements of a spatial vehicle besides its springs (`sp`: layout.spatial;
+    docs/spatial.md) between a bogie frame at x and the car body, each at its place: tendons
+    <bogie>_carbody_lateral_damper, _left|right_yaw_damper, _anti_roll_bar, _bump_stop_<i>."""
+    name = f"{bogie}_carbody"
+    if sp.lateral_damper:
+        e = sp.lateral_damper
+        _tendon(spec, f"{name}_lateral_damper", deflections((x, 0.0, e.height), frame, carbody)[1], 0.0, e.c)
+    if sp.yaw_damper:
+        e = sp.yaw_damper
+        for side, sign in SIDES:
+            longitudinal = deflections((x, sign * e.spacing, e.height), frame, carbody)[0]
+            _tendon(spec, f"{name}_{side}_yaw_damper", longitudinal, 0.0, e.c)
+    if sp.anti_roll_bar:
+        # A torsion bar's moment is k times the relative roll of the two bodies, wherever its
+        # arms and links sit: exactly a tendon on the two roll hinges.
+        _tendon(spec, f"{name}_anti_roll_bar", {f"{carbody[0]}_{ROLL}": 1.0, f"{bogie}_{ROLL}": -1.0},
+                sp.anti_roll_bar, 0.0)
+    if sp.bump_stop:
+        e = sp.bump_stop
+        lateral = deflections((x, 0.0, e.height), frame, carbody)[1]
+        # The piecewise-linear table as a sum of deadband springs: MuJoCo's tendon spring is idle
+        # within springlength [lo, hi] and linear outside, so each breakpoint's spring adds its
+        # rise of slope from there on (BumpStop.deadbands).
+        for i, (play, k) in enumerate(e.deadbands(), start=1):
+            tendon = _tendon(spec, f"{name}_bump_stop_{i}", lateral, k, 0.0)
+            if tendon is not None:
+                tendon.springlength = _g6(-play, play)
 
 
 def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
@@ -433,6 +474,7 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
         for side, sign in SIDES:
             e = sp.secondary
             spring_tendons(spec, f"{name}_carbody_{side}", (xb, sign * e.spacing, e.height), frame, carbody, e)
+        secondary_elements(spec, name, xb, frame, carbody, sp)
 
 
 def preload(spec: mujoco.MjSpec, model: mujoco.MjModel) -> np.ndarray:
@@ -440,14 +482,19 @@ def preload(spec: mujoco.MjSpec, model: mujoco.MjModel) -> np.ndarray:
     solve K q_eq = f_gravity with the tendons' stiffness K, and give each tendon the spring length
     -L(q_eq), so that at q = 0 it carries the force it would carry at q_eq. Returns q_eq, the
     static sag the preload takes out. Linear tendons make this exact (up to the 6 figures the
-    MJCF keeps of each spring length)."""
+    MJCF keeps of each spring length). A deadband tendon (springlength lo < hi: a bump stop) is
+    left out of K and keeps its deadband: within its play it carries no force and has no
+    stiffness, and the lateral stops stay within it, gravity having no lateral part."""
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     J = tendon_jacobian(model)
-    K = J.T @ (model.tendon_stiffness[:, None] * J)
+    deadband = model.tendon_lengthspring[:, 0] < model.tendon_lengthspring[:, 1]
+    K = J.T @ (np.where(deadband, 0.0, model.tendon_stiffness)[:, None] * J)
     q_eq = np.linalg.lstsq(K, -data.qfrc_bias, rcond=None)[0]  # gravity: -qfrc_bias at rest
     lengths = J @ q_eq
-    for t, length in zip(spec.tendons, lengths):
+    for t, length, idle in zip(spec.tendons, lengths, deadband):
+        if idle:
+            continue
         stiff = model.tendon_stiffness[model.tendon(t.name).id] > 0
         L0 = _g6(-length)[0] if stiff and abs(length) > 1e-12 else 0.0  # round-off of a zero: 0
         t.springlength = [L0, L0]
@@ -486,16 +533,17 @@ def _suspension_tendons(spec, child: str, parent: str, x_of: dict[str, float], s
             share * s.yaw_stiffness, share * s.yaw_damping)
 
 
-def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, damping: float) -> None:
+def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, damping: float):
     """A fixed tendon, length sum(coef*q) (zero when centred), with a linear spring and damper;
-    none when both are zero."""
+    none (None) when both are zero."""
     if stiffness == 0.0 and damping == 0.0:
-        return
+        return None
     tendon = spec.add_tendon(name=name, stiffness=_g6(stiffness, 0.0, 0.0), damping=_g6(damping, 0.0, 0.0),
                              springlength=[0.0, 0.0])
     for joint, coef in coefficients.items():
         if coef != 0.0:
             tendon.wrap_joint(joint, _g6(coef)[0])
+    return tendon
 
 
 def mesh_file(layout: Layout) -> str:

@@ -26,10 +26,12 @@ def dof(model, joint: str) -> int:
     return int(model.joint(joint).dofadr[0])
 
 
-def hand_stiffness(layout, model) -> np.ndarray:
+def hand_stiffness(layout, model, kind="k") -> np.ndarray:
     """K = sum over elements, sides and axes of k * a a^T, a the deflection's coefficients: the
     upper body's point motion minus the lower's, each translation + (roll, pitch, yaw) x r, written
-    here from docs/spatial.md alone (only the dof numbers are read from the model)."""
+    here from docs/spatial.md alone (only the dof numbers are read from the model); each anti-roll
+    bar k (e_body - e_frame)(...)^T on the roll coordinates. The bump stops, within their play about
+    q = 0, add nothing. kind = "c": the damping matrix, sum c a a^T, the lateral and yaw dampers too."""
     sp, K = layout.spatial, np.zeros((model.nv, model.nv))
 
     def motion(body, r, has_vertical):
@@ -49,7 +51,8 @@ def hand_stiffness(layout, model) -> np.ndarray:
         (lo, lo_c, lo_full), (up, up_c, up_full) = lower, upper
         a_up = motion(up, np.subtract(point, up_c), up_full)
         a_lo = motion(lo, np.subtract(point, lo_c), lo_full)
-        for a, b, k in zip(a_up, a_lo, (e.kx, e.ky, e.kz)):
+        gains = e if isinstance(e, tuple) else (getattr(e, f"{kind}{axis}") for axis in "xyz")
+        for a, b, k in zip(a_up, a_lo, gains):
             d = a - b
             K[:] += k * np.outer(d, d)
 
@@ -64,6 +67,17 @@ def hand_stiffness(layout, model) -> np.ndarray:
         for s in (1, -1):
             element((xb, s * sp.secondary.spacing, sp.secondary.height), frame, ("carbody", (0, 0, hc), True),
                     sp.secondary)
+        body = ("carbody", (0, 0, hc), True)
+        if kind == "c" and sp.lateral_damper:
+            element((xb, 0, sp.lateral_damper.height), frame, body, (0.0, sp.lateral_damper.c, 0.0))
+        if kind == "c" and sp.yaw_damper:
+            e = sp.yaw_damper
+            for s in (1, -1):
+                element((xb, s * e.spacing, e.height), frame, body, (e.c, 0.0, 0.0))
+        if kind == "k" and sp.anti_roll_bar:
+            a = np.zeros(model.nv)
+            a[dof(model, "carbody_roll")], a[dof(model, f"bogie{i}_roll")] = 1.0, -1.0
+            K[:] += sp.anti_roll_bar * np.outer(a, a)
     return K
 
 
@@ -128,7 +142,8 @@ def carbody_frequencies(vehicle) -> np.ndarray:
 
 def closed_forms(layout) -> np.ndarray:
     """Bounce, pitch, yaw, and the lateral-roll pair about the spring level (lower and upper sway):
-    M = [[m, m h], [m h, Ix + m h^2]], K = [[ky, 0], [0, kphi]] (no gravitational stiffness)."""
+    M = [[m, m h], [m h, Ix + m h^2]], K = [[ky, 0], [0, kphi]] (no gravitational stiffness), kphi =
+    sum kz d^2 plus each bogie's anti-roll bar."""
     sp, c = layout.spatial, layout.carbody
     e, m, (Ix, Iy, Iz) = sp.secondary, c.mass, c.inertia
     n = 2 * len(c.bogie_positions)  # springs
@@ -137,7 +152,8 @@ def closed_forms(layout) -> np.ndarray:
     bounce = np.sqrt(n * e.kz / m)
     pitch = np.sqrt((e.kz * l2 + n * e.kx * h ** 2) / Iy)
     yaw = np.sqrt((e.ky * l2 + n * e.kx * d ** 2) / Iz)
-    sway = eigh(np.diag([n * e.ky, n * e.kz * d ** 2]), np.array([[m, m * h], [m * h, Ix + m * h * h]]),
+    k_phi = n * e.kz * d ** 2 + len(c.bogie_positions) * (sp.anti_roll_bar or 0.0)
+    sway = eigh(np.diag([n * e.ky, k_phi]), np.array([[m, m * h], [m * h, Ix + m * h * h]]),
                 eigvals_only=True)
     return np.sort(np.array([bounce, pitch, yaw, *np.sqrt(sway)]) / (2 * np.pi))
 
@@ -263,3 +279,213 @@ def test_mode_names_at_one_height_are_the_planar_ones(speed):
         # round-off; the kind of mode is not.
         kind = lambda name: "".join(c for c in name if not c.isdigit())  # noqa: E731
         assert kind(twin.name) == kind(mode.name), (mode.frequency, mode.name, twin.name)
+
+
+# --- the secondary elements besides the springs: dampers, anti-roll bar, bump stop ------------------
+
+# The Manchester benchmark coach's lateral stop: 25 mm free play, then its force table.
+MANCHESTER_STOP = {"free_play": 0.025, "deflection": [0.030, 0.035, 0.040, 0.045, 0.050, 0.055, 0.060, 0.065],
+                   "force": [0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 230e3], "height": 1.0}
+ELEMENTS = {"lateral_damper": {"c": 30e3, "height": 1.1}, "yaw_damper": {"c": 250e3, "spacing": 1.3, "height": 0.9},
+            "anti_roll_bar": {"stiffness": 2.0e6}, "bump_stop": MANCHESTER_STOP}
+
+
+def with_elements(**tables) -> dict:
+    data = copy.deepcopy(SPATIAL)
+    data["secondary"].update(copy.deepcopy(tables))
+    return data
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    layout = layout_from_dict(with_elements(**ELEMENTS))
+    return layout, Vehicle(layout)
+
+
+def fd_damping(model) -> np.ndarray:
+    """-d(qfrc_damper)/dqvel at q = 0, each column the difference from rest (zero damper force) to a
+    unit velocity along one coordinate: exact, MuJoCo's damper forces being linear in qvel."""
+    data = mujoco.MjData(model)
+    D = np.zeros((model.nv, model.nv))
+    for j in range(model.nv):
+        mujoco.mj_resetData(model, data)
+        data.qvel[j] = 1.0
+        mujoco.mj_forward(model, data)
+        D[:, j] = -data.qfrc_damper
+    return D
+
+
+def test_damping_matrix_is_the_hand_assembled_one(fitted):
+    """MuJoCo's damping matrix, every damper a tendon at its place, equals sum c a a^T from the
+    layout, the lateral and yaw dampers included (1e-8 of the largest entry); without them the hand
+    assembly is a different matrix, so the comparison sees them."""
+    layout, vehicle = fitted
+    model = vehicle.model
+    D_fd, D_hand = fd_damping(model), hand_stiffness(layout, model, kind="c")
+    assert np.abs(D_fd - D_hand).max() <= 1e-8 * np.abs(D_hand).max()
+    springs_only = hand_stiffness(layout_from_dict(copy.deepcopy(SPATIAL)), model, kind="c")
+    assert np.abs(D_hand - springs_only).max() > 0.1 * np.abs(D_hand).max()
+    # The planar equivalents carry them: lateral c, yaw 2 c d^2, besides the springs' dampers.
+    e, yaw = layout.spatial.secondary, layout.spatial.yaw_damper
+    assert layout.secondary.lateral_damping == pytest.approx(2 * e.cy + 30e3, rel=1e-15)
+    assert layout.secondary.yaw_damping == pytest.approx(2 * e.cx * e.spacing ** 2 + 2 * yaw.c * yaw.spacing ** 2,
+                                                         rel=1e-15)
+
+
+def test_anti_roll_bar_stiffness_and_sway(fitted):
+    """With an anti-roll bar (and the stops, idle about q = 0): the finite-difference stiffness is
+    the hand-assembled one, bars included (1e-8); q = 0 stays the static equilibrium; and the car
+    body's lateral-roll pair, frames held, has kphi = sum kz d^2 + n_bogies k_bar (1e-7), which moves
+    the upper sway by more than 1 % from the bar-less coach's."""
+    layout, vehicle = fitted
+    model = vehicle.model
+    K_fd, K_hand = fd_stiffness(model), hand_stiffness(layout, model)
+    assert np.abs(K_fd - K_hand).max() <= 1e-8 * np.abs(K_hand).max()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert np.abs(data.qacc).max() < 1e-3  # as the bare coach: the 6 figures of the spring lengths
+    expected = closed_forms(layout)
+    assert carbody_frequencies(vehicle) == pytest.approx(expected, rel=1e-7)
+    bare = closed_forms(layout_from_dict(copy.deepcopy(SPATIAL)))
+    assert np.abs(expected - bare).max() > 0.01 * expected.max()
+
+
+def stop_force(stop, d: np.ndarray) -> np.ndarray:
+    """The stop's force at deflection d (either sign) from its layout table: zero within the play,
+    numpy.interp through (free_play, 0) and the table, the last slope beyond it."""
+    xp, fp = np.array([stop.free_play, *stop.deflection]), np.array([0.0, *stop.force])
+    a = np.abs(d)
+    beyond = np.maximum(a - xp[-1], 0.0) * (fp[-1] - fp[-2]) / (xp[-1] - xp[-2])
+    return np.sign(d) * (np.interp(a, xp, fp) + beyond)
+
+
+@pytest.mark.parametrize("stop", [
+    MANCHESTER_STOP,
+    # a falling slope (a negative deadband stiffness) and no free play (the first spring linear)
+    {"free_play": 0.01, "deflection": [0.02, 0.04, 0.05], "force": [1.0e3, 1.5e3, 9.0e3], "height": 0.7},
+    {"free_play": 0.0, "deflection": [0.01, 0.03], "force": [500.0, 4.0e3], "height": 1.2},
+], ids=["manchester", "falling-slope", "no-play"])
+def test_bump_stop_force_is_the_table(stop):
+    """The car body moved laterally against the held frames: each frame's lateral passive force is
+    its two springs' 2 ky d plus the stop's table force (1e-9 relative, 1e-9 N at zero), within the
+    play, at every breakpoint and midway, and 5 mm beyond the table, both ways; at q = 0 the stops
+    carry nothing (the forces are the stopless coach's, 1e-12) and keep their deadbands."""
+    data = with_elements(bump_stop=stop)
+    layout, bare = layout_from_dict(data), Vehicle(layout_from_dict(copy.deepcopy(SPATIAL)))
+    vehicle = Vehicle(layout)
+    model, e = vehicle.model, layout.spatial.bump_stop
+    run = mujoco.MjData(model)
+    mujoco.mj_forward(model, run)
+    rest = mujoco.MjData(bare.model)
+    mujoco.mj_forward(bare.model, rest)
+    assert np.abs(run.qfrc_spring - rest.qfrc_spring).max() <= 1e-12 * np.abs(rest.qfrc_spring).max()
+    for i, (play, _) in enumerate(e.deadbands(), start=1):
+        for bogie in ("bogie1", "bogie2"):
+            t = model.tendon(f"{bogie}_carbody_bump_stop_{i}")
+            assert run.ten_length[t.id] == 0.0
+            if play > 0:
+                assert list(model.tendon_lengthspring[t.id]) == [-play, play]
+    xp = [e.free_play, *e.deflection]
+    points = [0.0, 0.8 * e.free_play, *xp, *((a + b) / 2 for a, b in zip(xp, xp[1:])), xp[-1] + 0.005]
+    ky = layout.spatial.secondary.ky
+    for d in sorted({s * p for p in points for s in (1.0, -1.0)}):
+        mujoco.mj_resetData(model, run)
+        run.qpos[dof(model, "carbody_lateral")] = d
+        mujoco.mj_forward(model, run)
+        expected = 2 * ky * d + stop_force(e, np.array(d))
+        for bogie in ("bogie1", "bogie2"):
+            got = run.qfrc_spring[dof(model, f"{bogie}_lateral")]
+            assert abs(got - expected) <= 1e-9 * abs(expected) + 1e-9, (d, bogie, got, expected)
+
+
+def test_manchester_stop_breakpoints():
+    """The deadband springs of the benchmark's stop: one per breakpoint from the free play on, each
+    the rise of slope there (the table's slopes 120, 232, 394, ... kN/m, exact to 1e-9)."""
+    layout = layout_from_dict(with_elements(bump_stop=MANCHESTER_STOP))
+    bands = layout.spatial.bump_stop.deadbands()
+    d = [0.025, *MANCHESTER_STOP["deflection"]]
+    f = [0.0, *MANCHESTER_STOP["force"]]
+    slopes = np.diff(f) / np.diff(d)
+    assert [b[0] for b in bands] == d[:-1]
+    assert np.allclose(np.cumsum([b[1] for b in bands]), slopes, rtol=1e-9, atol=0)
+    assert slopes[0] == pytest.approx(120e3, rel=1e-9)
+
+
+def test_coach_without_the_elements_is_unchanged(coach):
+    layout, vehicle = coach
+    assert vehicle.model.ntendon == 36
+    assert layout.secondary == layout.spatial.secondary.planar()
+    assert (layout.spatial.lateral_damper, layout.spatial.yaw_damper, layout.spatial.anti_roll_bar,
+            layout.spatial.bump_stop) == (None, None, None, None)
+
+
+def _stop(**changes):
+    return lambda d: d["secondary"]["bump_stop"].update(changes)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (_stop(deflection=[0.03, 0.04, 0.035, 0.045, 0.05, 0.055, 0.06, 0.065]),
+     r"secondary\.bump_stop\.deflection: must increase strictly"),
+    (_stop(deflection=[0.025, 0.035, 0.04, 0.045, 0.05, 0.055, 0.06, 0.065]),
+     r"secondary\.bump_stop\.deflection: must start beyond free_play \(0\.025 m\)"),
+    (_stop(deflection=[30, 35, 40, 45, 50, 55, 60, 65]), r"secondary\.bump_stop\.deflection: must be <= 0\.5 m"),
+    (_stop(force=[0.6e3, 1.76e3]), r"secondary\.bump_stop\.force: must give one force per deflection"),
+    (_stop(force=[-0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 230e3]),
+     r"secondary\.bump_stop\.force: must be >= 0"),
+    (_stop(force=[0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 20e3]),
+     r"secondary\.bump_stop\.force: must not decrease"),
+    (_stop(free_play=-0.001), r"secondary\.bump_stop\.free_play: must be >= 0"),
+    (_stop(force="230 kN"), r"secondary\.bump_stop\.force: must be a non-empty list"),
+    (_stop(deflection=[0.03, "0.035"]), r"secondary\.bump_stop\.deflection: must hold numbers"),
+    (lambda d: d["secondary"]["bump_stop"].pop("height"), r"secondary\.bump_stop\.height: missing"),
+    (lambda d: d["secondary"]["lateral_damper"].update(c=0.0), r"secondary\.lateral_damper\.c: must be > 0"),
+    (lambda d: d["secondary"]["lateral_damper"].update(spacing=1.0),
+     r"secondary\.lateral_damper\.spacing: unknown key"),
+    (lambda d: d["secondary"]["yaw_damper"].update(spacing=3.0), r"secondary\.yaw_damper\.spacing: must be <= 2\.5"),
+    (lambda d: d["secondary"]["yaw_damper"].update(cc=1.0), r"secondary\.yaw_damper\.cc: unknown key"),
+    (lambda d: d["secondary"]["anti_roll_bar"].update(stiffness=-1.0),
+     r"secondary\.anti_roll_bar\.stiffness: must be > 0"),
+    (lambda d: d["secondary"].update(lateral_dampr={"c": 1.0}), r"secondary\.lateral_dampr: unknown element table"),
+])
+def test_bad_secondary_elements_fail_with_one_line(edit, message):
+    data = with_elements(**ELEMENTS)
+    edit(data)
+    with pytest.raises(LayoutError, match=message) as e:
+        layout_from_dict(data)
+    assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("table", sorted(ELEMENTS))
+def test_secondary_elements_need_spatial(table):
+    """A planar layout (the coach's planar equivalents) refuses each element table in one line."""
+    layout = layout_from_dict(copy.deepcopy(SPATIAL))
+    data = {k: copy.deepcopy(v) for k, v in SPATIAL.items() if k not in ("spatial", "primary", "secondary")}
+    for key, s in (("primary", layout.primary), ("secondary", layout.secondary)):
+        data[key] = {"lateral_stiffness": s.lateral_stiffness, "yaw_stiffness": s.yaw_stiffness}
+    layout_from_dict(copy.deepcopy(data))  # valid as it is
+    data["secondary"][table] = copy.deepcopy(ELEMENTS[table])
+    with pytest.raises(LayoutError, match=rf"secondary\.{table}: needs \[spatial\]") as e:
+        layout_from_dict(data)
+    assert "\n" not in str(e.value)
+
+
+def test_preload_leaves_out_the_deadband_tendons():
+    """preload on a body hanging on a spring (k) beside a stiffer deadband spring whose play it does
+    not reach: the sag is m g / k alone (1e-6, the 6 figures of a spring length), so q = 0 is the
+    equilibrium, and the deadband is kept. (A lateral stop on the coach cannot show this: gravity
+    has no lateral part.)"""
+    from rail_mj.model import preload
+
+    spec = mujoco.MjSpec()
+    body = spec.worldbody.add_body(name="b", mass=2.0, inertia=[1.0, 1.0, 1.0])
+    body.add_joint(name="z", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
+    for name, k, play in (("spring", 1.0e3, 0.0), ("stop", 1.0e5, 0.5)):
+        tendon = spec.add_tendon(name=name, stiffness=[k, 0, 0], springlength=[-play, play])
+        tendon.wrap_joint("z", 1.0)
+    q_eq = preload(spec, spec.compile())
+    assert q_eq[0] == pytest.approx(-2.0 * G / 1.0e3, rel=1e-12)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert abs(data.qacc[0]) <= 1e-6 * G
+    assert list(model.tendon_lengthspring[model.tendon("stop").id]) == [-0.5, 0.5]
