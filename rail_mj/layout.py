@@ -183,6 +183,9 @@ class Spatial:
     yaw_damper: Damper | None = None
     anti_roll_bar: float | None = None  # N m/rad, on the relative roll of car body and frame
     bump_stop: BumpStop | None = None
+    # The preloads' second-order potential as roll and pitch stiffness (docs/spatial.md); no
+    # effect without gravity, where nothing is preloaded.
+    gravitational_stiffness: bool = True
 
 
 @dataclasses.dataclass(frozen=True)
@@ -767,6 +770,7 @@ def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, trai
         carbody_height=t.number("carbody_height", low=0.0, low_open=True, high=MAX_HEIGHT),
         bogie_height=t.number("bogie_height", low=0.0, low_open=True, high=MAX_HEIGHT),
         primary=primary, secondary=secondary, gravity=t.flag("gravity", True),
+        gravitational_stiffness=t.flag("gravitational_stiffness", True),
     )
     t.done()
     if spatial.carbody_height < spatial.bogie_height:  # equal: the planar limit (docs/spatial.md)

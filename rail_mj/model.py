@@ -510,6 +510,62 @@ def tendon_jacobian(model: mujoco.MjModel) -> np.ndarray:
     return J
 
 
+def spatial_elements(layout: Layout):
+    """The spring-damper elements of a spatial vehicle, as `add_spatial` joins them and in its
+    order: (name, point, lower, upper, spring), the arguments `spring_tendons` takes."""
+    sp, bogie, r0 = layout.spatial, layout.bogie, layout.wheelset.rolling_radius
+    carbody = ("carbody", (0.0, 0.0, sp.carbody_height), SPATIAL_BODY)
+    n = len(bogie.wheelset_positions)
+    for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
+        frame = (f"bogie{i}", (xb, 0.0, sp.bogie_height), SPATIAL_BODY)
+        for j, xw in enumerate(bogie.wheelset_positions):
+            wheelset = (f"wheelset{(i - 1) * n + j + 1}", (xb + xw, 0.0, r0), SPATIAL_WHEELSET)
+            for side, sign in SIDES:
+                point = (xb + xw, sign * sp.primary.spacing, sp.primary.height)
+                yield f"{wheelset[0]}_{frame[0]}_{side}", point, wheelset, frame, sp.primary
+        for side, sign in SIDES:
+            point = (xb, sign * sp.secondary.spacing, sp.secondary.height)
+            yield f"{frame[0]}_carbody_{side}", point, frame, carbody, sp.secondary
+
+
+def gravitational_stiffness(layout: Layout, forces: dict[str, float]) -> dict[str, float]:
+    """The roll and pitch stiffness, per joint, of the springs' static forces (docs/spatial.md,
+    "Gravitational stiffness"): an element carrying a compressive force P at height z_s adds
+    -P*(H_B - z_s) to the roll and to the pitch of its upper body B and -P*(z_s - H_A) to those of
+    its lower body A (H a centre-of-mass height), the second-order drop of its attachment points
+    when the body turns about its centre of mass, which the linear tendons leave out. `forces`:
+    each tendon's static force by name, > 0 in compression (k*L0)."""
+    stiffness: dict[str, float] = {}
+    for name, point, lower, upper, _ in spatial_elements(layout):
+        force = forces[f"{name}_z"]
+        for (body, centre, joints), sign in ((upper, 1.0), (lower, -1.0)):
+            for motion in (ROLL, PITCH):
+                if motion in joints:  # a wheelset's roll and pitch are the rails' (none here)
+                    joint = f"{body}_{motion}"
+                    stiffness[joint] = stiffness.get(joint, 0.0) + sign * force * (point[2] - centre[2])
+    return stiffness
+
+
+def add_gravitational_stiffness(spec: mujoco.MjSpec, layout: Layout, model: mujoco.MjModel,
+                                q_eq: np.ndarray) -> None:
+    """`gravitational_stiffness` of the forces of `preload`'s solve (q_eq: unrounded, so the terms
+    sum to -m g h to round-off) as the stiffness of the roll and pitch hinges, springref 0: no
+    force at q = 0, which stays the equilibrium. Negative for a body above its springs; MuJoCo
+    takes a negative joint stiffness."""
+    lengths = tendon_jacobian(model) @ q_eq
+    forces = {model.tendon(t).name: -model.tendon_stiffness[t] * L for t, L in enumerate(lengths)}
+    known = {f"{e[0]}_{axis}" for e in spatial_elements(layout) for axis in AXES}
+    for t in spec.tendons:
+        # A static force at a point this module does not know would be a term silently missing
+        # (a deadband tendon, a bump stop, carries none: preload leaves it in its play).
+        preloaded = t.springlength[0] != 0.0 and t.springlength[0] == t.springlength[1]
+        if preloaded and t.name not in known:
+            raise NotImplementedError(f"gravitational stiffness: tendon {t.name} is preloaded but is "
+                                      f"no element of spatial_elements")
+    for joint, k in gravitational_stiffness(layout, forces).items():
+        spec.joint(joint).stiffness = _g6(k, 0.0, 0.0)
+
+
 def add_flat_bogie(world, name: str, x: float, height: float, layout: Layout, spatial: bool) -> None:
     """A bogie frame as a child of the world at (x, height): planar (lateral, yaw) or spatial
     joints, with no spring (a train's or a spatial vehicle's; its wheelsets are added apart)."""
@@ -640,7 +696,11 @@ def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
     model = compile_spec(spec, layout)
     if layout.spatial is not None:
         if layout.spatial.gravity:
-            preload(spec, model)
+            q_eq = preload(spec, model)
+            # After the preload, and so outside the K it solves with: these terms are made of its
+            # forces, and act about q = 0, which they must leave the equilibrium (docs/spatial.md).
+            if layout.spatial.gravitational_stiffness:
+                add_gravitational_stiffness(spec, layout, model, q_eq)
         else:
             spec.option.gravity = [0.0, 0.0, 0.0]
     spec.numerics[0].data = native.block_for(model, layout.n_wheelsets).tolist()

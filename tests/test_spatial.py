@@ -106,7 +106,10 @@ def mass_matrix(model) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def coach():
-    layout = layout_from_dict(copy.deepcopy(SPATIAL))
+    """The coach with the tendons' stiffness alone; its gravitational stiffness is tested at the end."""
+    data = copy.deepcopy(SPATIAL)
+    data["spatial"]["gravitational_stiffness"] = False
+    layout = layout_from_dict(data)
     return layout, Vehicle(layout)
 
 
@@ -142,17 +145,19 @@ def carbody_frequencies(vehicle) -> np.ndarray:
 
 def closed_forms(layout) -> np.ndarray:
     """Bounce, pitch, yaw, and the lateral-roll pair about the spring level (lower and upper sway):
-    M = [[m, m h], [m h, Ix + m h^2]], K = [[ky, 0], [0, kphi]] (no gravitational stiffness), kphi =
-    sum kz d^2 plus each bogie's anti-roll bar."""
+    M = [[m, m h], [m h, Ix + m h^2]], K = [[ky, 0], [0, kphi - W h]], kphi = sum kz d^2 plus each
+    bogie's anti-roll bar, W h = m g h the gravitational stiffness when the layout has it on (pitch
+    too: all springs at one height)."""
     sp, c = layout.spatial, layout.carbody
     e, m, (Ix, Iy, Iz) = sp.secondary, c.mass, c.inertia
     n = 2 * len(c.bogie_positions)  # springs
     d, h = e.spacing, sp.carbody_height - e.height
+    wh = m * G * h if sp.gravity and sp.gravitational_stiffness else 0.0
     l2 = sum(2 * x ** 2 for x in c.bogie_positions)  # sum over springs of x^2
     bounce = np.sqrt(n * e.kz / m)
-    pitch = np.sqrt((e.kz * l2 + n * e.kx * h ** 2) / Iy)
+    pitch = np.sqrt((e.kz * l2 + n * e.kx * h ** 2 - wh) / Iy)
     yaw = np.sqrt((e.ky * l2 + n * e.kx * d ** 2) / Iz)
-    k_phi = n * e.kz * d ** 2 + len(c.bogie_positions) * (sp.anti_roll_bar or 0.0)
+    k_phi = n * e.kz * d ** 2 + len(c.bogie_positions) * (sp.anti_roll_bar or 0.0) - wh
     sway = eigh(np.diag([n * e.ky, k_phi]), np.array([[m, m * h], [m * h, Ix + m * h * h]]),
                 eigvals_only=True)
     return np.sort(np.array([bounce, pitch, yaw, *np.sqrt(sway)]) / (2 * np.pi))
@@ -339,7 +344,9 @@ def test_anti_roll_bar_stiffness_and_sway(fitted):
     the upper sway by more than 1 % from the bar-less coach's."""
     layout, vehicle = fitted
     model = vehicle.model
-    K_fd, K_hand = fd_stiffness(model), hand_stiffness(layout, model)
+    # The preloads' gravitational stiffness (on by default) besides the tendons (the coach is
+    # symmetric, as hand_gravitational_stiffness needs).
+    K_fd, K_hand = fd_stiffness(model), hand_stiffness(layout, model) + hand_gravitational_stiffness(layout, model)
     assert np.abs(K_fd - K_hand).max() <= 1e-8 * np.abs(K_hand).max()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -455,6 +462,98 @@ def test_bad_secondary_elements_fail_with_one_line(edit, message):
     assert "\n" not in str(e.value)
 
 
+# Gravitational stiffness (docs/spatial.md): the preloads' second-order potential as roll and pitch
+# stiffness of the car body and the bogie frames; `spatial.gravitational_stiffness`, default on.
+
+
+@pytest.fixture(scope="module")
+def coach_gravitational():
+    layout = layout_from_dict(copy.deepcopy(SPATIAL))
+    assert layout.spatial.gravitational_stiffness  # the default
+    return layout, Vehicle(layout)
+
+
+def hand_gravitational_stiffness(layout, model) -> np.ndarray:
+    """The geometric terms from the weights alone, for a layout symmetric left-right and fore-aft (the
+    coach): each secondary spring carries P_s = m_c g / n_s, each axlebox P_p = (m_c g / n_b + m_b g) / n_p
+    per bogie; an element adds -P (H_upper - z) to its upper body's roll and pitch, -P (z - H_lower)
+    to its lower body's; wheelsets have neither."""
+    sp, c, b = layout.spatial, layout.carbody, layout.bogie
+    n_b = len(c.bogie_positions)
+    n_p = 2 * len(b.wheelset_positions)  # axleboxes per bogie
+    P_s = c.mass * G / (2 * n_b)
+    P_p = (c.mass * G / n_b + b.mass * G) / n_p
+    z_s, z_p, hc, hb = sp.secondary.height, sp.primary.height, sp.carbody_height, sp.bogie_height
+    terms = {"carbody": -2 * n_b * P_s * (hc - z_s)}
+    for i in range(1, n_b + 1):
+        terms[f"bogie{i}"] = -2 * P_s * (z_s - hb) - n_p * P_p * (hb - z_p)
+    K = np.zeros((model.nv, model.nv))
+    for body, k in terms.items():
+        for motion in ("roll", "pitch"):
+            K[dof(model, f"{body}_{motion}"), dof(model, f"{body}_{motion}")] = k
+    return K
+
+
+def test_gravitational_stiffness_is_the_hand_one(coach_gravitational):
+    """FD stiffness = the tendons' sum k a a^T + the hand terms, to 1e-8 of the largest entry (the
+    MJCF's 6 figures of each spring length leave ~1e-6 of a term, ~3e-9 of the largest); the car
+    body's roll term is -m g h to 1e-5."""
+    layout, vehicle = coach_gravitational
+    model = vehicle.model
+    K_fd, K_hand = fd_stiffness(model), hand_stiffness(layout, model)
+    K_g = hand_gravitational_stiffness(layout, model)
+    assert np.abs(K_fd - K_fd.T).max() <= 1e-7 * np.abs(K_hand).max()
+    assert np.abs(K_fd - K_hand - K_g).max() <= 1e-8 * np.abs(K_hand).max()
+    roll = dof(model, "carbody_roll")
+    h = layout.spatial.carbody_height - layout.spatial.secondary.height
+    assert K_fd[roll, roll] - K_hand[roll, roll] == pytest.approx(-32000.0 * G * h, rel=1e-5)
+
+
+def test_gravitational_stiffness_keeps_the_equilibrium(coach_gravitational):
+    """The terms act about q = 0 and so give no force there: the centred state stays the static
+    equilibrium, as without them (1e-3, the 6 figures of the spring lengths)."""
+    _, vehicle = coach_gravitational
+    data = mujoco.MjData(vehicle.model)
+    mujoco.mj_forward(vehicle.model, data)
+    assert np.abs(data.qacc).max() < 1e-3
+
+
+def test_carbody_modes_with_gravitational_stiffness(coach, coach_gravitational):
+    """Frames held, the closed forms with k_phi - m g h in the lateral-roll pair and - m g h in pitch
+    to 1e-7, as without (measured 4e-8: the MJCF's 6 figures of the joint stiffness; 4e-12 without);
+    bounce and yaw are those without (1e-7); both sways and pitch lower."""
+    layout, vehicle = coach_gravitational
+    f_on, f_off = carbody_frequencies(vehicle), carbody_frequencies(coach[1])
+    assert f_on == pytest.approx(closed_forms(layout), rel=1e-7)
+    assert f_off == pytest.approx(closed_forms(coach[0]), rel=1e-7)
+    bounce = np.sqrt(4 * layout.spatial.secondary.kz / 32000.0) / (2 * np.pi)
+    for f in (f_on, f_off):
+        assert np.min(np.abs(f - bounce)) <= 1e-7 * bounce
+    unchanged = [f for f in f_on if np.min(np.abs(f_off - f)) <= 1e-7 * f]
+    assert len(unchanged) == 2  # bounce and yaw
+    assert np.all(f_on <= f_off * (1 + 1e-7))  # both ascending: sways, pitch lower, the rest kept
+
+
+def test_gravitational_stiffness_is_zero_at_one_height():
+    """All at one height every h is zero, and so every term: the planar-limit tests above run with
+    the switch on (the default) and keep the planar eigenvalues among the spatial ones."""
+    data = copy.deepcopy(SPATIAL)
+    data["spatial"].update(carbody_height=1.0, bogie_height=1.0)
+    data["primary"]["axlebox"]["height"] = data["secondary"]["spring"]["height"] = 1.0
+    layout = layout_from_dict(data)
+    assert layout.spatial.gravitational_stiffness
+    model = Vehicle(layout).model
+    assert model.tendon_lengthspring.any() and not model.jnt_stiffness.any()
+
+
+def test_gravitational_stiffness_must_be_a_boolean():
+    data = copy.deepcopy(SPATIAL)
+    data["spatial"]["gravitational_stiffness"] = "yes"
+    with pytest.raises(LayoutError, match=r"spatial\.gravitational_stiffness: must be true or false") as e:
+        layout_from_dict(data)
+    assert "\n" not in str(e.value)
+
+
 @pytest.mark.parametrize("table", sorted(ELEMENTS))
 def test_secondary_elements_need_spatial(table):
     """A planar layout (the coach's planar equivalents) refuses each element table in one line."""
@@ -489,3 +588,51 @@ def test_preload_leaves_out_the_deadband_tendons():
     mujoco.mj_forward(model, data)
     assert abs(data.qacc[0]) <= 1e-6 * G
     assert list(model.tendon_lengthspring[model.tendon("stop").id]) == [-0.5, 0.5]
+
+
+def test_gravitational_stiffness_is_the_drop_of_the_attachment_points(coach_gravitational):
+    """The derivation against MuJoCo's exact kinematics: each element's static force P held vertical
+    and constant at its attachment point on each body, V = sum of P*(z_lower - z_upper) with the
+    points moved by the bodies' true rotations; its Hessian over the car body's and frames' roll,
+    pitch and yaw (central differences, 1e-3 rad: truncation ~1e-6) is diagonal, roll and pitch
+    only, and equals the joints' stiffness to 1e-5 of the largest (the MJCF's 6 figures: 2e-6)."""
+    from rail_mj.model import spatial_elements
+
+    layout, vehicle = coach_gravitational
+    model, data = vehicle.model, mujoco.MjData(vehicle.model)
+    force = {model.tendon(t).name: model.tendon_stiffness[t] * model.tendon_lengthspring[t, 0]
+             for t in range(model.ntendon)}
+    elements = [(force[f"{name}_z"], np.array(point), lower[0], upper[0])
+                for name, point, lower, upper, _ in spatial_elements(layout)]
+    mujoco.mj_kinematics(model, data)
+    arm = {b: {} for b in ("carbody", "bogie1", "bogie2")}  # point's offset from the centre of mass at q = 0
+    for k, (_, point, lower, upper) in enumerate(elements):
+        for body in (lower, upper):
+            if body in arm:
+                arm[body][k] = point - data.body(body).xipos
+
+    def potential(qpos):
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(model, data)
+        V = 0.0
+        for k, (P, _, lower, upper) in enumerate(elements):
+            for body, sign in ((lower, 1.0), (upper, -1.0)):
+                if body in arm:
+                    b = data.body(body)
+                    V += sign * P * (b.xipos + b.ximat.reshape(3, 3) @ arm[body][k])[2]
+        return V
+
+    dofs = [dof(model, f"{b}_{m}") for b in arm for m in ("roll", "pitch", "yaw")]
+    step, H = 1e-3, np.zeros((len(dofs), len(dofs)))
+    for i, a in enumerate(dofs):
+        for j, b in enumerate(dofs):
+            V = []
+            for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+                q = np.zeros(model.nq)
+                q[model.jnt_qposadr[model.dof_jntid[a]]] += sa * step
+                q[model.jnt_qposadr[model.dof_jntid[b]]] += sb * step
+                V.append(potential(q))
+            H[i, j] = (V[0] - V[1] - V[2] + V[3]) / (4 * step * step)
+    expected = np.diag([model.jnt_stiffness[model.dof_jntid[d]] for d in dofs])
+    assert np.abs(expected).max() > 3e5 and not expected[2::3, 2::3].any()  # yaw takes nothing
+    assert np.abs(H - expected).max() <= 1e-5 * np.abs(expected).max()
