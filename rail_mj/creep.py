@@ -366,7 +366,8 @@ class ContactForces(NamedTuple):
     force on the flange) and the moment of every lateral force at its contact's lead."""
 
     creep_lateral: np.ndarray  # Fy of both wheels' creep forces
-    flange_lateral: np.ndarray  # the flange's lateral force, zero off the flange
+    flange_lateral: np.ndarray  # the flange's lateral force, zero off the flange; with the
+    # normal forces' lateral part (gravitational stiffness) on profiles and on a spatial vehicle's cones
     creep_couple: np.ndarray  # b*(Fx_right - Fx_left): the longitudinal creep forces' yaw moment
     spin_moment: np.ndarray  # Kalker's f23*xi_y - f33*xi_sp of both wheels, saturated as their forces;
     # with the fastsim law FASTSIM's own Mz
@@ -380,6 +381,8 @@ class ContactForces(NamedTuple):
     load_right: np.ndarray
     lateral_left: np.ndarray
     lateral_right: np.ndarray
+    # A spatial vehicle's spinning wheelset: the gyroscopic yaw moment (in `yaw`; not a contact force).
+    gyroscopic: np.ndarray
 
 
 FORCE_ROWS = len(ContactForces._fields)
@@ -468,8 +471,30 @@ def cone_wheel_loads(load, moment, b):
 
 
 @numba.njit(cache=True)
+def gyroscopic(spin_inertia, spin, roll_rate, yaw_rate):
+    """The spinning wheelset's gyroscopic terms (docs/spatial.md): its angular momentum I_y*Omega
+    along the axle (Omega = V/r0), turned by its roll rate phi' (about x, left side up) and yaw
+    rate psi', changes at (Omega x H) = I_y*Omega*(psi'*(-x) + phi'*z). Returns the yaw moment it
+    feels, -I_y*Omega*phi', and the roll moment the rails must supply, -I_y*Omega*psi'."""
+    h = spin_inertia * spin
+    return -h * roll_rate, -h * yaw_rate
+
+
+@numba.njit(cache=True)
+def cone_gravity_forces(lam, b, y, wheel_left, wheel_right):
+    """The lateral parts of the normal forces on coned wheels over knife-edge rails: the contact
+    angle is the cone's, atan(lam), plus or minus the wheelset's roll lam*y/b; each wheel's
+    normal force, carrying its vertical load Q, leans towards the track centre:
+    Y_left = -Q_left*tan(d0 + phi), Y_right = Q_right*tan(d0 - phi). With equal loads their sum
+    is -2*Q*phi*sec^2(d0) to first order: the gravitational stiffness W*lam/b of the classical
+    literature (Wickens, 2003), restoring on cones."""
+    d0, phi = math.atan(lam), lam * y / b
+    return -wheel_left * math.tan(d0 + phi), wheel_right * math.tan(d0 - phi)
+
+
+@numba.njit(cache=True)
 def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0,
-                     nominal=math.nan):
+                     nominal=math.nan, spin_inertia=0.0, cone_gravity=False):
     """The rails' forces on one wheelset, by origin: (creep lateral, flange lateral, creep
     couple, spin moment, flange moment), N and N m (see `ContactForces`), then each wheel's
     vertical load Q and lateral force Y (Q_left, Q_right, Y_left, Y_right). `p`: its column
@@ -479,7 +504,10 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, loa
     `load` and `moment`: the wheelset's axle load and the roll moment on it about the rail
     level from the model's suspension (`cone_wheel_loads`; a spatial vehicle's, docs/spatial.md),
     `nominal` the wheel load the coefficients are given at; a NaN `load` (a planar vehicle):
-    both wheels carry `nominal` and the coefficients are used as given."""
+    both wheels carry `nominal` and the coefficients are used as given. With a `load`:
+    `spin_inertia` (I_y, 0: off) adds the spinning wheelset's gyroscopic terms (`gyroscopic`),
+    `cone_gravity` the normal forces' lateral parts on knife-edge rails (`cone_gravity_forces`),
+    counted with the flange's. Returns the gyroscopic yaw moment last."""
     # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and
     # xi_x_right is its negative; the lateral creepage is the same on both wheels, and the
     # spin differs between them only by the constant contact-angle term, which cancels
@@ -493,10 +521,14 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, loa
     xi_right = turning - rise_right / p[_R0]
     xi_y = y_dot / speed - psi
     xi_sp = psi_dot / speed
+    gyro_yaw = 0.0
     if math.isnan(load):
         wheel_left = wheel_right = nominal
         q_left = q_right = 1.0
     else:
+        if spin_inertia > 0.0:  # the kinematic roll of a coned wheelset: lam*y/b
+            gyro_yaw, gyro_roll = gyroscopic(spin_inertia, speed / p[_R0], p[_LAM] / p[_B] * y_dot, psi_dot)
+            moment -= gyro_roll
         wheel_left, wheel_right = cone_wheel_loads(load, moment, p[_B])
         q_left, q_right = wheel_left / nominal, wheel_right / nominal
     if law == FASTSIM:  # each wheel's contact ellipse through Kalker's FASTSIM
@@ -518,7 +550,13 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, loa
                 y_left += flange_lateral
             else:
                 y_right += flange_lateral
-    return creep_lateral, flange_lateral, couple, spin, flange_moment, wheel_left, wheel_right, y_left, y_right
+    if cone_gravity and not math.isnan(load):
+        pushed_left, pushed_right = cone_gravity_forces(p[_LAM], p[_B], y, wheel_left, wheel_right)
+        y_left += pushed_left
+        y_right += pushed_right
+        flange_lateral += pushed_left + pushed_right
+    return (creep_lateral, flange_lateral, couple, spin, flange_moment, wheel_left, wheel_right, y_left, y_right,
+            gyro_yaw)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -569,7 +607,8 @@ def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0):
+def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0,
+                     spin_inertia=0.0):
     """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
     them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
     its contact table (rail_mj.tables), interpolated linearly in y and held at its end rows
@@ -589,7 +628,8 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
     `load`, `moment`: a spatial vehicle's axle load and suspension roll moment about the rail
     level (`_normal_loads`); NaN: the table's axle load, moments about the centre. Returns
     the five forces, then each wheel's vertical load and lateral force (Q_left, Q_right,
-    Y_left, Y_right) as `wheelset_contact` does.
+    Y_left, Y_right) as `wheelset_contact` does, and the gyroscopic yaw moment (`spin_inertia`,
+    a spatial vehicle's: the wheelset's roll rate from the table's roll against y).
     """
     # The table is stored in mm, kN and GPa (rail_mj.tables): SI from here on.
     y0, dy, rows = geo[0, _t.HEADER_Y0] * _t.MM, geo[0, _t.HEADER_DY] * _t.MM, int(geo[0, _t.HEADER_ROWS])
@@ -597,12 +637,17 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
     mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0] * _t.MM
     gravity, spinning = geo[0, _t.HEADER_GRAVITY] != 0.0, geo[0, _t.HEADER_SPIN] != 0.0
     if math.isnan(y):  # a diverged state: no table row, and the runner reports it
-        return math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
+        return math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
     u = min(max((y - y0) / dy, 0.0), rows - 1.0)
     i = min(int(u), rows - 2)
     t = u - i
     lo, hi = geo[1 + i], geo[2 + i]
     spatial = not math.isnan(load)
+    gyro_yaw = 0.0
+    if spatial and spin_inertia > 0.0:  # roll in mrad per mm of y: rad/m
+        roll_rate = (hi[_t.ROLL] - lo[_t.ROLL]) / (hi[_t.Y] - lo[_t.Y]) * y_dot
+        gyro_yaw, gyro_roll = gyroscopic(spin_inertia, speed / r0, roll_rate, psi_dot)
+        moment -= gyro_roll
     n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load if spatial else axle_load, r0,
                                                      moment if spatial else 0.0, spatial)
     creep_lateral = normal_lateral = couple = spin = lead_moment = 0.0
@@ -661,11 +706,12 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
             # ahead of its axle by r*tan(g) (see _flange_lead), its centre sits l*psi behind.
             lead_moment += psi * (s * r * math.tan(g) - lever) * (lateral + pushed)
     return (creep_lateral, normal_lateral, couple, spin, lead_moment, n_left * v_left, n_right * v_right,
-            y_left, y_right)
+            y_left, y_right, gyro_yaw)
 
 
 @numba.njit(cache=True, nogil=True)  # summaries on one thread while another steps
-def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed, load, moment, nominal):
+def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed, load, moment, nominal,
+            spin_inertia, cone_gravity):
     """`contact_forces` over flat, contiguous state arrays: the last axis of the original
     shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
     ContactForces, in order. A non-empty `geometry` is the wheelsets' contact table."""
@@ -675,21 +721,23 @@ def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed
     for k in range(y.size):
         if profiled:
             forces = profiled_contact(geometry, table[:, k % n], law, falling, y[k], psi[k], y_dot[k],
-                                      psi_dot[k], speed, load[k], moment[k])
+                                      psi_dot[k], speed, load[k], moment[k], spin_inertia)
         else:
             forces = wheelset_contact(table[:, k % n], law, flange, falling, y[k], psi[k], y_dot[k],
-                                      psi_dot[k], speed, load[k], moment[k], nominal)
+                                      psi_dot[k], speed, load[k], moment[k], nominal, spin_inertia, cone_gravity)
         for row in range(5):
             out[row, k] = forces[row]
         out[5, k] = out[0, k] + out[1, k]
         out[6, k] = out[2, k] + out[3, k] + out[4, k]
-        for row in range(4):
+        if forces[9] != 0.0:
+            out[6, k] += forces[9]
+        for row in range(5):
             out[7 + row, k] = forces[5 + row]
     return out
 
 
 def _evaluate(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
-              nominal: float | None = None):
+              nominal: float | None = None, spin_inertia: float = 0.0, cone_gravity: bool = False):
     """The kernel's rows, each shaped like the states."""
     shape = np.shape(y)
     flat = [np.ascontiguousarray(v, dtype=np.float64).reshape(-1) for v in (y, psi, y_dot, psi_dot)]
@@ -698,11 +746,13 @@ def _evaluate(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=N
     else:
         loads = [np.ascontiguousarray(np.broadcast_to(v, shape), dtype=np.float64).reshape(-1) for v in (load, moment)]
     return _kernel(p.table, p.geometry, p.law, p.flange, p.falling, *flat, float(speed), *loads,
-                   np.nan if nominal is None else float(nominal)).reshape((FORCE_ROWS,) + shape)
+                   np.nan if nominal is None else float(nominal), float(spin_inertia),
+                   bool(cone_gravity)).reshape((FORCE_ROWS,) + shape)
 
 
 def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
-                   nominal: float | None = None) -> ContactForces:
+                   nominal: float | None = None, spin_inertia: float = 0.0,
+                   cone_gravity: bool = False) -> ContactForces:
     """The rails' forces on each wheelset, by origin: see `ContactForces`. States are
     arrays of one shape whose last axis is the wheelsets.
 
@@ -716,18 +766,20 @@ def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, l
     `load`, `moment` (shaped like the states, or None: a planar vehicle): a spatial vehicle's
     axle loads and suspension roll moments about the rail level (docs/spatial.md, wheel
     loads); `nominal`: the wheel load the coefficients hold at (on cones each wheel's are
-    scaled to its load; without `load` both wheels carry it).
+    scaled to its load; without `load` both wheels carry it); `spin_inertia` and `cone_gravity`:
+    the gyroscopic terms and the gravitational stiffness on cones (`wheelset_contact`).
     """
-    return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal))
+    return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal, spin_inertia,
+                                    cone_gravity))
 
 
 def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
-                    nominal: float | None = None):
+                    nominal: float | None = None, spin_inertia: float = 0.0, cone_gravity: bool = False):
     """Lateral force Fy (N) and yaw moment Mz (N m) of the rails on each wheelset: the
     sums of `contact_forces`. On the tread, with the linear law and f23 = f33 = 0, this is
     exactly
 
         Fy = -2*f22*(y_dot/V - psi),   Mz = -2*f11*b*(b*psi_dot/V + lam*y/r0).
     """
-    rows = _evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal)
+    rows = _evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal, spin_inertia, cone_gravity)
     return rows[5], rows[6]

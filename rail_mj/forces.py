@@ -96,7 +96,7 @@ class CreepForces:
             fy, mz = wheelset_forces(self.params, *states, self.speed)
         else:
             load, moment = self.loads.evaluate(model, data.ten_length, data.ten_velocity)
-            fy, mz = wheelset_forces(self.params, *states, self.speed, load, moment, self.loads.nominal)
+            fy, mz = wheelset_forces(self.params, *states, self.speed, load, moment, **self.loads.contact())
         data.qfrc_passive += fy @ jy + mz @ jpsi  # J^T [Fy, Mz] over every wheelset
 
 

@@ -183,9 +183,13 @@ class Spatial:
     yaw_damper: Damper | None = None
     anti_roll_bar: float | None = None  # N m/rad, on the relative roll of car body and frame
     bump_stop: BumpStop | None = None
-    # The preloads' second-order potential as roll and pitch stiffness (docs/spatial.md); no
-    # effect without gravity, where nothing is preloaded.
+    # The weight's gravitational stiffness (docs/spatial.md): the preloads' second-order potential
+    # as roll and pitch stiffness and, on coned wheels, the normal forces' lateral parts (on
+    # profiles [profiles] has its own switch); no effect without gravity.
     gravitational_stiffness: bool = True
+    # The spinning wheelsets' gyroscopic yaw-roll coupling (docs/spatial.md); needs gravity (the
+    # wheel loads from the suspension).
+    gyroscopic: bool = True
 
 
 @dataclasses.dataclass(frozen=True)
@@ -770,7 +774,7 @@ def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, trai
         carbody_height=t.number("carbody_height", low=0.0, low_open=True, high=MAX_HEIGHT),
         bogie_height=t.number("bogie_height", low=0.0, low_open=True, high=MAX_HEIGHT),
         primary=primary, secondary=secondary, gravity=t.flag("gravity", True),
-        gravitational_stiffness=t.flag("gravitational_stiffness", True),
+        gravitational_stiffness=t.flag("gravitational_stiffness", True), gyroscopic=t.flag("gyroscopic", True),
     )
     t.done()
     if spatial.carbody_height < spatial.bogie_height:  # equal: the planar limit (docs/spatial.md)

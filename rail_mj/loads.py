@@ -27,7 +27,9 @@ import dataclasses
 import mujoco
 import numpy as np
 
-NUMERIC_LOADS = "rail_mj/loads"  # wheelset weight (N), nominal wheel load (N), axlebox half spacing, height (m)
+# Wheelset weight (N), nominal wheel load (N), axlebox half spacing and height (m), the wheelset's
+# spin inertia I_y (kg m^2; 0: no gyroscopic terms), the cones' gravitational stiffness on (1) or off (0).
+NUMERIC_LOADS = "rail_mj/loads"
 SIDES = {"left": 1.0, "right": -1.0}
 
 
@@ -48,13 +50,15 @@ class AxleLoads:
     weight: float  # N, one wheelset
     nominal: float  # N, the wheel load the contact's coefficients are given at
     tendons: tuple[tuple[tuple[str, float, float], ...], ...]  # per wheelset: (tendon, on P, on M)
+    spin_inertia: float = 0.0  # kg m^2, I_y for the gyroscopic terms; 0: off
+    cone_gravity: bool = False  # the normal forces' lateral parts on coned wheels (rail_mj.creep)
 
     @classmethod
     def of(cls, model: mujoco.MjModel, wheelset_names, prefix: str = "") -> "AxleLoads | None":
         """Read from a model built by rail_mj.model (None: not a spatial vehicle with gravity,
         whose wheels carry the layout's static load)."""
         try:
-            weight, nominal, spacing, height = model.numeric(prefix + NUMERIC_LOADS).data
+            weight, nominal, spacing, height, spin, gravity = model.numeric(prefix + NUMERIC_LOADS).data
         except KeyError:
             return None
         names = [model.tendon(t).name.removeprefix(prefix) for t in range(model.ntendon)]
@@ -68,7 +72,11 @@ class AxleLoads:
                 elif side in SIDES and axis == "y":
                     mine.append((name, 0.0, height))
             tendons.append(tuple(mine))
-        return cls(float(weight), float(nominal), tuple(tendons))
+        return cls(float(weight), float(nominal), tuple(tendons), float(spin), bool(gravity))
+
+    def contact(self) -> dict:
+        """The keywords `rail_mj.creep.contact_forces` takes besides the loads."""
+        return {"nominal": self.nominal, "spin_inertia": self.spin_inertia, "cone_gravity": self.cone_gravity}
 
     def rows(self, model: mujoco.MjModel, wheelset: int, prefix: str = "") -> np.ndarray:
         """(n, 3): tendon id in `model`, coefficient on P, coefficient on M."""

@@ -637,7 +637,10 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
             from rail_mj.loads import NUMERIC_LOADS
 
             e = layout.spatial.primary
-            spec.add_numeric(name=NUMERIC_LOADS, data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height))
+            spin = w.inertia[1] if layout.spatial.gyroscopic else 0.0
+            cone_gravity = layout.spatial.gravitational_stiffness and layout.profiles is None
+            spec.add_numeric(name=NUMERIC_LOADS, data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin,
+                                                          float(cone_gravity)))
     elif layout.train is not None:
         add_train(spec, layout)
     else:

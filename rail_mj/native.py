@@ -143,8 +143,10 @@ MAGIC = 7043.03
 # (ContactParameters.table, row-major), the profile contact table (rail_mj.tables,
 # row-major), then per wheelset its body and the joints from it to the world: count, then
 # (joint, dof, 1 for a hinge / 0 for a slide); then its weight (N), the nominal wheel load
-# (N) and its axlebox tendons (rail_mj.loads): count, then (tendon, on P, on M); count 0:
-# the wheels carry the static load.
+# (N), its spin inertia (gyroscopic terms; 0: off), the cones' gravitational stiffness (0/1)
+# and its axlebox tendons (rail_mj.loads): count, then (tendon, on P, on M); count 0: the
+# wheels carry the static load.
+LOADS_HEADER = 5
 VEHICLE_HEADER = 6
 _SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE)
 SPEED = 0  # offset of the speed within a vehicle's entries
@@ -171,10 +173,11 @@ def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float =
             b = model.body_parentid[b]
         entries += [body, len(chain) // 3] + chain
         if loads is None:
-            entries += [0.0, 0.0, 0.0]
+            entries += [0.0] * LOADS_HEADER
         else:
             rows = loads.rows(model, i, prefix)
-            entries += [loads.weight, loads.nominal, float(len(rows))] + list(rows.reshape(-1))
+            entries += [loads.weight, loads.nominal, loads.spin_inertia, float(loads.cone_gravity),
+                        float(len(rows))] + list(rows.reshape(-1))
     return np.asarray(entries, dtype=np.float64)
 
 
@@ -208,7 +211,7 @@ def vehicle_starts(model: mujoco.MjModel) -> list[int]:
         k += VEHICLE_HEADER + ROWS * n + rows * COLUMNS
         for _ in range(n):
             k += 2 + 3 * int(data[k + 1])
-            k += 3 + 3 * int(data[k + 2])
+            k += LOADS_HEADER + 3 * int(data[k + LOADS_HEADER - 1])
     return starts
 
 
@@ -301,8 +304,9 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
             body, count = int(block[k]), int(block[k + 1])
             chain = numba.carray(block, (k + 2 + 3 * count,))[k + 2:]
             k += 2 + 3 * count
-            weight, nominal, tendons = block[k], block[k + 1], int(block[k + 2])
-            k += 3
+            weight, nominal, spin_inertia = block[k], block[k + 1], block[k + 2]
+            cone_gravity, tendons = block[k + 3] != 0.0, int(block[k + 4])
+            k += LOADS_HEADER
             load, moment = math.nan, 0.0
             if tendons:  # a spatial vehicle: its axle load and roll moment (rail_mj.loads)
                 load = weight
@@ -318,11 +322,14 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
             psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
             if rows > 0:
-                f = profiled_contact(geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed, load, moment)
+                f = profiled_contact(geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed, load, moment,
+                                     spin_inertia)
             else:
                 f = wheelset_contact(table[:, i], law, flange, falling, y, psi, y_dot, psi_dot, speed, load, moment,
-                                     nominal)
+                                     nominal, spin_inertia, cone_gravity)
             fy, mz = f[0] + f[1], f[2] + f[3] + f[4]
+            if f[9] != 0.0:  # the gyroscopic yaw moment (as the kernel adds it)
+                mz += f[9]
             px, pz = xpos[3 * body], xpos[3 * body + 2]
             for c in range(count):
                 j, dof, hinge = int(chain[3 * c]), int(chain[3 * c + 1]), chain[3 * c + 2]

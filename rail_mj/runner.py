@@ -99,9 +99,9 @@ class Run:
         if loads is None or np.isnan(loads).all():
             return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed,
                                   nominal=self.layout.wheelset.wheel_load)
-        nominal = AxleLoads.of(self.vehicle.model, self.vehicle.wheelset_names).nominal
+        axle = AxleLoads.of(self.vehicle.model, self.vehicle.wheelset_names)
         return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed,
-                              loads[..., 0], loads[..., 1], nominal)
+                              loads[..., 0], loads[..., 1], **axle.contact())
 
     def guiding_forces(self) -> np.ndarray:
         """(n_samples, n_wheelsets): the sum of guiding forces (Sigma Y, N) of each

@@ -166,3 +166,65 @@ def test_run_reports_wheel_loads_and_derailment_quotients(tmp_path):
     assert 0.0 < summary["largest_y_over_q"] < summary["y_over_q_limit"]  # a stable coach at 40 m/s
     # The loads move: the suspension's dynamic forces are in them (not a static share).
     assert np.ptp(column("q_left1")) > 1e-3 * np.mean(column("q_left1"))
+
+
+def switched(gravitational: bool, gyroscopic: bool) -> dict:
+    data = copy.deepcopy(SPATIAL)
+    data["spatial"].update(gravitational_stiffness=gravitational, gyroscopic=gyroscopic)
+    return data
+
+
+def wheelset_entries(stability, speed: float):
+    """A at `speed`, and each wheelset's (lateral, yaw) dofs."""
+    from rail_mj.model import LATERAL, YAW
+
+    model = stability.model
+    dofs = [(int(model.joint(f"{w}_{LATERAL}").dofadr[0]), int(model.joint(f"{w}_{YAW}").dofadr[0]))
+            for w in (f"wheelset{i + 1}" for i in range(4))]
+    return stability.state_matrix_at(speed), dofs, model.nv
+
+
+def test_gyroscopic_yaw_moment_in_the_linearisation():
+    """The spinning wheelset rolled by its cones at lam*y'/b feels the yaw moment
+    -I_y*(V/r0)*(lam/b)*y' (Wickens, 2003): switching the gyroscopic terms on changes A only in
+    each wheelset's yaw acceleration against its own lateral velocity, by that over I_z, a term
+    growing with V. (The rails' share of the roll moment, -I_y*(V/r0)*psi', moves load between
+    the wheels, which at the centred state changes no creep force.)"""
+    from rail_mj.stability import Stability
+
+    on, off = Stability(layout_from_dict(switched(False, True))), Stability(layout_from_dict(switched(False, False)))
+    w = on.layout.wheelset
+    for speed in (20.0, 60.0):
+        (a_on, dofs, nv), (a_off, _, _) = wheelset_entries(on, speed), wheelset_entries(off, speed)
+        expected = np.zeros_like(a_on)
+        for lateral, yaw in dofs:
+            expected[nv + yaw, nv + lateral] = (-w.inertia[1] * speed / w.rolling_radius * w.conicity
+                                                / w.contact_half_spacing / w.inertia[2])
+        # Finite differences of MuJoCo's step (rail_mj.linear): 1e-6 of the term.
+        scale = np.abs(expected).max()
+        assert np.abs((a_on - a_off) - expected).max() <= 1e-6 * scale
+
+
+def test_cone_gravitational_stiffness_in_the_linearisation():
+    """On coned wheels over knife-edge rails each wheel's normal force leans at the cone angle
+    d0 = atan(lam) plus or minus the wheelset's roll phi = lam*y/b: the lateral force
+    -Q_left*tan(d0 + phi) + Q_right*tan(d0 - phi). With equal loads that is the classical
+    gravitational stiffness 2*Q*(lam/b)*sec^2(d0), restoring; and the loads themselves move: the
+    axleboxes' lateral springs (ky each, at height h) pull a displaced wheelset back at h, their
+    moment about the rail level shifts 2*h*ky*y/b from one wheel to the other, and the loaded
+    wheel's normal force leans the other way: d(Sigma Y)/dy = (2*lam/b)*(h*ky - Q*(1 + lam^2))."""
+    from rail_mj.stability import Stability
+
+    on, off = Stability(layout_from_dict(switched(True, False))), Stability(layout_from_dict(switched(False, False)))
+    w, e = on.layout.wheelset, on.layout.spatial.primary
+    (a_on, dofs, nv), (a_off, _, _) = wheelset_entries(on, 30.0), wheelset_entries(off, 30.0)
+    lam, b = w.conicity, w.contact_half_spacing
+    expected = 2 * lam / b * (e.height * e.ky - w.wheel_load * (1 + lam**2))
+    for lateral, _ in dofs:
+        # The static loads to the spring lengths' 6 figures (5e-6), the finite differences 1e-6.
+        assert (a_on - a_off)[nv + lateral, lateral] * w.mass == pytest.approx(expected, rel=1e-5)
+    # Without the loads' transfer the stiffness alone, from the compiled law.
+    q = np.full(1, w.wheel_load)
+    f = contact_forces(contact_parameters(on.model, 1), np.array([1e-6]), np.zeros(1), np.zeros(1), np.zeros(1),
+                       30.0, 2 * q, np.zeros(1), w.wheel_load, cone_gravity=True)
+    assert f.flange_lateral[0] / 1e-6 == pytest.approx(-2 * w.wheel_load * lam / b * (1 + lam**2), rel=1e-5)
