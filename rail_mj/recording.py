@@ -132,6 +132,23 @@ def frame_yaw_path(name: str) -> str:
     return f"/yaw/{name}"
 
 
+def frame_roll_path(name: str) -> str:
+    return f"/roll/{name}"
+
+
+def frame_bounce_path(name: str) -> str:
+    return f"/bounce/{name}"
+
+
+def wheel_load_path(i: int, side: str) -> str:
+    """`side`: left or right."""
+    return f"/wheel_load/wheelset{i + 1}/{side}"
+
+
+def quotient_path(i: int, side: str) -> str:
+    return f"/y_over_q/wheelset{i + 1}/{side}"
+
+
 def sample_rate(run: Run) -> float:
     """The run's own sampling rate, samples/s."""
     return 1.0 / (run.t[1] - run.t[0]) if len(run.t) > 1 else math.inf
@@ -230,6 +247,10 @@ def plots(run: Run) -> list[Plot]:
     elif run.frame_names:
         out += [Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM)),
                 Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD))]
+    if run.layout.spatial is not None:  # what the spatial vehicle adds: roll, bounce, wheel loads
+        out += [Plot("Bogies, car body: roll φ (mrad)", frame_series(frame_roll_path, "mrad", run.frame_roll * MRAD)),
+                Plot("Bogies, car body: bounce z (mm)", frame_series(frame_bounce_path, "mm", run.frame_bounce * MM))]
+        out += _wheel_plots(run, wheelsets)
     if run.layout.profiles is not None:  # the normal forces: gravitational stiffness and the flange
         out.append(Plot("Wheelsets: normal forces, lateral part (kN)",
                         wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)))
@@ -237,6 +258,26 @@ def plots(run: Run) -> list[Plot]:
         out.append(Plot("Wheelsets: flange force (kN)",
                         wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)))
     return out
+
+
+def _wheel_plots(run: Run, wheelsets) -> list[Plot]:
+    """Each wheel's vertical load Q and derailment quotient Y/Q (EN 14363's limit in the title),
+    the right wheel a darker shade of its wheelset's colour."""
+    from rail_mj.analysis import Y_OVER_Q_LIMIT
+
+    loads, quotients = run.wheel_loads(), run.derailment_quotients()
+
+    def series(path, unit, values):
+        out = []
+        for i, (label, colour) in enumerate(wheelsets):
+            for k, side in enumerate(("left", "right")):
+                shade = colour if k == 0 else tuple(int(0.55 * c) for c in colour)
+                out.append(Series(path(i, side), f"{label} {side} ({unit})" if unit else f"{label} {side}", shade,
+                                  values[:, i, k]))
+        return out
+
+    return [Plot("Wheels: vertical load Q (kN)", series(wheel_load_path, "kN", loads / N_PER_KN)),
+            Plot(f"Wheels: derailment quotient Y/Q (limit {Y_OVER_Q_LIMIT:g})", series(quotient_path, "", quotients))]
 
 
 def axis_range(values) -> list[float]:

@@ -174,7 +174,20 @@ class Run:
     @property
     def frame_psi(self) -> np.ndarray:
         """(n_samples, n_frames): yaw of each of `frame_names`, rad (absolute, like `psi`)."""
-        return _yaw(self.body_quat[:, self._frame_ids])
+        quat = self.body_quat[:, self._frame_ids]
+        return _yaw(quat) if self.layout.spatial is None else _spatial_angles(quat)[2]
+
+    @property
+    def frame_roll(self) -> np.ndarray:
+        """(n_samples, n_frames): a spatial vehicle's frames' roll, rad (about x, left side up)."""
+        return _spatial_angles(self.body_quat[:, self._frame_ids])[0]
+
+    @property
+    def frame_bounce(self) -> np.ndarray:
+        """(n_samples, n_frames): a spatial vehicle's frames' vertical displacement from the
+        static equilibrium (the centred state), m."""
+        rest = self.vehicle.model.body_pos[self._frame_ids, 2]
+        return self.body_pos[:, self._frame_ids, 2] - rest
 
     def table(self) -> tuple[list[str], np.ndarray]:
         """Columns and their values, SI units (s, m, rad, N), one row per sample:
@@ -220,6 +233,17 @@ def _yaw(quat: np.ndarray) -> np.ndarray:
     """Yaw of MuJoCo quaternions (w, x, y, z) over the last axis. The bodies turn about z
     alone (lateral and yaw joints): quaternion (cos psi/2, 0, 0, sin psi/2)."""
     return 2.0 * np.arctan2(quat[..., 3], quat[..., 0])
+
+
+def _spatial_angles(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(roll, pitch, yaw) of a spatial body's quaternions (w, x, y, z), its joints turning it
+    by yaw, then roll, then pitch (rail_mj.model: R = Rz(psi) Rx(phi) Ry(theta)): from R's
+    entries R21 = sin(phi), R20 = -cos(phi) sin(theta), R01 = -sin(psi) cos(phi)."""
+    w, x, y, z = (quat[..., k] for k in range(4))
+    roll = np.arcsin(np.clip(2.0 * (y * z + w * x), -1.0, 1.0))
+    pitch = np.arctan2(-2.0 * (x * z - w * y), 1.0 - 2.0 * (x * x + y * y))
+    yaw = np.arctan2(-2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z))
+    return roll, pitch, yaw
 
 
 def _table_header(model: mujoco.MjModel) -> tuple[float, float]:
