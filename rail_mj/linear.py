@@ -54,7 +54,7 @@ def state_matrix(model: mujoco.MjModel, forces: CreepForces | None = None,
                 mujoco.mj_resetData(model, data)
                 if qpos0 is not None:
                     data.qpos[:] = qpos0
-                (data.qpos if j < nv else data.qvel)[j % nv] = sign * FD_STEP
+                (data.qpos if j < nv else data.qvel)[j % nv] += sign * FD_STEP
                 mujoco.mj_forward(model, data)
                 acc.append(data.qacc.copy())
             A[nv:, j] = (acc[0] - acc[1]) / (2 * FD_STEP)

@@ -32,8 +32,8 @@ def step_without_warnings(model: mujoco.MjModel, n_wheelsets: int, speed=30.0, s
 
 def test_the_shipped_layouts_are_there():
     assert {p.stem for p in SHIPPED} == {"wheelset", "bogie", "wagon", "manchester-coach",
-                                         "manchester-coach-s1002", "manchester-coach-worn", "articulated-set",
-                                         "two-coaches"}
+                                         "manchester-coach-s1002", "manchester-coach-worn", "manchester-coach-spatial",
+                                         "articulated-set", "two-coaches"}
 
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)

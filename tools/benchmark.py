@@ -18,7 +18,15 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   interpreter and against importing what a run needs (target: under 0.5 s);
 - a ten-car train (models/two-coaches' coach and coupling, ten times over): one RK4 step with
   the native callback, and a `simulate` run of 10 s, against real time on one core (target:
-  at least 10x faster than real time).
+  at least 10x faster than real time);
+- the spatial coach against the planar one (docs/spatial.md), one RK4 step each with the
+  native creep callback and the same law, their steps alternating, CPU time of the calling
+  thread (target: the spatial step at most 3x the planar one), and a `simulate` run of 1 km
+  each: on cones (tests/data/manchester-coach-spatial.toml given models/manchester-coach's
+  contact, against it) and on S1002/60E1 (models/manchester-coach-spatial against
+  models/manchester-coach-s1002).
+
+    python tools/benchmark.py --spatial   # only the spatial coach against the planar one
 """
 
 from __future__ import annotations
@@ -34,7 +42,7 @@ import numpy as np
 
 from rail_mj import native
 from rail_mj.forces import CreepForces, installed
-from rail_mj.layout import load_layout
+from rail_mj.layout import layout_from_dict, load_layout
 from rail_mj.model import Vehicle
 from rail_mj.plots import root_locus
 from rail_mj.runner import PACK, Request, prepare, simulate, simulate_many
@@ -45,7 +53,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import peer_numba  # noqa: E402
 import peer_solve_ivp  # noqa: E402
 
-COACH = Path(__file__).resolve().parent.parent / "models" / "manchester-coach" / "manchester-coach.toml"
+ROOT = Path(__file__).resolve().parent.parent
+COACH = ROOT / "models" / "manchester-coach" / "manchester-coach.toml"
+S1002 = ROOT / "models" / "manchester-coach-s1002" / "manchester-coach-s1002.toml"
+SPATIAL = ROOT / "models" / "manchester-coach-spatial" / "manchester-coach-spatial.toml"
+SPATIAL_CONED = ROOT / "tests" / "data" / "manchester-coach-spatial.toml"
 SPEEDS = (20.0, 100.0, 64)  # the batch: 64 runs of 1 km, 20-100 m/s
 VEHICLE_KM = 64.0
 
@@ -167,7 +179,81 @@ def train_speed(n: int = 3000) -> tuple[float, float, int]:
     return step, run, model.nv
 
 
+def cpu_per_step(model, data, n: int) -> float:
+    """CPU seconds of the calling thread per step, over `n` steps."""
+    started = time.thread_time()
+    mujoco.mj_step(model, data, nstep=n)
+    return (time.thread_time() - started) / n
+
+
+def spatial_coned():
+    """tests/data/manchester-coach-spatial.toml with the contact of the planar coach
+    (models/manchester-coach): its creep law and friction, flange and flangeway clearance (the
+    test layout has linear creep and no flange). Bodies and suspension are the same coach."""
+    import tomllib
+
+    planar = tomllib.loads(COACH.read_text())
+    data = tomllib.loads(SPATIAL_CONED.read_text())
+    data["wheelset"]["flangeway_clearance"] = planar["wheelset"]["flangeway_clearance"]
+    data["creep"], data["flange"] = planar["creep"], planar["flange"]
+    return layout_from_dict(data, f"{SPATIAL_CONED.name} with {COACH.name}'s contact (tools/benchmark.py)")
+
+
+def spatial_against_planar(speed: float = 40.0, n: int = 3000, repeats: int = 11):
+    """The spatial coach against the planar one, on cones and on profiles: per pair
+    (name, nv of each, the runner's timestep of each, [planar, spatial] RK4 step with the
+    native creep callback, CPU s; [planar, spatial] bare step, CPU s; [planar, spatial]
+    `simulate` of 1 km at 60 m/s, wall s). Each model at the runner's timestep at `speed`, from
+    its 2 mm start; the four steppings of a pair alternate, best of each: the machine is shared,
+    so the steps are timed in CPU time of the calling thread (a step's cost, not the
+    neighbours' share of the cores)."""
+    pairs = [("on cones", load_layout(COACH), spatial_coned()),
+             ("on S1002/60E1", load_layout(S1002), load_layout(SPATIAL))]
+    rows = []
+    for name, *layouts in pairs:
+        models, steps = [], []
+        for layout in layouts:
+            prepared = prepare(Request(layout, speed, 1000.0, 0.002))
+            model = prepared.vehicle.model
+            model.opt.timestep = prepared.timestep
+            data = mujoco.MjData(model)
+            data.qpos[prepared.vehicle.root_lateral_dofs] = 0.002
+            models.append((model, data))
+            steps.append(prepared.timestep)
+        fast, bare = [[], []], [[], []]
+        for _ in range(repeats):
+            for k, (model, data) in enumerate(models):
+                bare[k].append(cpu_per_step(model, data, n))
+                with native.installed():
+                    fast[k].append(cpu_per_step(model, data, n))
+        for layout in layouts:
+            simulate(layout, 60.0, 60.0, 0.002)  # compiled and warm
+        runs = [[], []]
+        for _ in range(3):
+            for k, layout in enumerate(layouts):
+                runs[k].append(best(lambda: simulate(layout, 60.0, 1000.0, 0.002), 1))
+        rows.append((name, [m.nv for m, _ in models], steps, [min(t) for t in fast], [min(t) for t in bare],
+                     [min(t) for t in runs]))
+    return rows
+
+
+def print_spatial(rows) -> None:
+    print("| the spatial coach against the planar one, 40 m/s, same law (Polach, mu 0.3); steps in CPU time "
+          "| planar | spatial | spatial / planar |")
+    print("|---|---|---|---|")
+    for name, nv, steps, fast, bare, runs in rows:
+        print(f"| {name} ({nv[0]} and {nv[1]} dof; the runner's step {steps[0] * 1e3:.3g} and "
+              f"{steps[1] * 1e3:.3g} ms): one RK4 step with the native creep callback | {fast[0] * 1e6:.1f} µs "
+              f"| {fast[1] * 1e6:.1f} µs | {fast[1] / fast[0]:.2f}x (target: at most 3x) |")
+        print(f"| {name}: one RK4 step, bare MuJoCo | {bare[0] * 1e6:.1f} µs | {bare[1] * 1e6:.1f} µs "
+              f"| {bare[1] / bare[0]:.2f}x |")
+        print(f"| {name}: `simulate`, 1 km at 60 m/s | {runs[0]:.2f} s | {runs[1]:.2f} s | {runs[1] / runs[0]:.2f}x |")
+
+
 def main() -> None:
+    if "--spatial" in sys.argv[1:]:
+        print_spatial(spatial_against_planar())
+        return
     starts = start_up()
     train_step, train_run, train_nv = train_speed()
     layout = load_layout(COACH)
@@ -199,6 +285,7 @@ def main() -> None:
     map_time = best(lambda: sweep(COACH, (5.0, 150.0, 60), method="eigen",
                                   grids=["wheelset.conicity=0.025:0.4:20", "primary.yaw_stiffness=2e6:100e6:20:log"]), 1)
     peers = single_peers()
+    spatial = spatial_against_planar()
 
     print("| benchmark (shipped coach, 14 dof) | time |")
     print("|---|---|")
@@ -243,6 +330,8 @@ def main() -> None:
     print(f"| one RK4 step of 1 ms with the native creep callback | {train_step * 1e6:.0f} µs | "
           f"{1e-3 / train_step:.1f}x |")
     print(f"| `simulate`: 600 m at 60 m/s (10 s) | {train_run:.2f} s | {10.0 / train_run:.1f}x |")
+    print()
+    print_spatial(spatial)
     print()
     print("| start-up (a new process each) | time |")
     print("|---|---|")
