@@ -642,3 +642,47 @@ def test_gravitational_stiffness_is_the_drop_of_the_attachment_points(coach_grav
     expected = np.diag([model.jnt_stiffness[model.dof_jntid[d]] for d in dofs])
     assert np.abs(expected).max() > 3e5 and not expected[2::3, 2::3].any()  # yaw takes nothing
     assert np.abs(H - expected).max() <= 1e-5 * np.abs(expected).max()
+
+
+# --- the shipped spatial coach (models/manchester-coach-spatial) ---------------------------------
+
+SHIPPED_SPATIAL = Path(__file__).parent.parent / "models" / "manchester-coach-spatial" / "manchester-coach-spatial.toml"
+
+
+def test_shipped_coach_carbody_modes_match_closed_forms():
+    """The shipped coach (gravitational stiffness on, bump stops idle at the centre): the car body
+    on its secondary springs, frames held, has the closed-form bounce, pitch, yaw and sways with
+    -m g h (1e-7, the MJCF's 6 figures: 4e-8)."""
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(SHIPPED_SPATIAL)
+    assert layout.spatial.gravitational_stiffness and layout.spatial.bump_stop is not None
+    assert carbody_frequencies(Vehicle(layout)) == pytest.approx(closed_forms(layout), rel=1e-7)
+
+
+def test_shipped_coach_bounce_is_the_two_mass_chain():
+    """The whole coach's car body bounce, as `eigen` names it: bounce couples with nothing lateral
+    (the wheelsets' vertical motion is the rails'), and by symmetry the frames bounce in phase under
+    it, so it is a root of the two-mass chain, car body m_c on the secondary (4 kz, 4 cz) over the
+    frames 2 m_b on the primary (8 kz, 8 cz): (M s^2 + C s + K) v = 0, damping included (1e-7: the
+    finite-difference linearisation, rail_mj.linear, gives 6e-9)."""
+    from rail_mj.layout import load_layout
+    from rail_mj.stability import Stability
+
+    layout = load_layout(SHIPPED_SPATIAL)
+    sp, c, b = layout.spatial, layout.carbody, layout.bogie
+    n_s = 2 * len(c.bogie_positions)
+    n_p = 2 * layout.n_wheelsets
+    M = np.diag([c.mass, len(c.bogie_positions) * b.mass])
+    chain = lambda k_s, k_p: np.array([[k_s, -k_s], [-k_s, k_s + k_p]])  # noqa: E731
+    K = chain(n_s * sp.secondary.kz, n_p * sp.primary.kz)
+    C = chain(n_s * sp.secondary.cz, n_p * sp.primary.cz)
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+    roots = np.linalg.eigvals(A)
+    modes = Stability(layout).modes(30.0)
+    bounce = [m for m in modes if m.name == "car body bounce"]
+    assert len(bounce) == 1
+    closest = roots[np.argmin(np.abs(roots - bounce[0].eigenvalue))]
+    assert abs(bounce[0].eigenvalue - closest) <= 1e-7 * abs(closest)
+    # ... the lower root of the chain (the frames' own bounce is the upper one, 7.2 Hz)
+    assert abs(closest.imag) == pytest.approx(np.min(np.abs(roots.imag)), rel=1e-12)
