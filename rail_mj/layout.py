@@ -190,6 +190,9 @@ class Spatial:
     # The spinning wheelsets' gyroscopic yaw-roll coupling (docs/spatial.md); needs gravity (the
     # wheel loads from the suspension).
     gyroscopic: bool = True
+    # Each bogie's design, leading first ([bogie] and [primary.axlebox] with the [bogies.N]
+    # overrides, docs/spatial.md); `primary` and Layout.bogie stay the defaults.
+    bogies: tuple[BogieDesign, ...] = ()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -197,6 +200,17 @@ class Bogie:
     mass: float
     inertia: tuple[float, float, float]
     wheelset_positions: tuple[float, ...]  # x from the bogie centre, leading first
+
+
+@dataclasses.dataclass(frozen=True)
+class BogieDesign:
+    """One bogie of a spatial vehicle ([bogies.N], docs/spatial.md): [bogie]'s frame and
+    [primary.axlebox]'s axleboxes with that bogie's overrides; the defaults where none."""
+
+    mass: float
+    inertia: tuple[float, float, float]
+    wheelset_positions: tuple[float, ...]  # x from the bogie centre, leading first
+    axlebox: Spring  # per axlebox
 
 
 @dataclasses.dataclass(frozen=True)
@@ -284,9 +298,17 @@ class Layout:
             return tuple(self.carbody.wheelset_positions)
         return tuple(
             xb + xw
-            for xb in self.carbody.bogie_positions
-            for xw in self.bogie.wheelset_positions
+            for xb, design in zip(self.carbody.bogie_positions, self.bogie_designs)
+            for xw in design.wheelset_positions
         )
+
+    @property
+    def bogie_designs(self) -> tuple[Bogie | BogieDesign, ...]:
+        """Each bogie's design, leading first: a spatial vehicle's own ([bogies.N] over [bogie]),
+        else `bogie` for every one (its mass, inertia and wheelset_positions)."""
+        if self.spatial is not None and self.spatial.bogies:
+            return self.spatial.bogies
+        return (self.bogie,) * len(self.carbody.bogie_positions)
 
     @property
     def n_wheelsets(self) -> int:
@@ -415,13 +437,14 @@ def _suspension(table: _Table) -> Suspension:
     return s
 
 
-def _practice(table: _Table, warnings: list[str], **values) -> None:
+def _practice(table: _Table, warnings: list[str], ranges: str | None = None, **values) -> None:
     """Refuse values that cannot describe a rail vehicle, and note those outside railway
-    practice (rail_mj.practice.RANGES, keyed by section.key)."""
+    practice (rail_mj.practice.RANGES, keyed by section.key; `ranges`: the section whose ranges
+    hold, if not the table's own)."""
     for key, value in values.items():
         if value is None:
             continue
-        limits = RANGES[f"{table.section}.{key}"]
+        limits = RANGES[f"{ranges or table.section}.{key}"]
         error = limits.check(value)
         if error:
             table.fail(key, error)
@@ -594,11 +617,15 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         xs = carbody.bogie_positions or carbody.wheelset_positions
         reach = max(abs(x) for x in xs) + (max(abs(x) for x in bogie.wheelset_positions) if bogie else 0.0)
         _inertia_fits(t, carbody.mass, carbody.inertia, math.hypot(reach + r0 + 3.0, 2.0), "car body")
+    designs = _bogie_designs(top, warnings, bogie, primary_spring, carbody, is_spatial, wheel_diameter, r0, b)
     if wheelset.wheel_load is None and carbody.mass is not None:
-        # The static weight, shared equally by every wheel: exact for a symmetric vehicle.
+        # The mean static wheel load, the nominal load the creep coefficients are given at: each
+        # wheel's own for a symmetric vehicle. (A spatial vehicle's wheels carry their own static
+        # loads, from its suspension: rail_mj.loads.) fsum of equal masses is n times one, exactly.
         n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
             bogie.wheelset_positions)
-        mass = carbody.mass + (len(carbody.bogie_positions) * bogie.mass if bogie else 0.0)
+        masses = [d.mass for d in designs] or ([bogie.mass] * len(carbody.bogie_positions) if bogie else [])
+        mass = carbody.mass + (math.fsum(masses) if bogie else 0.0)
         wheelset = dataclasses.replace(
             wheelset, wheel_load=GRAVITY * (mass / n_wheelsets + wheelset.mass) / 2)
     needs_load = "[contact]" if has_contact else f"creep law {law!r}" if law != "linear" else None
@@ -649,7 +676,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if is_spatial:
         spatial = _spatial(_Table(source, "spatial", top.get("spatial")), top, carbody, bogie, train, primary_spring,
                            secondary_spring if bogie else None, r0)
-        spatial = dataclasses.replace(spatial, **secondary_elements)
+        spatial = dataclasses.replace(spatial, **secondary_elements, bogies=designs)
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
@@ -677,16 +704,88 @@ def _suspension_or_elements(t: _Table, element: str, is_spatial: bool) -> tuple[
     if planar:
         t.fail(planar[0], f"not used with [spatial]: give the elements as [{t.section}.{element}] "
                           f"({', '.join(SPRING_KEYS)})")
-    e = _Table(t.source, f"{t.section}.{element}", t.get(element))
-    spring = Spring(
-        kx=e.non_negative("kx"), ky=e.non_negative("ky"), kz=e.positive("kz"),
-        cx=e.non_negative("cx", 0.0), cy=e.non_negative("cy", 0.0), cz=e.non_negative("cz", 0.0),
-        spacing=e.number("spacing", low=0.0, low_open=True, high=MAX_SPACING),
-        height=e.number("height", low=0.0, low_open=True, high=MAX_HEIGHT),
-    )
-    e.done()
+    spring = _spring(_Table(t.source, f"{t.section}.{element}", t.get(element)))
     t.done()
     return spring.planar(), spring
+
+
+def _spring(e: _Table, default: Spring | None = None) -> Spring:
+    """An element table (SPRING_KEYS), checked. Each key it leaves out is `default`'s; with no
+    default kx, ky, kz, spacing and height are required and the dampings 0."""
+    def inherited(key: str, fallback: Any = ...) -> Any:
+        return fallback if default is None else getattr(default, key)
+
+    spring = Spring(
+        kx=e.non_negative("kx", inherited("kx")), ky=e.non_negative("ky", inherited("ky")),
+        kz=e.positive("kz", inherited("kz")),
+        cx=e.non_negative("cx", inherited("cx", 0.0)), cy=e.non_negative("cy", inherited("cy", 0.0)),
+        cz=e.non_negative("cz", inherited("cz", 0.0)),
+        spacing=e.number("spacing", inherited("spacing"), low=0.0, low_open=True, high=MAX_SPACING),
+        height=e.number("height", inherited("height"), low=0.0, low_open=True, high=MAX_HEIGHT),
+    )
+    e.done()
+    return spring
+
+
+BOGIE_NUMBER = re.compile(r"^[1-9][0-9]*$")
+
+
+def _bogie_designs(top: _Table, warnings: list[str], bogie: Bogie | None, primary: Spring | None,
+                   carbody: CarBody, is_spatial: bool, wheel_diameter: float, r0: float,
+                   b: float) -> tuple[BogieDesign, ...]:
+    """[bogies.N] (docs/spatial.md), checked: each bogie's design, leading first, [bogie] and
+    [primary.axlebox] with bogie N's overrides of mass, inertia, wheelset_positions and
+    [bogies.N.axlebox]. () for a planar layout, which refuses the table."""
+    data = top.get("bogies", None, required=False)
+    if data is not None and not is_spatial:
+        top.fail("bogies", "needs [spatial]: different bogies under one car body belong to a spatial vehicle "
+                           "(docs/spatial.md)")
+    if not is_spatial or bogie is None:
+        if data is not None:
+            top.fail("bogies", "given without [bogie]: [bogies.N] changes [bogie]'s design for bogie N")
+        return ()
+    n = len(carbody.bogie_positions)
+    given = {}
+    if data is not None:
+        t = _Table(top.source, "bogies", data)
+        for key, value in data.items():
+            if not BOGIE_NUMBER.fullmatch(key) or int(key) > n:
+                t.fail(key, f"no such bogie: N in [bogies.N] is a bogie's number in carbody.bogie_positions, "
+                            f"1 (leading) to {n}")
+            given[int(key)] = value
+            t.used.add(key)
+        t.done()
+    designs = []
+    for i in range(1, n + 1):
+        if i not in given:
+            designs.append(BogieDesign(bogie.mass, bogie.inertia, bogie.wheelset_positions, primary))
+            continue
+        e = _Table(top.source, f"bogies.{i}", given[i])
+        mass = e.positive("mass", bogie.mass)
+        inertia = e.vector3("inertia", required=False) or bogie.inertia
+        positions = e.positions("wheelset_positions", wheel_diameter, "wheelset", required=False)
+        if positions is not None and len(positions) != len(bogie.wheelset_positions):
+            e.fail("wheelset_positions", f"gives {len(positions)} wheelsets, [bogie] {len(bogie.wheelset_positions)}: "
+                                         f"every bogie must have [bogie]'s number of wheelsets (a limitation: "
+                                         f"wheelsets are numbered per bogie)")
+        positions = positions or bogie.wheelset_positions
+        axlebox = e.get("axlebox", None, required=False)
+        if axlebox is not None:
+            axlebox = _spring(_Table(top.source, f"bogies.{i}.axlebox", axlebox), primary)
+        e.done()
+        if "mass" in e.data:
+            _practice(e, warnings, ranges="bogie", mass=mass)
+        reach = max(abs(x) for x in positions) + r0  # as [bogie]'s
+        _inertia_fits(e, mass, inertia, math.hypot(reach, b + 0.5), "bogie frame")
+        designs.append(BogieDesign(mass, inertia, positions, axlebox or primary))
+    xs = carbody.bogie_positions
+    for k in range(1, n):  # [bogie]'s spacing check holds for its own wheelbase only
+        front = xs[k - 1] + min(designs[k - 1].wheelset_positions)
+        back = xs[k] + max(designs[k].wheelset_positions)
+        if front - back < wheel_diameter:
+            top.fail("bogies", f"the wheelsets of bogies {k} and {k + 1} at x = {front:g} and {back:g} m overlap: "
+                               f"they must be at least {wheel_diameter:g} m apart")
+    return tuple(designs)
 
 
 SECONDARY_ELEMENTS = ("lateral_damper", "yaw_damper", "anti_roll_bar", "bump_stop")

@@ -28,7 +28,9 @@ import mujoco
 import numpy as np
 
 # Wheelset weight (N), nominal wheel load (N), axlebox half spacing and height (m), the wheelset's
-# spin inertia I_y (kg m^2; 0: no gyroscopic terms), the cones' gravitational stiffness on (1) or off (0).
+# spin inertia I_y (kg m^2; 0: no gyroscopic terms), the cones' gravitational stiffness on (1) or off (0);
+# then, when the bogies' axleboxes differ ([bogies.N.axlebox]), each wheelset's axlebox half spacing and
+# height (2 per wheelset, wheelset 1 first), which take the place of the two above.
 NUMERIC_LOADS = "rail_mj/loads"
 SIDES = {"left": 1.0, "right": -1.0}
 
@@ -58,12 +60,19 @@ class AxleLoads:
         """Read from a model built by rail_mj.model (None: not a spatial vehicle with gravity,
         whose wheels carry the layout's static load)."""
         try:
-            weight, nominal, spacing, height, spin, gravity = model.numeric(prefix + NUMERIC_LOADS).data
+            data = model.numeric(prefix + NUMERIC_LOADS).data
         except KeyError:
             return None
+        weight, nominal, spacing, height, spin, gravity = data[:6]
+        axleboxes = [(spacing, height)] * len(wheelset_names)
+        if len(data) > 6:  # each wheelset's own
+            if len(data) != 6 + 2 * len(wheelset_names):
+                raise ValueError(f"numeric {prefix + NUMERIC_LOADS}: {len(data)} entries for {len(wheelset_names)} "
+                                 f"wheelsets: 6, or 6 and 2 per wheelset")
+            axleboxes = data[6:].reshape(-1, 2).tolist()
         names = [model.tendon(t).name.removeprefix(prefix) for t in range(model.ntendon)]
         tendons = []
-        for w in wheelset_names:
+        for w, (spacing, height) in zip(wheelset_names, axleboxes):
             mine = []
             for name in sorted(n for n in names if n.startswith(f"{w}_bogie")):
                 side, axis = name.split("_")[-2:]

@@ -224,10 +224,10 @@ def add_bogie(parent, name: str, x: float, z: float, layout: Layout, first_wheel
         )
 
 
-def add_bogie_frame(body, name: str, layout: Layout) -> None:
-    """A bogie frame's geoms in its body (origin BOGIE_HEIGHT above the rail)."""
-    bogie = layout.bogie
-    xs = sorted(bogie.wheelset_positions)
+def add_bogie_frame(body, name: str, layout: Layout, wheelset_positions=None) -> None:
+    """A bogie frame's geoms in its body (origin BOGIE_HEIGHT above the rail), over its wheelsets
+    (`wheelset_positions`, x from its centre; None: [bogie]'s)."""
+    xs = sorted(wheelset_positions or layout.bogie.wheelset_positions)
     ys = spring_spacing(layout)
     middle = (xs[0] + xs[-1]) / 2
     # Heights in this body's frame; its origin is BOGIE_HEIGHT above the rail.
@@ -451,7 +451,7 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
     of mass, the wheelsets with lateral and yaw; each spring-damper element one fixed tendon per
     direction (x, y, z), its length the element's linearised deflection. Tendons are named
     <lower>_<upper>_<side>_<axis>, e.g. wheelset1_bogie1_left_z."""
-    sp, bogie, world = layout.spatial, layout.bogie, spec.worldbody
+    sp, world = layout.spatial, spec.worldbody
     hc, hb, r0 = sp.carbody_height, sp.bogie_height, layout.wheelset.rolling_radius
     body = world.add_body(name="carbody", pos=[0, 0, _g6(hc)[0]])
     _set_inertia(body, layout.carbody.mass, layout.carbody.inertia)
@@ -459,16 +459,16 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
     add_carbody_shell(body, layout)
     carbody = ("carbody", (0.0, 0.0, hc), SPATIAL_BODY)
     spring_top = side_frame_heights(layout)[0]
-    n = len(bogie.wheelset_positions)
-    for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
+    n = len(layout.bogie.wheelset_positions)  # every bogie's ([bogies.N] keeps it)
+    for i, (xb, design) in enumerate(zip(layout.carbody.bogie_positions, sp.bogies), start=1):
         name = f"bogie{i}"
-        add_flat_bogie(world, name, xb, hb, layout, spatial=True)
+        add_flat_bogie(world, name, xb, hb, layout, spatial=True, design=design)
         frame = (name, (xb, 0.0, hb), SPATIAL_BODY)
-        for j, xw in enumerate(bogie.wheelset_positions):
+        for j, xw in enumerate(design.wheelset_positions):
             wheelset = f"wheelset{(i - 1) * n + j + 1}"
             add_wheelset(world, wheelset, xb + xw, r0, layout, spring_top, nested=False)
             for side, sign in SIDES:
-                e = sp.primary
+                e = design.axlebox
                 spring_tendons(spec, f"{wheelset}_{name}_{side}", (xb + xw, sign * e.spacing, e.height),
                                (wheelset, (xb + xw, 0.0, r0), SPATIAL_WHEELSET), frame, e)
         for side, sign in SIDES:
@@ -513,16 +513,17 @@ def tendon_jacobian(model: mujoco.MjModel) -> np.ndarray:
 def spatial_elements(layout: Layout):
     """The spring-damper elements of a spatial vehicle, as `add_spatial` joins them and in its
     order: (name, point, lower, upper, spring), the arguments `spring_tendons` takes."""
-    sp, bogie, r0 = layout.spatial, layout.bogie, layout.wheelset.rolling_radius
+    sp, r0 = layout.spatial, layout.wheelset.rolling_radius
     carbody = ("carbody", (0.0, 0.0, sp.carbody_height), SPATIAL_BODY)
-    n = len(bogie.wheelset_positions)
-    for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
+    n = len(layout.bogie.wheelset_positions)
+    for i, (xb, design) in enumerate(zip(layout.carbody.bogie_positions, sp.bogies), start=1):
         frame = (f"bogie{i}", (xb, 0.0, sp.bogie_height), SPATIAL_BODY)
-        for j, xw in enumerate(bogie.wheelset_positions):
+        e = design.axlebox
+        for j, xw in enumerate(design.wheelset_positions):
             wheelset = (f"wheelset{(i - 1) * n + j + 1}", (xb + xw, 0.0, r0), SPATIAL_WHEELSET)
             for side, sign in SIDES:
-                point = (xb + xw, sign * sp.primary.spacing, sp.primary.height)
-                yield f"{wheelset[0]}_{frame[0]}_{side}", point, wheelset, frame, sp.primary
+                point = (xb + xw, sign * e.spacing, e.height)
+                yield f"{wheelset[0]}_{frame[0]}_{side}", point, wheelset, frame, e
         for side, sign in SIDES:
             point = (xb, sign * sp.secondary.spacing, sp.secondary.height)
             yield f"{frame[0]}_carbody_{side}", point, frame, carbody, sp.secondary
@@ -566,16 +567,20 @@ def add_gravitational_stiffness(spec: mujoco.MjSpec, layout: Layout, model: mujo
         spec.joint(joint).stiffness = _g6(k, 0.0, 0.0)
 
 
-def add_flat_bogie(world, name: str, x: float, height: float, layout: Layout, spatial: bool) -> None:
+def add_flat_bogie(world, name: str, x: float, height: float, layout: Layout, spatial: bool,
+                   design=None) -> None:
     """A bogie frame as a child of the world at (x, height): planar (lateral, yaw) or spatial
-    joints, with no spring (a train's or a spatial vehicle's; its wheelsets are added apart)."""
+    joints, with no spring (a train's or a spatial vehicle's; its wheelsets are added apart).
+    `design`: its mass, inertia and wheelset_positions (a spatial vehicle's BogieDesign); None:
+    [bogie]'s."""
+    design = design or layout.bogie
     body = world.add_body(name=name, pos=_pos(x, height))
-    _set_inertia(body, layout.bogie.mass, layout.bogie.inertia)
+    _set_inertia(body, design.mass, design.inertia)
     if spatial:
         _add_spatial_joints(body)
     else:
         _add_planar_joints(body, None)
-    add_bogie_frame(body, name, layout)
+    add_bogie_frame(body, name, layout, design.wheelset_positions)
 
 
 def _suspension_tendons(spec, child: str, parent: str, x_of: dict[str, float], s: Suspension,
@@ -639,8 +644,13 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
             e = layout.spatial.primary
             spin = w.inertia[1] if layout.spatial.gyroscopic else 0.0
             cone_gravity = layout.spatial.gravitational_stiffness and layout.profiles is None
+            # Each wheelset's axlebox spacing and height after the defaults, when a bogie has its
+            # own ([bogies.N.axlebox]; rail_mj.loads reads either form).
+            own = [(d.axlebox.spacing, d.axlebox.height) for d in layout.spatial.bogies
+                   for _ in d.wheelset_positions]
+            own = [] if all(a == (e.spacing, e.height) for a in own) else [v for a in own for v in a]
             spec.add_numeric(name=NUMERIC_LOADS, data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin,
-                                                          float(cone_gravity)))
+                                                          float(cone_gravity), *own))
     elif layout.train is not None:
         add_train(spec, layout)
     else:

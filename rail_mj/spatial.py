@@ -42,8 +42,8 @@ class SpatialModes:
         # Half the length over which a frame's pitch and yaw move its ends (bogie or wheelset spacing).
         xs = layout.carbody.bogie_positions
         self.half["carbody"] = max(abs(x) for x in xs)
-        for b in bogies:
-            self.half[b] = max(abs(x) for x in layout.bogie.wheelset_positions)
+        for b, design in zip(bogies, layout.bogie_designs):  # each bogie's own wheelbase ([bogies.N])
+            self.half[b] = max(abs(x) for x in design.wheelset_positions)
         self.height = {"carbody": layout.spatial.carbody_height, **{b: layout.spatial.bogie_height for b in bogies}}
 
     def energies(self, q: np.ndarray) -> dict[str, np.ndarray]:

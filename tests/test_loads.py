@@ -51,8 +51,8 @@ def spatial_on_profiles() -> dict:
 
 
 def weight(layout) -> float:
-    n_bogies = len(layout.carbody.bogie_positions)
-    return G * (layout.carbody.mass + n_bogies * layout.bogie.mass + layout.n_wheelsets * layout.wheelset.mass)
+    bogies = sum(b.mass for b in layout.spatial.bogies)  # each its own ([bogies.N])
+    return G * (layout.carbody.mass + bogies + layout.n_wheelsets * layout.wheelset.mass)
 
 
 @pytest.mark.parametrize("data", [SPATIAL, spatial_on_profiles()], ids=["cones", "profiles"])
@@ -228,3 +228,73 @@ def test_cone_gravitational_stiffness_in_the_linearisation():
     f = contact_forces(contact_parameters(on.model, 1), np.array([1e-6]), np.zeros(1), np.zeros(1), np.zeros(1),
                        30.0, 2 * q, np.zeros(1), w.wheel_load, cone_gravity=True)
     assert f.flange_lateral[0] / 1e-6 == pytest.approx(-2 * w.wheel_load * lam / b * (1 + lam**2), rel=1e-5)
+
+
+# --- different bogies under one car body ([bogies.N], docs/spatial.md) ---------------------------
+
+
+@pytest.mark.parametrize("positions", [[9.5, -9.5], [9.5, -7.5]], ids=["symmetric", "unequal"])
+def test_different_bogies_static_wheel_loads(positions):
+    """Bogie 2 the heavier motor bogie on stiffer, wider and higher axleboxes: each bogie carries its
+    lever-rule share of the car body's weight plus its own, in equal parts on its wheelsets, and each
+    wheel half of its wheelset's (left-right symmetric: no roll moment), to the spring lengths' 6
+    figures (ROUNDING); all sum to the weight. No longitudinal springs, as in
+    test_unequal_bogie_positions_give_unequal_axle_loads. The layout's wheel_load, the nominal load of
+    the creep coefficients, is the mean: the wheels' own differ from it (+/-1.7 % on symmetric positions)."""
+    from test_spatial import different_bogies
+
+    data = different_bogies(longitudinal=False)
+    data["carbody"]["bogie_positions"] = positions
+    layout = layout_from_dict(data)
+    q, load, moment = static_wheel_loads(Vehicle(layout))
+    (x1, x2), c, w = positions, layout.carbody.mass * G, layout.wheelset.mass * G
+    b1, b2 = (bogie.mass * G for bogie in layout.spatial.bogies)
+    expected = [w + (b1 + c * -x2 / (x1 - x2)) / 2] * 2 + [w + (b2 + c * x1 / (x1 - x2)) / 2] * 2
+    np.testing.assert_allclose(load, expected, rtol=ROUNDING)
+    np.testing.assert_allclose(q, np.array(expected)[:, None] / 2 * [1, 1], rtol=ROUNDING)
+    assert np.all(np.abs(moment) <= ROUNDING * weight(layout))
+    assert q.sum() == pytest.approx(weight(layout), rel=ROUNDING)
+    assert layout.wheelset.wheel_load == pytest.approx(weight(layout) / q.size, rel=1e-15)
+    assert np.ptp(q) > 0.03 * layout.wheelset.wheel_load  # the bogies' loads do differ (3.5 %, symmetric)
+
+
+def test_motor_bogie_roll_moves_load_by_its_own_axleboxes():
+    """The motor bogie (2) rolled by phi: its wheelsets' roll moment is its own axleboxes', M =
+    2*kz*d^2*phi + 2*h*ky*phi*(h - H_b) with its kz, ky, spacing d and height h (rail_mj.loads reads
+    each wheelset's spacing and height from the model), to round-off (1e-9); with bogie 1's
+    axleboxes it would be 31 % less."""
+    from test_spatial import different_bogies
+
+    layout = layout_from_dict(different_bogies())
+    vehicle = Vehicle(layout)
+    model, phi = vehicle.model, 1e-3
+    assert len(model.numeric("rail_mj/loads").data) == 6 + 2 * layout.n_wheelsets
+    qpos = np.zeros(model.nq)
+    qpos[model.joint("bogie2_roll").qposadr[0]] = phi
+    q0, load0, _ = static_wheel_loads(vehicle)
+    q, load, moment = static_wheel_loads(vehicle, qpos)
+    hb = layout.spatial.bogie_height
+
+    def roll_moment(e):
+        return 2 * e.kz * e.spacing**2 * phi + 2 * e.height * e.ky * phi * (e.height - hb)
+
+    m = roll_moment(layout.spatial.bogies[1].axlebox)
+    np.testing.assert_allclose(moment[2:], m, rtol=1e-9)
+    np.testing.assert_allclose(moment[:2], 0.0, atol=ROUNDING * load0[0])
+    np.testing.assert_allclose(load, load0, rtol=1e-12)
+    b = layout.wheelset.contact_half_spacing
+    np.testing.assert_allclose(q[2:, 0] - q[2:, 1], -m / b, rtol=1e-9)
+    assert roll_moment(layout.spatial.primary) < 0.75 * m
+
+
+@pytest.mark.parametrize("data, law", [("cones", "linear"), ("cones", "polach"), ("profiles", "polach")])
+def test_different_bogies_callbacks_agree(data, law):
+    """With different bogies (each wheelset's axlebox coefficients its own) the native and the Python
+    callbacks give one qfrc_passive at random states (1e-9, assert_callbacks_agree)."""
+    from test_spatial import MOTOR_BOGIE
+
+    data = copy.deepcopy(SPATIAL) if data == "cones" else spatial_on_profiles()
+    data["bogies"] = {"2": copy.deepcopy(MOTOR_BOGIE)}
+    data.setdefault("creep", {})["law"] = law
+    data["creep"].setdefault("friction", 0.35)
+    assert_callbacks_agree(Vehicle(layout_from_dict(data)), 40.0, seed=5, samples=10, position=0.003, rate=0.05)

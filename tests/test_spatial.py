@@ -30,8 +30,9 @@ def hand_stiffness(layout, model, kind="k") -> np.ndarray:
     """K = sum over elements, sides and axes of k * a a^T, a the deflection's coefficients: the
     upper body's point motion minus the lower's, each translation + (roll, pitch, yaw) x r, written
     here from docs/spatial.md alone (only the dof numbers are read from the model); each anti-roll
-    bar k (e_body - e_frame)(...)^T on the roll coordinates. The bump stops, within their play about
-    q = 0, add nothing. kind = "c": the damping matrix, sum c a a^T, the lateral and yaw dampers too."""
+    bar k (e_body - e_frame)(...)^T on the roll coordinates; each bogie's axleboxes and wheelsets its
+    own (`Spatial.bogies`, [bogies.N]). The bump stops, within their play about q = 0, add nothing.
+    kind = "c": the damping matrix, sum c a a^T, the lateral and yaw dampers too."""
     sp, K = layout.spatial, np.zeros((model.nv, model.nv))
 
     def motion(body, r, has_vertical):
@@ -58,12 +59,13 @@ def hand_stiffness(layout, model, kind="k") -> np.ndarray:
 
     hc, hb, r0 = sp.carbody_height, sp.bogie_height, layout.wheelset.rolling_radius
     n = len(layout.bogie.wheelset_positions)
-    for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
+    for i, (xb, bogie) in enumerate(zip(layout.carbody.bogie_positions, sp.bogies), start=1):
         frame = (f"bogie{i}", (xb, 0, hb), True)
-        for j, xw in enumerate(layout.bogie.wheelset_positions):
+        e = bogie.axlebox  # each bogie's own ([bogies.N])
+        for j, xw in enumerate(bogie.wheelset_positions):
             w = (f"wheelset{(i - 1) * n + j + 1}", (xb + xw, 0, r0), False)
             for s in (1, -1):
-                element((xb + xw, s * sp.primary.spacing, sp.primary.height), w, frame, sp.primary)
+                element((xb + xw, s * e.spacing, e.height), w, frame, e)
         for s in (1, -1):
             element((xb, s * sp.secondary.spacing, sp.secondary.height), frame, ("carbody", (0, 0, hc), True),
                     sp.secondary)
@@ -102,6 +104,23 @@ def mass_matrix(model) -> np.ndarray:
     M = np.zeros((model.nv, model.nv))
     mujoco.mj_fullM(model, data, M)
     return M
+
+
+def assert_refused(data: dict, message: str) -> None:
+    """`data` fails to load with a LayoutError matching `message`, in one line."""
+    with pytest.raises(LayoutError, match=message) as e:
+        layout_from_dict(data)
+    assert "\n" not in str(e.value)
+
+
+def planar_coach() -> dict:
+    """The coach as a planar layout: its elements' planar equivalents as [primary] and [secondary]."""
+    layout = layout_from_dict(copy.deepcopy(SPATIAL))
+    data = {k: copy.deepcopy(v) for k, v in SPATIAL.items() if k not in ("spatial", "primary", "secondary")}
+    for key, s in (("primary", layout.primary), ("secondary", layout.secondary)):
+        data[key] = {"lateral_stiffness": s.lateral_stiffness, "yaw_stiffness": s.yaw_stiffness}
+    layout_from_dict(copy.deepcopy(data))  # valid as it is
+    return data
 
 
 @pytest.fixture(scope="module")
@@ -259,9 +278,7 @@ def test_planar_equivalent(coach):
 def test_bad_spatial_layouts_fail_with_one_line(edit, message):
     data = copy.deepcopy(SPATIAL)
     edit(data)
-    with pytest.raises(LayoutError, match=message) as e:
-        layout_from_dict(data)
-    assert "\n" not in str(e.value)
+    assert_refused(data, message)
 
 
 @pytest.mark.parametrize("speed", [10.0, 30.0, 60.0])
@@ -480,19 +497,20 @@ def coach_gravitational():
 
 
 def hand_gravitational_stiffness(layout, model) -> np.ndarray:
-    """The geometric terms from the weights alone, for a layout symmetric left-right and fore-aft (the
-    coach): each secondary spring carries P_s = m_c g / n_s, each axlebox P_p = (m_c g / n_b + m_b g) / n_p
-    per bogie; an element adds -P (H_upper - z) to its upper body's roll and pitch, -P (z - H_lower)
-    to its lower body's; wheelsets have neither."""
-    sp, c, b = layout.spatial, layout.carbody, layout.bogie
-    n_b = len(c.bogie_positions)
-    n_p = 2 * len(b.wheelset_positions)  # axleboxes per bogie
-    P_s = c.mass * G / (2 * n_b)
-    P_p = (c.mass * G / n_b + b.mass * G) / n_p
-    z_s, z_p, hc, hb = sp.secondary.height, sp.primary.height, sp.carbody_height, sp.bogie_height
-    terms = {"carbody": -2 * n_b * P_s * (hc - z_s)}
-    for i in range(1, n_b + 1):
-        terms[f"bogie{i}"] = -2 * P_s * (z_s - hb) - n_p * P_p * (hb - z_p)
+    """The geometric terms from the weights alone, for a layout symmetric left-right with two bogies,
+    each symmetric fore-aft, and either the whole vehicle symmetric fore-aft (the coach) or no
+    longitudinal springs (else a static pitch loads them): bogie i takes W_i of the car body's
+    weight by the lever rule, each of its secondary springs P_s = W_i / 2, each of its axleboxes
+    P_p = (W_i + m_b,i g) / n_p; an element adds -P (H_upper - z) to its upper body's roll and pitch,
+    -P (z - H_lower) to its lower body's; wheelsets have neither."""
+    sp, c = layout.spatial, layout.carbody
+    (x1, x2), W = c.bogie_positions, c.mass * G
+    z_s, hc, hb = sp.secondary.height, sp.carbody_height, sp.bogie_height
+    terms = {"carbody": -W * (hc - z_s)}
+    for i, (share, bogie) in enumerate(zip((-x2 / (x1 - x2), x1 / (x1 - x2)), sp.bogies), start=1):
+        n_p = 2 * len(bogie.wheelset_positions)  # axleboxes
+        P_s, P_p = share * W / 2, (share * W + bogie.mass * G) / n_p
+        terms[f"bogie{i}"] = -2 * P_s * (z_s - hb) - n_p * P_p * (hb - bogie.axlebox.height)
     K = np.zeros((model.nv, model.nv))
     for body, k in terms.items():
         for motion in ("roll", "pitch"):
@@ -563,15 +581,9 @@ def test_gravitational_stiffness_must_be_a_boolean():
 @pytest.mark.parametrize("table", sorted(ELEMENTS))
 def test_secondary_elements_need_spatial(table):
     """A planar layout (the coach's planar equivalents) refuses each element table in one line."""
-    layout = layout_from_dict(copy.deepcopy(SPATIAL))
-    data = {k: copy.deepcopy(v) for k, v in SPATIAL.items() if k not in ("spatial", "primary", "secondary")}
-    for key, s in (("primary", layout.primary), ("secondary", layout.secondary)):
-        data[key] = {"lateral_stiffness": s.lateral_stiffness, "yaw_stiffness": s.yaw_stiffness}
-    layout_from_dict(copy.deepcopy(data))  # valid as it is
+    data = planar_coach()
     data["secondary"][table] = copy.deepcopy(ELEMENTS[table])
-    with pytest.raises(LayoutError, match=rf"secondary\.{table}: needs \[spatial\]") as e:
-        layout_from_dict(data)
-    assert "\n" not in str(e.value)
+    assert_refused(data, rf"secondary\.{table}: needs \[spatial\]")
 
 
 def test_preload_leaves_out_the_deadband_tendons():
@@ -686,3 +698,161 @@ def test_shipped_coach_bounce_is_the_two_mass_chain():
     assert abs(bounce[0].eigenvalue - closest) <= 1e-7 * abs(closest)
     # ... the lower root of the chain (the frames' own bounce is the upper one, 7.2 Hz)
     assert abs(closest.imag) == pytest.approx(np.min(np.abs(roots.imag)), rel=1e-12)
+
+
+# --- different bogies under one car body ([bogies.N], docs/spatial.md) ---------------------------
+
+# The trailing bogie a motor bogie: a heavier frame and stiffer axleboxes, placed wider and higher
+# (made-up numbers, each unlike [bogie]'s and [primary.axlebox]'s).
+MOTOR_BOGIE = {"mass": 3400.0, "inertia": [2200.0, 1900.0, 3900.0],
+               "axlebox": {"kz": 1500e3, "ky": 5.0e6, "cz": 6e3, "spacing": 1.05, "height": 0.5}}
+
+
+def different_bogies(gravitational_stiffness: bool = True, longitudinal: bool = True, **bogie2) -> dict:
+    """The coach with bogie 2 the motor bogie (and `bogie2`'s keys besides); `longitudinal` False:
+    no longitudinal springs (kx = 0), which a static pitch would load."""
+    data = copy.deepcopy(SPATIAL)
+    data["bogies"] = {"2": copy.deepcopy(MOTOR_BOGIE) | bogie2}
+    data["spatial"]["gravitational_stiffness"] = gravitational_stiffness
+    if not longitudinal:
+        data["primary"]["axlebox"]["kx"] = data["secondary"]["spring"]["kx"] = 0.0
+    return data
+
+
+def test_different_bogies_layout():
+    """bogie 2 has its overrides and inherits the rest ([bogie], [primary.axlebox]); bogie 1 and
+    Layout.bogie keep the defaults; the wheelsets sit where each bogie puts them."""
+    layout = layout_from_dict(different_bogies(wheelset_positions=[1.4, -1.4]))
+    first, second = layout.spatial.bogies
+    default = layout.spatial.primary
+    assert (first.mass, first.inertia, first.wheelset_positions, first.axlebox) == (
+        2615.0, (1722.0, 1476.0, 3067.0), (1.28, -1.28), default)
+    assert (second.mass, second.inertia, second.wheelset_positions) == (3400.0, (2200.0, 1900.0, 3900.0), (1.4, -1.4))
+    assert (second.axlebox.kz, second.axlebox.ky, second.axlebox.cz, second.axlebox.spacing,
+            second.axlebox.height) == (1500e3, 5.0e6, 6e3, 1.05, 0.5)
+    assert (second.axlebox.kx, second.axlebox.cx, second.axlebox.cy) == (default.kx, default.cx, default.cy)
+    assert layout.bogie.mass == 2615.0 and layout.bogie.wheelset_positions == (1.28, -1.28)
+    assert layout.wheelset_x == (9.5 + 1.28, 9.5 - 1.28, -9.5 + 1.4, -9.5 - 1.4)
+    model = Vehicle(layout).model
+    for i, x in enumerate(layout.wheelset_x, start=1):
+        assert model.body(f"wheelset{i}").pos[0] == pytest.approx(x, abs=1e-12)
+    assert model.body("bogie2").mass[0] == 3400.0 and list(model.body("bogie2").inertia) == [2200.0, 1900.0, 3900.0]
+    assert model.body("bogie1").mass[0] == 2615.0
+
+
+def test_bogies_repeating_the_defaults_give_the_same_model():
+    """A [bogies.2] that only repeats [bogie] and [primary.axlebox] gives the very MJCF of the
+    layout without it."""
+    data = copy.deepcopy(SPATIAL)
+    data["bogies"] = {"2": {"mass": 2615.0, "axlebox": {"kz": 1220e3, "height": 0.46}}}
+    plain, same = (Vehicle(layout_from_dict(d)) for d in (copy.deepcopy(SPATIAL), data))
+    assert same.spec.to_xml() == plain.spec.to_xml()
+
+
+@pytest.mark.parametrize("gravitational", [False, True], ids=["tendons", "gravitational"])
+def test_different_bogies_stiffness_is_the_hand_assembled_one(gravitational):
+    """Bogie 2 heavier, stiffer, its axleboxes wider and higher: the finite-difference stiffness is the
+    hand-assembled sum k a a^T with each bogie's own elements (1e-8 of the largest entry, as the
+    coach's), and with the gravitational stiffness on (no longitudinal springs, which the car body's
+    static pitch over unequal frames' sag would load) the hand terms with each bogie's share of the
+    car body by the lever rule, its own weight and axlebox height (1e-8). The per-bogie elements
+    matter: the coach's own hand assembly misses bogie 2's bounce stiffness by more than 10 %."""
+    layout = layout_from_dict(different_bogies(gravitational, longitudinal=not gravitational))
+    model = Vehicle(layout).model
+    K_fd, K_hand = fd_stiffness(model), hand_stiffness(layout, model)
+    if gravitational:
+        K_hand = K_hand + hand_gravitational_stiffness(layout, model)
+    assert np.abs(K_fd - K_hand).max() <= 1e-8 * np.abs(K_hand).max()
+    data = copy.deepcopy(SPATIAL)
+    if gravitational:
+        data["primary"]["axlebox"]["kx"] = data["secondary"]["spring"]["kx"] = 0.0
+    coach_hand = hand_stiffness(layout_from_dict(data), model)
+    z = dof(model, "bogie2_vertical")
+    assert abs(K_fd[z, z] - coach_hand[z, z]) > 0.1 * K_fd[z, z]
+
+
+def frame_frequencies(vehicle, bogie: str) -> np.ndarray:
+    """A bogie frame's natural frequencies with the car body and the wheelsets held (its block of K
+    and M), Hz, ascending."""
+    model = vehicle.model
+    idx = [dof(model, f"{bogie}_{m}") for m in ("lateral", "yaw", "vertical", "roll", "pitch")]
+    K, M = fd_stiffness(model), mass_matrix(model)
+    w2 = eigh(K[np.ix_(idx, idx)], M[np.ix_(idx, idx)], eigvals_only=True)
+    return np.sort(np.sqrt(w2) / (2 * np.pi))
+
+
+def test_different_bogies_frame_bounce():
+    """Each frame alone, car body and wheelsets held: its bounce is sqrt(sum kz / m_b) over the
+    vertical springs on it, its own four axleboxes and its two secondary springs (a frame symmetric
+    fore-aft and left-right: bounce couples with nothing), to 1e-7: 7.4566 Hz for bogie 1 and
+    7.1490 Hz for the motor bogie. In the whole vehicle each is named a frame bounce, the motor
+    bogie's lower."""
+    from rail_mj.stability import Stability
+
+    layout = layout_from_dict(different_bogies())
+    vehicle = Vehicle(layout)
+    ks = layout.spatial.secondary.kz
+    expected = {}
+    for i, bogie in enumerate(layout.spatial.bogies, start=1):
+        kz = 2 * len(bogie.wheelset_positions) * bogie.axlebox.kz + 2 * ks
+        expected[i] = np.sqrt(kz / bogie.mass) / (2 * np.pi)
+        f = frame_frequencies(vehicle, f"bogie{i}")
+        assert np.min(np.abs(f - expected[i])) <= 1e-7 * expected[i], (i, f, expected[i])
+    assert expected[1] == pytest.approx(7.4566, abs=1e-4) and expected[2] == pytest.approx(7.1490, abs=1e-4)
+    modes = Stability(layout).modes(30.0)
+    bounce = {m.name: m.frequency for m in modes if m.name.endswith("frame bounce")}
+    assert set(bounce) == {"bogie 1 frame bounce", "bogie 2 frame bounce"}
+    assert bounce["bogie 2 frame bounce"] < bounce["bogie 1 frame bounce"]
+
+
+def _bogies(edit):
+    def change(d):
+        d["bogies"] = {"2": copy.deepcopy(MOTOR_BOGIE)}
+        edit(d)
+    return change
+
+
+@pytest.mark.parametrize("edit, message", [
+    (_bogies(lambda d: d["bogies"].update({"3": {"mass": 3000.0}})),
+     r"bogies\.3: no such bogie: N in \[bogies\.N\] is a bogie's number in carbody\.bogie_positions, "
+     r"1 \(leading\) to 2"),
+    (_bogies(lambda d: d["bogies"].update({"0": {}})), r"bogies\.0: no such bogie"),
+    (_bogies(lambda d: d["bogies"].update({"motor": {}})), r"bogies\.motor: no such bogie"),
+    (lambda d: d.update(bogies=[{"mass": 3400.0}]), r"bogies: must be a table, got a list"),
+    (_bogies(lambda d: d["bogies"].update({"2": 3400.0})), r"bogies\.2: must be a table"),
+    (_bogies(lambda d: d["bogies"]["2"].update(wheelset_positions=[2.0, 0.0, -2.0])),
+     r"bogies\.2\.wheelset_positions: gives 3 wheelsets, \[bogie\] 2: every bogie must have \[bogie\]'s number "
+     r"of wheelsets \(a limitation"),
+    (_bogies(lambda d: d["bogies"]["2"].update(wheelset_positions=[-1.28, 1.28])),
+     r"bogies\.2\.wheelset_positions: must list the leading wheelset first"),
+    (_bogies(lambda d: d["bogies"]["2"].update(masss=1.0)), r"bogies\.2\.masss: unknown key"),
+    (_bogies(lambda d: d["bogies"]["2"].update(mass=-1.0)), r"bogies\.2\.mass: must be > 0"),
+    (_bogies(lambda d: d["bogies"]["2"].update(inertia=[1000.0, 1000.0, 3000.0])),
+     r"bogies\.2\.inertia: is not a rigid body's inertia"),
+    (_bogies(lambda d: d["bogies"]["2"].update(mass=34.0)),
+     r"bogies\.2\.inertia: .* check the mass and the units"),
+    (_bogies(lambda d: d["bogies"]["2"]["axlebox"].update(kz=0.0)), r"bogies\.2\.axlebox\.kz: must be > 0"),
+    (_bogies(lambda d: d["bogies"]["2"]["axlebox"].update(spacing=7.0)),
+     r"bogies\.2\.axlebox\.spacing: must be <= 2\.5"),
+    (_bogies(lambda d: d["bogies"]["2"]["axlebox"].update(kzz=1.0)), r"bogies\.2\.axlebox\.kzz: unknown key"),
+    (_bogies(lambda d: d["bogies"]["2"].update(axlebox=1.0)), r"bogies\.2\.axlebox: must be a table"),
+    (_bogies(lambda d: (d["bogies"].update({"1": {"wheelset_positions": [1.28, -9.6]}}),
+                        d["bogies"]["2"].update(wheelset_positions=[9.6, -1.28]))),
+     r"bogies: the wheelsets of bogies 1 and 2 at x = -0\.1 and 0\.1 m overlap"),
+])
+def test_bad_bogies_fail_with_one_line(edit, message):
+    data = copy.deepcopy(SPATIAL)
+    edit(data)
+    assert_refused(data, message)
+
+
+def test_bogies_need_spatial_on_a_planar_layout():
+    """A planar layout (the coach's planar equivalents) refuses [bogies.N] in one line."""
+    data = planar_coach()
+    data["bogies"] = {"2": {"mass": 3400.0}}
+    assert_refused(data, r"bogies: needs \[spatial\]: different bogies under one car body")
+
+
+def test_bogie_mass_outside_practice_warns_under_its_own_name():
+    layout = layout_from_dict(different_bogies(mass=40000.0, inertia=[20000.0, 20000.0, 30000.0]))
+    assert any("bogies.2.mass" in w for w in layout.warnings), layout.warnings
