@@ -331,8 +331,9 @@ def _print_summary(result: dict, err: bool = False) -> None:
         say(f"hunting (EN 14363): not assessed, {result['hunting_note']}")
     if result.get("largest_y_over_q") is not None:
         at, low = result["largest_y_over_q_at"], result["smallest_wheel_load_at"]
-        say(f"wheel loads: largest Y/Q {result['largest_y_over_q']:.3f} (limit {result['y_over_q_limit']:g}, "
-            f"wheelset {at['wheelset']} {at['wheel']} at x = {at['x_m']:.4g} m), smallest Q "
+        say(f"wheel loads: largest Y/Q {result['largest_y_over_q']:.3f} over {result['y_over_q_window_m']:g} m "
+            f"(limit {result['y_over_q_limit']:g}; peak {result['largest_y_over_q_peak']:.3f}), "
+            f"wheelset {at['wheelset']} {at['wheel']} at x = {at['x_m']:.4g} m; smallest Q "
             f"{result['smallest_wheel_load_n'] / 1e3:.1f} kN (wheelset {low['wheelset']} {low['wheel']} at "
             f"x = {low['x_m']:.4g} m)")
     if "csv" in result:

@@ -206,6 +206,10 @@ class Series(NamedTuple):
 class Plot(NamedTuple):
     title: str
     series: list[Series]
+    # The y range's least half-height (review units): motions far below it are round-off (a spatial
+    # vehicle's bounce on smooth track: 6e-4 mm, the spring lengths' 6 figures), not worth a full plot.
+    floor: float = 0.0
+    positive: bool = False  # a quantity that is never negative (a wheel load): the range from 0
 
 
 def plots(run: Run) -> list[Plot]:
@@ -248,8 +252,10 @@ def plots(run: Run) -> list[Plot]:
         out += [Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM)),
                 Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD))]
     if run.layout.spatial is not None:  # what the spatial vehicle adds: roll, bounce, wheel loads
-        out += [Plot("Bogies, car body: roll φ (mrad)", frame_series(frame_roll_path, "mrad", run.frame_roll * MRAD)),
-                Plot("Bogies, car body: bounce z (mm)", frame_series(frame_bounce_path, "mm", run.frame_bounce * MM))]
+        out += [Plot("Bogies, car body: roll φ (mrad)", frame_series(frame_roll_path, "mrad", run.frame_roll * MRAD),
+                     floor=0.1),
+                Plot("Bogies, car body: bounce z (mm)", frame_series(frame_bounce_path, "mm", run.frame_bounce * MM),
+                     floor=0.1)]
         out += _wheel_plots(run, wheelsets)
     if run.layout.profiles is not None:  # the normal forces: gravitational stiffness and the flange
         out.append(Plot("Wheelsets: normal forces, lateral part (kN)",
@@ -276,22 +282,23 @@ def _wheel_plots(run: Run, wheelsets) -> list[Plot]:
                                   values[:, i, k]))
         return out
 
-    return [Plot("Wheels: vertical load Q (kN)", series(wheel_load_path, "kN", loads / N_PER_KN)),
+    return [Plot("Wheels: vertical load Q (kN)", series(wheel_load_path, "kN", loads / N_PER_KN), positive=True),
             Plot(f"Wheels: derailment quotient Y/Q (limit {Y_OVER_Q_LIMIT:g})", series(quotient_path, "", quotients))]
 
 
-def axis_range(values) -> list[float]:
+def axis_range(values, floor: float = 0.0, positive: bool = False) -> list[float]:
     """A y range symmetric about 0 (the track's centre line, no force), its edge a round
     number just past the largest |value|. egui's plots label only multiples of powers of
     ten, at least 20 points apart: a range like +-8 in a short plot gets a lone "0" label,
     and +-10 gets three. Edges of 1, 1.5, 2, 3, 4, 5 or 6 times a power of ten give 3 to
     13 labels."""
-    peak = 1.05 * max((float(np.max(np.abs(v))) for v in values if len(v)), default=0.0)
+    finite = [np.abs(v[np.isfinite(v)]) for v in values]
+    peak = max(1.05 * max((float(np.max(v)) for v in finite if len(v)), default=0.0), floor)
     if not (peak > 0 and math.isfinite(peak)):
-        return [-1.0, 1.0]
+        return [0.0, 1.0] if positive else [-1.0, 1.0]
     decade = 10.0 ** math.floor(math.log10(peak))
     edge = next(m * decade for m in AXIS_EDGES if m * decade >= peak)
-    return [-edge, edge]
+    return [0.0, edge] if positive else [-edge, edge]
 
 
 def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
@@ -303,7 +310,8 @@ def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
     views = [rrb.TimeSeriesView(origin="/", contents=[s.path for s in p.series], name=p.title,
                                 plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),
                                 axis_x=rrb.TimeAxis(view_range=whole_run),
-                                axis_y=rrb.ScalarAxis(range=axis_range([s.values for s in p.series])))
+                                axis_y=rrb.ScalarAxis(range=axis_range([s.values for s in p.series], p.floor,
+                                                                       p.positive)))
              for p in shown]
     notes = [rrb.TextDocumentView(origin="/layout", name="Layout and run")]
     if _flanges(run):

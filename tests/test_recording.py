@@ -277,3 +277,29 @@ def test_recording_moves_the_vehicle_along_the_track(tmp_path):
         np.testing.assert_allclose(xyz[:, 2], layout.wheelset.rolling_radius, rtol=f32)
     static = static_entities(path)
     assert "/world/rails" in static and "/world/vehicle/wheelset1/wheelset1_left_wheel" in static
+
+
+def test_spatial_recording_plots_roll_bounce_and_wheel_loads(tmp_path):
+    """A spatial run's recording has the frames' and car body's roll and bounce, and each wheel's
+    Q and Y/Q, the values the Run gives (Q in kN); the wheel loads' axis from 0, bounce's no
+    narrower than 0.1 mm (its round-off, 6e-4 mm, would fill a tighter one)."""
+    from rail_mj.recording import frame_bounce_path, frame_roll_path, quotient_path, wheel_load_path
+
+    run = simulate(load_layout(MODELS.parent / "tests" / "data" / "manchester-coach-spatial.toml"), speed=40.0,
+                   distance=30.0, initial_lateral=0.002)
+    shown = {p.title: p for p in plots(run)}
+    assert {"Bogies, car body: roll φ (mrad)", "Bogies, car body: bounce z (mm)", "Wheels: vertical load Q (kN)",
+            "Wheels: derailment quotient Y/Q (limit 0.8)"} <= set(shown)
+    q_plot = shown["Wheels: vertical load Q (kN)"]
+    assert axis_range([s.values for s in q_plot.series], q_plot.floor, q_plot.positive)[0] == 0.0
+    bounce = shown["Bogies, car body: bounce z (mm)"]
+    assert np.max(np.abs(run.frame_bounce)) * 1e3 < 0.01  # smooth track: round-off only
+    assert axis_range([s.values for s in bounce.series], bounce.floor)[1] >= 0.1
+    rrd = write_recording(run, tmp_path / "spatial.rrd", rate=math.inf)
+    series = read_series(rrd)
+    np.testing.assert_allclose(series[wheel_load_path(1, "right")][2], run.wheel_loads()[:, 1, 1] / 1e3, rtol=1e-12)
+    np.testing.assert_allclose(series[quotient_path(0, "left")][2], run.derailment_quotients()[:, 0, 0], rtol=1e-12)
+    carbody = run.frame_names.index("carbody")
+    np.testing.assert_allclose(series[frame_roll_path("carbody")][2], run.frame_roll[:, carbody] * 1e3, rtol=1e-12)
+    np.testing.assert_allclose(series[frame_bounce_path("bogie2")][2], run.frame_bounce[:, 1] * 1e3, rtol=1e-12)
+    assert np.max(np.abs(run.frame_roll[:, carbody])) > 1e-5  # the 2 mm start sways the body
