@@ -331,11 +331,14 @@ def _print_summary(result: dict, err: bool = False) -> None:
         say(f"hunting (EN 14363): not assessed, {result['hunting_note']}")
     if result.get("largest_y_over_q") is not None:
         at, low = result["largest_y_over_q_at"], result["smallest_wheel_load_at"]
-        say(f"wheel loads: largest Y/Q {result['largest_y_over_q']:.3f} over {result['y_over_q_window_m']:g} m "
-            f"(limit {result['y_over_q_limit']:g}; peak {result['largest_y_over_q_peak']:.3f}), "
-            f"wheelset {at['wheelset']} {at['wheel']} at x = {at['x_m']:.4g} m; smallest Q "
-            f"{result['smallest_wheel_load_n'] / 1e3:.1f} kN (wheelset {low['wheelset']} {low['wheel']} at "
-            f"x = {low['x_m']:.4g} m)")
+        line = (f"wheel loads ({result['wheel_loads_from']}): largest Y/Q {result['largest_y_over_q']:.3f} over "
+                f"{result['y_over_q_window_m']:g} m (limit {result['y_over_q_limit']:g}; peak "
+                f"{result['largest_y_over_q_peak']:.3f}), wheelset {at['wheelset']} {at['wheel']} at "
+                f"x = {at['x_m']:.4g} m")
+        if result["wheel_loads_from"] != "static share":
+            line += (f"; smallest Q {result['smallest_wheel_load_n'] / 1e3:.1f} kN (wheelset {low['wheelset']} "
+                     f"{low['wheel']} at x = {low['x_m']:.4g} m)")
+        say(line)
     if "csv" in result:
         say(f"samples: {result['csv']}")
     if "rrd" in result:

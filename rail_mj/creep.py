@@ -566,7 +566,7 @@ def _between(lo, hi, t, column):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail):
+def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail, creep_left=(0.0, 0.0), creep_right=(0.0, 0.0)):
     """Each wheel's normal load (N) from the wheelset's vertical and roll equilibrium under
     its axle load: N_L*V_L + N_R*V_R = W, N_L*M_L + N_R*M_R + moment = 0 with V = sum w*cos(g)
     and M = sum w*(l*cos(g) - s*h*sin(g)) over the wheel's points (the roll moment of its
@@ -576,7 +576,9 @@ def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail):
     lateral force the rails' lateral forces balance (docs/spatial.md, wheel loads). Where
     that would have a wheel pull on its rail, one wheel carries the axle alone: the one
     whose own normal force rolls the wheelset onto it (M_L <= 0: the left; M_R >= 0: the
-    right). Returns (N_left, N_right, V_left, V_right)."""
+    right). `creep_left`, `creep_right`: each wheel's creep forces' vertical force and roll
+    moment per unit normal load, added to its V and M (a spatial vehicle's: Nadal's balance).
+    Returns (N_left, N_right, V_left, V_right), V without the creep."""
     v_left = v_right = m_left = m_right = 0.0
     for side in range(2):
         s = 1.0 - 2.0 * side
@@ -592,18 +594,21 @@ def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail):
                 v_left, m_left = v_left + v, m_left + m
             else:
                 v_right, m_right = v_right + v, m_right + m
+    normal_left, normal_right = v_left, v_right
+    v_left, m_left = v_left + creep_left[0], m_left + creep_left[1]
+    v_right, m_right = v_right + creep_right[0], m_right + creep_right[1]
     det = v_left * m_right - v_right * m_left
     n_left = (axle_load * m_right + moment * v_right) / det
     n_right = (-axle_load * m_left - moment * v_left) / det
     if not axle_load > 0.0:
-        return 0.0, 0.0, v_left, v_right
+        return 0.0, 0.0, normal_left, normal_right
     if not (n_left >= 0.0 and n_right >= 0.0):
         left_carries = n_right < 0.0 if about_rail else m_left <= 0.0
         if left_carries:
             n_left, n_right = axle_load / v_left, 0.0
         else:
             n_left, n_right = 0.0, axle_load / v_right
-    return n_left, n_right, v_left, v_right
+    return n_left, n_right, normal_left, normal_right
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -650,8 +655,37 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
         moment -= gyro_roll
     n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load if spatial else axle_load, r0,
                                                      moment if spatial else 0.0, spatial)
+    f = _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning,
+                n_left, n_right)
+    if spatial and (f[7] != 0.0 or f[8] != 0.0):
+        # Nadal's balance: the creep forces' vertical parts (large on a steep flange) belong in the
+        # wheelset's equilibrium, and they grow with the loads they act under. Taken per unit
+        # normal load from a first evaluation, they enter the balance once more: exact where the
+        # creep saturates (mu*N), to the creep's N^(2/3) growth where it does not.
+        creep_left = (f[7] / n_left, f[9] / n_left) if n_left > 0.0 else (0.0, 0.0)
+        creep_right = (f[8] / n_right, f[10] / n_right) if n_right > 0.0 else (0.0, 0.0)
+        n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load, r0, moment, True, creep_left, creep_right)
+        f = _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning,
+                    n_left, n_right)
+    # Q: the vertical part of the rails' whole force on each wheel, creep included where the balance
+    # has it (a spatial vehicle); a planar one's normal forces alone, as its balance.
+    q_left, q_right = n_left * v_left, n_right * v_right
+    if spatial:
+        q_left, q_right = q_left + f[7], q_right + f[8]
+    return f[0], f[1], f[2], f[3], f[4], q_left, q_right, f[5], f[6], gyro_yaw
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left,
+            n_right):
+    """Every contact point's forces under the wheels' normal loads (`profiled_contact`): (creep
+    lateral, normal lateral, couple, spin, lead moment, Y_left, Y_right, and per wheel the creep
+    forces' vertical force and roll moment about the rail level under the wheelset's centre:
+    Fz_left, Fz_right, Mx_left, Mx_right). A point's creep force in its contact plane, across the
+    rolling direction, has the track components (cos(g), s*sin(g)) (the plane's tangent)."""
     creep_lateral = normal_lateral = couple = spin = lead_moment = 0.0
     y_left = y_right = 0.0
+    fz_left = fz_right = mx_left = mx_right = 0.0
     for side in range(2):
         s = 1.0 - 2.0 * side
         wheel = n_left if side == 0 else n_right
@@ -696,17 +730,22 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
             pushed = -s * normal * sin_g if gravity else 0.0
             creep_lateral += lateral
             normal_lateral += pushed
+            vertical = s * scale * fy * sin_g
+            roll = lever * vertical + rise * lateral  # y*Fz - z*Fy, the point at z = -rise
             if side == 0:
                 y_left += lateral + pushed
+                fz_left += vertical
+                mx_left += roll
             else:
                 y_right += lateral + pushed
+                fz_right += vertical
+                mx_right += roll
             couple -= lever * scale * fx
             spin += scale * mz * cos_g
             # Where the point lies along the track: a yawed wheel touches a straight rail
             # ahead of its axle by r*tan(g) (see _flange_lead), its centre sits l*psi behind.
             lead_moment += psi * (s * r * math.tan(g) - lever) * (lateral + pushed)
-    return (creep_lateral, normal_lateral, couple, spin, lead_moment, n_left * v_left, n_right * v_right,
-            y_left, y_right, gyro_yaw)
+    return creep_lateral, normal_lateral, couple, spin, lead_moment, y_left, y_right, fz_left, fz_right, mx_left, mx_right
 
 
 @numba.njit(cache=True, nogil=True)  # summaries on one thread while another steps

@@ -316,3 +316,38 @@ def test_sliding_mean_of_a_sinusoid():
         a = np.pi * 2.0 / wavelength
         assert np.max(np.abs(mean)) == pytest.approx(np.sin(a) / a, rel=2e-3)
     np.testing.assert_allclose(sliding_mean(np.full((100, 2), 3.0), x[:100], 2.0), 3.0, rtol=1e-12)
+
+
+def test_a_climbing_flange_meets_nadal():
+    """A spatial wheelset's balance has the creep forces' vertical parts (Nadal's): its left wheel
+    alone on its flange at angle g, yawed into the rail so that the friction, saturated at mu*N
+    and wholly across the rolling direction (no longitudinal creepage there, no spin), pushes the
+    wheel up the flange, carries Y/Q = (tan g - mu)/(1 + mu*tan g) (Nadal, 1908) and the two
+    wheels' Q still sum to the axle load (both to round-off: the friction is saturated, where the
+    two-pass balance is exact)."""
+    from rail_mj import tables as T
+
+    data = tomllib.loads((MODELS / "manchester-coach-spatial" / "manchester-coach-spatial.toml").read_text())
+    data["profiles"]["spin_creep"] = False
+    data["creep"]["law"] = "shen-hedrick-elkins"  # exactly mu*N past three times the limit
+    layout = layout_from_dict(data)
+    model = Vehicle(layout).model
+    p = contact_parameters(model, 1)
+    geo, mu = p.geometry, layout.creep.friction
+    y = 0.0063  # the left wheel on its flange alone (slot 1, weight 1), the right on its tread
+    rows = geo[1:int(geo[0, T.HEADER_ROWS]) + 1]
+    column = lambda k: np.interp(y / T.MM, rows[:, T.Y], rows[:, k])  # noqa: E731
+    flange = T.FIRST_POINT + 1 * T.POINT
+    assert column(flange + T.WEIGHT) == pytest.approx(1.0)
+    g = column(flange + T.ANGLE)
+    rise, lever = column(flange + T.RADIUS) * T.MM, column(flange + T.LEVER) * T.MM
+    speed, psi = 30.0, 0.05  # nose-left: the left wheel's front into the left rail
+    psi_dot = -rise * speed / (layout.wheelset.rolling_radius * lever)  # xi_x = -rise/r0 - l*psi'/V = 0
+    axle = 2 * layout.wheelset.wheel_load
+    f = contact_forces(p, np.array([y]), np.array([psi]), np.zeros(1), np.array([psi_dot]), speed,
+                       np.array([axle]), np.zeros(1), layout.wheelset.wheel_load)
+    outward = -f.lateral_left[0] / f.load_left[0]
+    nadal = (np.tan(g) - mu) / (1 + mu * np.tan(g))
+    assert outward == pytest.approx(nadal, rel=1e-9)
+    assert f.load_left[0] + f.load_right[0] == pytest.approx(axle, rel=1e-12)
+    assert np.degrees(g) > 65.0 and nadal < 0.5 * np.tan(g)  # a steep flange, and friction matters
