@@ -244,16 +244,21 @@ WHEELS = ("left", "right")
 
 def sliding_mean(values: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
     """The mean of `values` (samples along axis 0, at distances `x`, m) over `window` metres of
-    track centred on each sample, as EN 14363 processes Y/Q; NaN wherever the window holds a NaN
-    (a wheel off its rail). Shorter than the window at the run's ends (the whole run if shorter)."""
+    track centred on each sample, as EN 14363 processes Y/Q; NaN where the window holds a NaN (a
+    wheel off its rail), and only there. At the run's ends the end values stand for the track
+    beyond (the whole run if it is shorter than the window)."""
     step = float(x[1] - x[0]) if len(x) > 1 else 0.0
     n = max(1, int(round(window / step))) if step > 0 else 1
     n = min(n, len(values))
     half = n // 2
     padded = np.concatenate([np.repeat(values[:1], half, axis=0), values,
                              np.repeat(values[-1:], n - 1 - half, axis=0)])
-    cumulative = np.concatenate([np.zeros((1,) + values.shape[1:]), np.cumsum(padded, axis=0)])
-    return (cumulative[n:] - cumulative[:-n]) / n
+    missing = np.isnan(padded)
+    zero = np.zeros((1,) + values.shape[1:])
+    total = np.concatenate([zero, np.cumsum(np.where(missing, 0.0, padded), axis=0)])
+    holes = np.concatenate([zero, np.cumsum(missing, axis=0)])
+    mean = (total[n:] - total[:-n]) / n
+    return np.where(holes[n:] - holes[:-n] > 0, np.nan, mean)
 
 
 def wheel_safety(run: Run) -> dict:

@@ -453,13 +453,15 @@ def _fastsim_wheel(p, xi_x, xi_y, xi_sp, q):
 
 
 @numba.njit(cache=True)
-def cone_wheel_loads(load, moment, b):
+def cone_wheel_loads(load, moment, b, y):
     """Each wheel's vertical load (N) on coned wheels from the wheelset's axle load `load` (N)
     and the roll moment `moment` (N m, positive rolling it to the left, i.e. about +x) of every
-    other force on it about the rail level under its centre (docs/spatial.md, wheel loads):
-    Q_left + Q_right = load, b*(Q_left - Q_right) + moment = 0. A wheel that would pull on
-    its rail lifts: the other carries the axle."""
-    q_left = 0.5 * load - 0.5 * moment / b
+    other force on it about the rail level under its centre (docs/spatial.md, wheel loads).
+    The knife-edge rails stay at +/-b from the track's centre, so with the wheelset shifted by
+    y their levers are b - y and b + y: Q_left + Q_right = load,
+    b*(Q_left - Q_right) - y*load + moment = 0. A wheel that would pull on its rail lifts: the
+    other carries the axle."""
+    q_left = 0.5 * load + 0.5 * (y * load - moment) / b
     q_right = load - q_left
     if not load > 0.0:
         return 0.0, 0.0
@@ -529,7 +531,7 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, loa
         if spin_inertia > 0.0:  # the kinematic roll of a coned wheelset: lam*y/b
             gyro_yaw, gyro_roll = gyroscopic(spin_inertia, speed / p[_R0], p[_LAM] / p[_B] * y_dot, psi_dot)
             moment -= gyro_roll
-        wheel_left, wheel_right = cone_wheel_loads(load, moment, p[_B])
+        wheel_left, wheel_right = cone_wheel_loads(load, moment, p[_B], y)
         q_left, q_right = wheel_left / nominal, wheel_right / nominal
     if law == FASTSIM:  # each wheel's contact ellipse through Kalker's FASTSIM
         fx_left, y_left, mz_left = _fastsim_wheel(p, xi_left, xi_y, xi_sp, q_left)

@@ -33,7 +33,7 @@ import numpy as np
 from rail_mj.creep import GPA, ContactParameters, wheelset_forces
 from rail_mj.model import (NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE, NUMERIC_GEOMETRY, NUMERIC_SATURATION,
                            NUMERIC_WHEEL)
-from rail_mj.loads import AxleLoads
+from rail_mj.loads import AxleLoads, ShearCouples
 from rail_mj.tables import COLUMNS
 
 
@@ -76,6 +76,7 @@ class CreepForces:
         self.params = contact_parameters(model, len(self.body_ids))
         n, nv = len(self.body_ids), model.nv
         self.loads = AxleLoads.of(model, wheelset_names)  # a spatial vehicle's: Q from its suspension
+        self.couples = ShearCouples.of(model)  # and its frames' shear couples
         self._jacp = np.zeros((n, 3, nv))
         self._jacr = np.zeros((n, 3, nv))
 
@@ -97,6 +98,8 @@ class CreepForces:
         else:
             load, moment = self.loads.evaluate(model, data.ten_length, data.ten_velocity)
             fy, mz = wheelset_forces(self.params, *states, self.speed, load, moment, **self.loads.contact())
+        if self.couples is not None:
+            data.qfrc_passive += self.couples.forces(model, data.ten_length, data.ten_velocity)
         data.qfrc_passive += fy @ jy + mz @ jpsi  # J^T [Fy, Mz] over every wheelset
 
 

@@ -32,7 +32,85 @@ import numpy as np
 # then, when the bogies' axleboxes differ ([bogies.N.axlebox]), each wheelset's axlebox half spacing and
 # height (2 per wheelset, wheelset 1 first), which take the place of the two above.
 NUMERIC_LOADS = "rail_mj/loads"
+# Present (one entry, 1): the preloads' shear couples are on (`ShearCouples`, `AxleLoads.shear`).
+NUMERIC_COUPLES = "rail_mj/couples"
 SIDES = {"left": 1.0, "right": -1.0}
+
+
+def tendon_forces(model: mujoco.MjModel, ids, lengths: np.ndarray, rates: np.ndarray) -> np.ndarray:
+    """Spring and damper forces of fixed tendons (no deadband) from their lengths and rates:
+    f = -k*(L - L0) - c*L', positive pushing the upper body up (or along +x, +y)."""
+    return (-model.tendon_stiffness[ids] * (lengths[..., ids] - model.tendon_lengthspring[ids, 0])
+            - model.tendon_damping[ids] * rates[..., ids])
+
+
+def _couples_on(model: mujoco.MjModel, prefix: str) -> bool:
+    try:
+        model.numeric(prefix + NUMERIC_COUPLES)
+    except KeyError:
+        return False
+    return True
+
+
+def _elements(names) -> dict[str, tuple[str, str]]:
+    """Tendon triples <lower>_<upper>_<side>_x|y|z by their z tendon: {z name: (lower, stem)}."""
+    out = {}
+    for name in names:
+        stem, _, axis = name.rpartition("_")
+        side = stem.rpartition("_")[2]
+        if axis == "z" and side in SIDES and f"{stem}_y" in names and f"{stem}_x" in names:
+            out[name] = (stem.partition("_")[0], stem)
+    return out
+
+
+@dataclasses.dataclass(frozen=True)
+class ShearCouples:
+    """The couples of the springs' preloads when the springs shear (docs/spatial.md, "Shear
+    couples"): a spring carrying P between a lower body A and an upper body B, its upper seat
+    moved by (dx, dy) from its lower one (the element's x and y tendon lengths), passes its load
+    to A at the upper seat, not at A's own: the couple -P*dy about x and P*dx about y on A, which
+    the linear tendons (their forces at each body's own point) leave out. For a bogie frame under
+    the car body that is a roll and pitch moment on the frame (here); for a wheelset under its
+    frame, a roll moment the rails take (`AxleLoads.shear`).
+
+    Example:
+
+        >>> from rail_mj.layout import load_layout
+        >>> from rail_mj.model import Vehicle
+        >>> model = Vehicle(load_layout("tests/data/manchester-coach-spatial.toml")).model
+        >>> ShearCouples.of(model).elements[0]
+        ('bogie1_carbody_left_z', 'bogie1_carbody_left_y', 'bogie1_carbody_left_x', 'bogie1_roll', 'bogie1_pitch')
+    """
+
+    elements: tuple[tuple[str, str, str, str, str], ...]  # (z, y, x tendon, lower roll joint, lower pitch joint)
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, prefix: str = "") -> "ShearCouples | None":
+        if not _couples_on(model, prefix):
+            return None
+        names = {model.tendon(t).name.removeprefix(prefix) for t in range(model.ntendon)}
+        joints = {model.joint(j).name.removeprefix(prefix) for j in range(model.njnt)}
+        elements = []
+        for z, (lower, stem) in sorted(_elements(names).items()):
+            if f"{lower}_roll" in joints and f"{lower}_pitch" in joints:
+                elements.append((z, f"{stem}_y", f"{stem}_x", f"{lower}_roll", f"{lower}_pitch"))
+        return cls(tuple(elements))
+
+    def rows(self, model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
+        """(n, 5): z, y, x tendon ids and the lower body's roll and pitch dofs in `model`."""
+        return np.array([(model.tendon(prefix + z).id, model.tendon(prefix + y).id, model.tendon(prefix + x).id,
+                          model.joint(prefix + roll).dofadr[0], model.joint(prefix + pitch).dofadr[0])
+                         for z, y, x, roll, pitch in self.elements], dtype=np.float64).reshape(-1, 5)
+
+    def forces(self, model: mujoco.MjModel, lengths: np.ndarray, rates: np.ndarray) -> np.ndarray:
+        """The generalized forces (nv,) of the couples at tendon lengths and rates (ntendon,)."""
+        out = np.zeros(model.nv)
+        rows = self.rows(model).astype(int)
+        if len(rows):
+            load = tendon_forces(model, rows[:, 0], lengths, rates)
+            np.add.at(out, rows[:, 3], -load * lengths[rows[:, 1]])
+            np.add.at(out, rows[:, 4], load * lengths[rows[:, 2]])
+        return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +132,8 @@ class AxleLoads:
     tendons: tuple[tuple[tuple[str, float, float], ...], ...]  # per wheelset: (tendon, on P, on M)
     spin_inertia: float = 0.0  # kg m^2, I_y for the gyroscopic terms; 0: off
     cone_gravity: bool = False  # the normal forces' lateral parts on coned wheels (rail_mj.creep)
+    # Per wheelset: its axleboxes' (z, y) tendons whose shear couples -P*dy it carries (M); empty: off.
+    shear: tuple[tuple[tuple[str, str], ...], ...] = ()
 
     @classmethod
     def of(cls, model: mujoco.MjModel, wheelset_names, prefix: str = "") -> "AxleLoads | None":
@@ -81,7 +161,12 @@ class AxleLoads:
                 elif side in SIDES and axis == "y":
                     mine.append((name, 0.0, height))
             tendons.append(tuple(mine))
-        return cls(float(weight), float(nominal), tuple(tendons), float(spin), bool(gravity))
+        shear = ()
+        if _couples_on(model, prefix):
+            elements = _elements(set(names))
+            shear = tuple(tuple((z, f"{stem}_y") for z, (lower, stem) in sorted(elements.items()) if lower == w)
+                          for w in wheelset_names)
+        return cls(float(weight), float(nominal), tuple(tendons), float(spin), bool(gravity), shear)
 
     def contact(self) -> dict:
         """The keywords `rail_mj.creep.contact_forces` takes besides the loads."""
@@ -92,6 +177,12 @@ class AxleLoads:
         return np.array([(model.tendon(prefix + name).id, a, b) for name, a, b in self.tendons[wheelset]],
                         dtype=np.float64).reshape(-1, 3)
 
+    def shear_rows(self, model: mujoco.MjModel, wheelset: int, prefix: str = "") -> np.ndarray:
+        """(n, 2): the z and y tendon ids in `model` of the wheelset's shear couples."""
+        pairs = self.shear[wheelset] if self.shear else ()
+        return np.array([(model.tendon(prefix + z).id, model.tendon(prefix + y).id) for z, y in pairs],
+                        dtype=np.float64).reshape(-1, 2)
+
     def evaluate(self, model: mujoco.MjModel, lengths: np.ndarray, rates: np.ndarray, prefix: str = ""):
         """(P, M), each (..., n_wheelsets), from tendon lengths and rates (..., ntendon) of
         `model` (MuJoCo's data.ten_length and ten_velocity, or recorded)."""
@@ -100,8 +191,11 @@ class AxleLoads:
         for i in range(len(self.tendons)):
             rows = self.rows(model, i, prefix)
             ids = rows[:, 0].astype(int)
-            force = (-model.tendon_stiffness[ids] * (lengths[..., ids] - model.tendon_lengthspring[ids, 0])
-                     - model.tendon_damping[ids] * rates[..., ids])
+            force = tendon_forces(model, ids, lengths, rates)
             load[..., i] += force @ rows[:, 1]
             moment[..., i] += force @ rows[:, 2]
+            pairs = self.shear_rows(model, i, prefix).astype(int)
+            if len(pairs):  # the axlebox loads passed on at the frame's seats
+                moment[..., i] -= np.sum(tendon_forces(model, pairs[:, 0], lengths, rates) * lengths[..., pairs[:, 1]],
+                                         axis=-1)
         return load, moment

@@ -651,6 +651,10 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
             own = [] if all(a == (e.spacing, e.height) for a in own) else [v for a in own for v in a]
             spec.add_numeric(name=NUMERIC_LOADS, data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin,
                                                           float(cone_gravity), *own))
+            if layout.spatial.gravitational_stiffness:  # the preloads' shear couples (rail_mj.loads)
+                from rail_mj.loads import NUMERIC_COUPLES
+
+                spec.add_numeric(name=NUMERIC_COUPLES, data=[1.0])
     elif layout.train is not None:
         add_train(spec, layout)
     else:

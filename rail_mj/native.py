@@ -50,7 +50,7 @@ from numba.extending import intrinsic
 from rail_mj.creep import ROWS, profiled_contact, wheelset_contact
 from rail_mj.tables import COLUMNS
 from rail_mj.forces import contact_parameters
-from rail_mj.loads import AxleLoads
+from rail_mj.loads import AxleLoads, ShearCouples
 from rail_mj.model import NUMERIC_NATIVE
 
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
@@ -145,17 +145,21 @@ MAGIC = 7043.03
 # (joint, dof, 1 for a hinge / 0 for a slide); then its weight (N), the nominal wheel load
 # (N), its spin inertia (gyroscopic terms; 0: off), the cones' gravitational stiffness (0/1)
 # and its axlebox tendons (rail_mj.loads): count, then (tendon, on P, on M); count 0: the
-# wheels carry the static load.
+# wheels carry the static load; then its shear couples: count, then (z tendon, y tendon).
+# After the wheelsets, the frames' shear couples (rail_mj.loads.ShearCouples): count, then
+# (z, y, x tendon, roll dof, pitch dof).
 LOADS_HEADER = 5
+COUPLE = 5
 VEHICLE_HEADER = 6
 _SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE)
 SPEED = 0  # offset of the speed within a vehicle's entries
 
 
 def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0, loads=None,
-                  prefix: str = "") -> np.ndarray:
+                  prefix: str = "", couples=None) -> np.ndarray:
     """One vehicle's entries of the block: see VEHICLE_HEADER. `loads`: its AxleLoads
-    (rail_mj.loads), its tendons named in `model` under `prefix`; None: static loads."""
+    (rail_mj.loads), its tendons named in `model` under `prefix`; None: static loads.
+    `couples`: its frames' ShearCouples, or None."""
     table, geometry = params.table, params.geometry
     entries = [speed, len(wheelset_bodies), params.law, float(params.flange), float(params.falling),
                float(geometry.shape[0])]
@@ -178,6 +182,10 @@ def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float =
             rows = loads.rows(model, i, prefix)
             entries += [loads.weight, loads.nominal, loads.spin_inertia, float(loads.cone_gravity),
                         float(len(rows))] + list(rows.reshape(-1))
+        pairs = loads.shear_rows(model, i, prefix) if loads is not None else np.zeros((0, 2))
+        entries += [float(len(pairs))] + list(pairs.reshape(-1))
+    rows = couples.rows(model, prefix) if couples is not None else np.zeros((0, COUPLE))
+    entries += [float(len(rows))] + list(rows.reshape(-1))
     return np.asarray(entries, dtype=np.float64)
 
 
@@ -191,7 +199,8 @@ def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
     parameters read from the model's named numerics, no speed yet."""
     names = [f"wheelset{i + 1}" for i in range(n_wheelsets)]
     bodies = [model.body(name).id for name in names]
-    return block([vehicle_block(model, bodies, contact_parameters(model, n_wheelsets), loads=AxleLoads.of(model, names))])
+    return block([vehicle_block(model, bodies, contact_parameters(model, n_wheelsets), loads=AxleLoads.of(model, names),
+                                couples=ShearCouples.of(model))])
 
 
 def _block_of(model: mujoco.MjModel) -> np.ndarray:
@@ -212,6 +221,8 @@ def vehicle_starts(model: mujoco.MjModel) -> list[int]:
         for _ in range(n):
             k += 2 + 3 * int(data[k + 1])
             k += LOADS_HEADER + 3 * int(data[k + LOADS_HEADER - 1])
+            k += 1 + 2 * int(data[k])
+        k += 1 + COUPLE * int(data[k])
     return starts
 
 
@@ -270,6 +281,12 @@ def _wheelset_rates(chain, n, qvel, xpos, xanchor, xaxis, body):
     return vy, wz
 
 
+@numba.njit(cache=True, inline="always")
+def _tendon_force(stiffness, damping, springlength, length, velocity, t):
+    """A fixed tendon's spring and damper force (no deadband), as rail_mj.loads.tendon_forces."""
+    return -stiffness[t] * (length[t] - springlength[2 * t]) - damping[t] * velocity[t]
+
+
 @numba.njit(cache=True)
 def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, off_springlength, off_qvel, off_xpos,
            off_xmat, off_xanchor, off_xaxis, off_length, off_velocity, off_force):
@@ -311,11 +328,15 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
             if tendons:  # a spatial vehicle: its axle load and roll moment (rail_mj.loads)
                 load = weight
                 for c in range(tendons):
-                    t = int(block[k + 3 * c])
-                    f = -stiffness[t] * (length[t] - springlength[2 * t]) - damping[t] * velocity[t]
+                    f = _tendon_force(stiffness, damping, springlength, length, velocity, int(block[k + 3 * c]))
                     load += block[k + 3 * c + 1] * f
                     moment += block[k + 3 * c + 2] * f
                 k += 3 * tendons
+            pairs = int(block[k])
+            for c in range(pairs):  # the axlebox loads passed on at the frame's seats (rail_mj.loads)
+                z, lateral = int(block[k + 1 + 2 * c]), int(block[k + 2 + 2 * c])
+                moment -= _tendon_force(stiffness, damping, springlength, length, velocity, z) * length[lateral]
+            k += 1 + 2 * pairs
             if speed <= 0.0:
                 continue  # no speed set: no rolling, no creep
             y = xpos[3 * body + 1]
@@ -339,6 +360,13 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
                     force[dof] += ax * (-rz * fy) + az * (mz + rx * fy)
                 else:
                     force[dof] += ay * fy
+        couples = int(block[k])
+        for c in range(couples):  # the frames' shear couples (rail_mj.loads.ShearCouples)
+            e = k + 1 + COUPLE * c
+            load = _tendon_force(stiffness, damping, springlength, length, velocity, int(block[e]))
+            force[int(block[e + 3])] -= load * length[int(block[e + 1])]
+            force[int(block[e + 4])] += load * length[int(block[e + 2])]
+        k += 1 + COUPLE * couples
 
 
 _CALLBACK = None

@@ -32,7 +32,7 @@ from mujoco import rollout
 from rail_mj.creep import ContactForces, contact_forces
 from rail_mj.forces import CreepForces, contact_parameters, installed
 from rail_mj.layout import Layout
-from rail_mj.loads import AxleLoads
+from rail_mj.loads import AxleLoads, ShearCouples
 from rail_mj.practice import DERAILMENT_LATERAL
 from rail_mj.linear import modal_roots, state_matrix
 from rail_mj.model import NUMERIC_GEOMETRY, YAW, Vehicle
@@ -667,7 +667,7 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
         bodies = [model.body(f"v{k}/{w}").id for w in vehicle.wheelset_names]
         loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
         entries.append(native.vehicle_block(model, bodies, contact_parameters(vehicle.model, len(bodies)), speed,
-                                            loads, prefix=f"v{k}/"))
+                                            loads, prefix=f"v{k}/", couples=ShearCouples.of(vehicle.model)))
     native_numeric.data = native.block(entries).tolist()
     model = compile_spec(parent, layout)
     places = []
