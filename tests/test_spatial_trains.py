@@ -61,12 +61,13 @@ def test_uncoupled_spatial_coaches_keep_one_coachs_eigenvalues(speed):
     assert matched_error(two, np.concatenate([one, one])) < 1e-6
 
 
-def hand_train_stiffness(layout, model) -> np.ndarray:
+def hand_train_stiffness(layout, model, kind: str = "k") -> np.ndarray:
     """K = sum k a a^T from the layout alone (docs/spatial.md's point motion, docs/trains.md's
     couplings): each axlebox between its wheelset (lateral, yaw) and frame; each secondary spring
-    between its frame and every body the bogie carries, with 1/(number of bodies) of its k; each
-    coupling's lateral tendon (the rear body's point at the coupling against the front's) and yaw
-    tendon."""
+    (and anti-roll bar) between its frame and every body the bogie carries, with 1/(number of
+    bodies) of its k; each coupling's lateral tendon (the rear body's point at the coupling against
+    the front's) and yaw tendon. kind = "c": the damping matrix, the secondary lateral and yaw
+    dampers shared alike."""
     sp, train, r0 = layout.spatial, layout.train, layout.wheelset.rolling_radius
     K = np.zeros((model.nv, model.nv))
 
@@ -85,14 +86,25 @@ def hand_train_stiffness(layout, model) -> np.ndarray:
         for j, xw in enumerate(layout.bogie.wheelset_positions):
             w = (f"wheelset{(i - 1) * n + j + 1}", (xb + xw, 0, r0), False)
             for s in (1, -1):
-                element((xb + xw, s * e.spacing, e.height), w, frame, (e.kx, e.ky, e.kz))
+                element((xb + xw, s * e.spacing, e.height), w, frame, [getattr(e, kind + a) for a in "xyz"])
         on = [k for k, car in enumerate(train.cars, start=1) if i in car.bogies]
         e = sp.secondary
         for k in on:
             car = train.cars[k - 1]
             body = (f"carbody{k}", (car.position, 0, car.height), True)
+            share = 1.0 / len(on)
             for s in (1, -1):
-                element((xb, s * e.spacing, e.height), frame, body, tuple(v / len(on) for v in (e.kx, e.ky, e.kz)))
+                element((xb, s * e.spacing, e.height), frame, body, [share * getattr(e, kind + a) for a in "xyz"])
+            if kind == "c" and sp.lateral_damper:
+                element((xb, 0, sp.lateral_damper.height), frame, body, (0.0, share * sp.lateral_damper.c, 0.0))
+            if kind == "c" and sp.yaw_damper:
+                for s in (1, -1):
+                    element((xb, s * sp.yaw_damper.spacing, sp.yaw_damper.height), frame, body,
+                            (share * sp.yaw_damper.c, 0.0, 0.0))
+            if kind == "k" and sp.anti_roll_bar:
+                a = np.zeros(model.nv)
+                a[dof(model, f"carbody{k}_roll")], a[dof(model, f"bogie{i}_roll")] = 1.0, -1.0
+                K[:] += share * sp.anti_roll_bar * np.outer(a, a)
     for c in train.couplings:
         (f, front), (r, rear) = ((k, train.cars[k - 1]) for k in c.cars)
         x = ((front.position - front.length / 2) + (rear.position + rear.length / 2)) / 2
@@ -101,10 +113,10 @@ def hand_train_stiffness(layout, model) -> np.ndarray:
         a[dof(model, f"carbody{r}_yaw")] += x - rear.position
         a[dof(model, f"carbody{f}_lateral")] -= 1.0
         a[dof(model, f"carbody{f}_yaw")] -= x - front.position
-        K[:] += c.lateral_stiffness * np.outer(a, a)
+        K[:] += (c.lateral_stiffness if kind == "k" else c.lateral_damping) * np.outer(a, a)
         a = np.zeros(model.nv)
         a[dof(model, f"carbody{r}_yaw")], a[dof(model, f"carbody{f}_yaw")] = 1.0, -1.0
-        K[:] += c.yaw_stiffness * np.outer(a, a)
+        K[:] += (c.yaw_stiffness if kind == "k" else c.yaw_damping) * np.outer(a, a)
     return K
 
 
@@ -147,6 +159,25 @@ def test_articulated_pair_stiffness_is_the_hand_assembled_one(gravitational):
     assert np.abs(K_fd - K_hand).max() <= 1e-8 * np.abs(K_hand).max()
     z1, z2 = dof(model, "bogie1_vertical"), dof(model, "bogie2_vertical")
     assert K_fd[z2, z2] == pytest.approx(K_fd[z1, z1], rel=1e-9)
+
+
+def test_articulated_pair_secondary_elements_are_shared():
+    """With the secondary dampers, the anti-roll bar and a bump stop, each shared by the Jacobs bogie's
+    two bodies: the damping matrix (MuJoCo's per unit velocity) and the stiffness are the hand
+    assembly's, 1e-8 of the largest entry, the coupling's damping in; the stop (within its play at
+    q = 0) adds nothing there, and its tendons under the Jacobs bogie have half the end bogies' k."""
+    from test_spatial import ELEMENTS, MANCHESTER_STOP, fd_damping
+
+    data = pair(gravitational_stiffness=False)
+    data["secondary"].update(copy.deepcopy(ELEMENTS), bump_stop=copy.deepcopy(MANCHESTER_STOP))
+    layout = layout_from_dict(data)
+    model = Vehicle(layout).model
+    for measured, kind in ((fd_damping(model), "c"), (fd_stiffness(model), "k")):
+        hand = hand_train_stiffness(layout, model, kind)
+        assert np.abs(measured - hand).max() <= 1e-8 * np.abs(hand).max(), kind
+    k = lambda name: model.tendon_stiffness[model.tendon(name).id]  # noqa: E731
+    assert k("bogie2_carbody1_bump_stop_2") == pytest.approx(k("bogie1_carbody1_bump_stop_2") / 2, rel=1e-6)
+    assert k("bogie2_carbody2_anti_roll_bar") == pytest.approx(k("bogie3_carbody2_anti_roll_bar") / 2, rel=1e-6)
 
 
 def test_preload_is_an_exact_equilibrium_of_the_jacobs_arrangement():
