@@ -231,6 +231,9 @@ class Car:
     position: float  # m, x of the centre along the train
     length: float  # m, over the body ends
     bogies: tuple[int, ...]  # the bogies (1-based, train numbering) that carry it, leading first
+    # A spatial train's: its centre of mass above the rail ([[car]] height, else [spatial]'s
+    # carbody_height; docs/trains.md); None in a planar train.
+    height: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -583,7 +586,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
 
     train = None
     if top.get("train", None, required=False) is not None:
-        carbody, train = _train(top, source, warnings, bogie, wheel_diameter, r0, b)
+        carbody, train = _train(top, source, warnings, bogie, wheel_diameter, r0, b, is_spatial)
     elif top.get("car", None, required=False) is not None or top.get("coupling", None, required=False) is not None:
         top.fail("car" if "car" in top.data else "coupling", "given without [train]: [[car]] and [[coupling]] "
                  "describe the car bodies of a train")
@@ -677,6 +680,8 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         spatial = _spatial(_Table(source, "spatial", top.get("spatial")), top, carbody, bogie, train, primary_spring,
                            secondary_spring if bogie else None, r0)
         spatial = dataclasses.replace(spatial, **secondary_elements, bogies=designs)
+        if train is not None:
+            train = _spatial_train(top, train, spatial)
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
@@ -863,8 +868,6 @@ def _planar_dampers(s: Suspension, elements: dict) -> Suspension:
 def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, train, primary: Spring,
              secondary: Spring | None, r0: float) -> Spatial:
     """[spatial], checked: a free car body on bogies, the heights of the centres of mass."""
-    if train is not None:
-        top.fail("spatial", "not yet with [train]: a spatial model is built for one car body on its bogies")
     if bogie is None:
         top.fail("spatial", "needs [bogie]: a spatial vehicle is a car body on bogies")
     if carbody.fixed:
@@ -881,12 +884,25 @@ def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, trai
                                  f"got {spatial.carbody_height:g} m")
     return spatial
 
+
+def _spatial_train(t: _Table, train: Train, spatial: Spatial) -> Train:
+    """A spatial train's cars with their heights: [[car]] height, else [spatial] carbody_height,
+    none below bogie_height (docs/trains.md)."""
+    cars = []
+    for k, car in enumerate(train.cars, start=1):
+        height = spatial.carbody_height if car.height is None else car.height
+        if height < spatial.bogie_height:
+            t.fail(f"car[{k}].height" if car.height is not None else "spatial.carbody_height",
+                   f"must not be below spatial.bogie_height ({spatial.bogie_height:g} m), got {height:g} m")
+        cars.append(dataclasses.replace(car, height=height))
+    return dataclasses.replace(train, cars=tuple(cars))
+
 # Two body ends nearer than this overlap (m): an articulated set's ends meet over the Jacobs bogie.
 END_TOLERANCE = 1e-6
 
 
 def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, wheel_diameter: float,
-           r0: float, b: float) -> tuple[CarBody, Train]:
+           r0: float, b: float, is_spatial: bool = False) -> tuple[CarBody, Train]:
     """[train], [[car]] and [[coupling]], checked (docs/trains.md): the train's bogies and the cars
     they carry, one clear line for each bad topology."""
     if bogie is None:
@@ -908,6 +924,9 @@ def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, w
         mass, inertia = t.positive("mass"), t.vector3("inertia")
         position = t.number("position", low=-MAX_POSITION, high=MAX_POSITION)
         length = t.positive("length")
+        if "height" in t.data and not is_spatial:
+            t.fail("height", "needs [spatial]: a planar train's car bodies have no height (docs/trains.md)")
+        height = t.number("height", low=0.0, low_open=True, high=MAX_HEIGHT, required=False) if is_spatial else None
         carried = t.get("bogies")
         if not isinstance(carried, list) or not all(isinstance(i, int) and not isinstance(i, bool) for i in carried):
             t.fail("bogies", f"must be a list of bogie numbers (1 to {len(bogie_x)}), got {_kind(carried)}")
@@ -927,7 +946,7 @@ def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, w
         t.done()
         _practice(_Table(source, "carbody", {}), warnings, mass=mass)
         _inertia_fits(t, mass, inertia, math.hypot(length / 2, 2.0), "car body")
-        cars.append(Car(mass, inertia, position, length, tuple(carried)))
+        cars.append(Car(mass, inertia, position, length, tuple(carried), height))
     for k, (front, rear) in enumerate(zip(cars, cars[1:]), start=1):
         if rear.position >= front.position:
             top.fail(f"car[{k + 1}].position", f"cars must be listed leading first (x decreasing): "

@@ -26,6 +26,7 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from pathlib import Path
 
@@ -351,6 +352,12 @@ def add_train(spec: mujoco.MjSpec, layout: Layout) -> None:
         carried_by = train.cars_on(i)
         for k in carried_by:  # a Jacobs bogie shares [secondary] between its two bodies
             _suspension_tendons(spec, name, f"carbody{k}", x_of, layout.secondary, 1.0 / len(carried_by))
+    _coupling_tendons(spec, train, x_of)
+
+
+def _coupling_tendons(spec, train, x_of: dict[str, float]) -> None:
+    """Each [[coupling]]'s lateral and yaw tendons (docs/trains.md) on the car bodies' lateral and
+    yaw coordinates, which are absolute in a planar and in a spatial train alike."""
     for c in train.couplings:
         front, rear = (f"carbody{k}" for k in c.cars)
         x = train.coupling_x(c)
@@ -415,24 +422,26 @@ def deflections(point, lower: tuple[str, tuple, tuple],
 
 
 def secondary_elements(spec, bogie: str, x: float, frame: tuple[str, tuple, tuple],
-                       carbody: tuple[str, tuple, tuple], sp) -> None:
+                       carbody: tuple[str, tuple, tuple], sp, share: float = 1.0) -> None:
     """The secondary elements of a spatial vehicle besides its springs (`sp`: layout.spatial;
     docs/spatial.md) between a bogie frame at x and the car body, each at its place: tendons
-    <bogie>_carbody_lateral_damper, _left|right_yaw_damper, _anti_roll_bar, _bump_stop_<i>."""
-    name = f"{bogie}_carbody"
+    <bogie>_<carbody>_lateral_damper, _left|right_yaw_damper, _anti_roll_bar, _bump_stop_<i>;
+    `share` of each (a Jacobs bogie's half under each of its two bodies, docs/trains.md)."""
+    name = f"{bogie}_{carbody[0]}"
     if sp.lateral_damper:
         e = sp.lateral_damper
-        _tendon(spec, f"{name}_lateral_damper", deflections((x, 0.0, e.height), frame, carbody)[1], 0.0, e.c)
+        _tendon(spec, f"{name}_lateral_damper", deflections((x, 0.0, e.height), frame, carbody)[1], 0.0,
+                share * e.c)
     if sp.yaw_damper:
         e = sp.yaw_damper
         for side, sign in SIDES:
             longitudinal = deflections((x, sign * e.spacing, e.height), frame, carbody)[0]
-            _tendon(spec, f"{name}_{side}_yaw_damper", longitudinal, 0.0, e.c)
+            _tendon(spec, f"{name}_{side}_yaw_damper", longitudinal, 0.0, share * e.c)
     if sp.anti_roll_bar:
         # A torsion bar's moment is k times the relative roll of the two bodies, wherever its
         # arms and links sit: exactly a tendon on the two roll hinges.
         _tendon(spec, f"{name}_anti_roll_bar", {f"{carbody[0]}_{ROLL}": 1.0, f"{bogie}_{ROLL}": -1.0},
-                sp.anti_roll_bar, 0.0)
+                share * sp.anti_roll_bar, 0.0)
     if sp.bump_stop:
         e = sp.bump_stop
         lateral = deflections((x, 0.0, e.height), frame, carbody)[1]
@@ -440,9 +449,35 @@ def secondary_elements(spec, bogie: str, x: float, frame: tuple[str, tuple, tupl
         # within springlength [lo, hi] and linear outside, so each breakpoint's spring adds its
         # rise of slope from there on (BumpStop.deadbands).
         for i, (play, k) in enumerate(e.deadbands(), start=1):
-            tendon = _tendon(spec, f"{name}_bump_stop_{i}", lateral, k, 0.0)
+            tendon = _tendon(spec, f"{name}_bump_stop_{i}", lateral, share * k, 0.0)
             if tendon is not None:
                 tendon.springlength = _g6(-play, play)
+
+
+def spatial_carbodies(layout: Layout) -> list[tuple[str, tuple, tuple]]:
+    """A spatial vehicle's car bodies as (name, centre (x, 0, height), joints): its one `carbody`, or
+    a spatial train's carbody1, carbody2, ... each at its own x and height (docs/trains.md)."""
+    if layout.train is None:
+        return [("carbody", (0.0, 0.0, layout.spatial.carbody_height), SPATIAL_BODY)]
+    return [(f"carbody{k}", (car.position, 0.0, car.height), SPATIAL_BODY)
+            for k, car in enumerate(layout.train.cars, start=1)]
+
+
+def carried(layout: Layout, bogie: int) -> list[tuple[tuple[str, tuple, tuple], float]]:
+    """The car bodies bogie `bogie` (1-based) carries, each with its share of the secondary
+    elements: the one car body's whole, or on a Jacobs bogie half to each of the two (as add_train)."""
+    bodies = spatial_carbodies(layout)
+    if layout.train is None:
+        return [(bodies[0], 1.0)]
+    on = layout.train.cars_on(bogie)
+    return [(bodies[k - 1], 1.0 / len(on)) for k in on]
+
+
+def _shared(spring, share: float):
+    """`spring` (a Spring) with its stiffness and damping times `share` (itself when 1)."""
+    if share == 1.0:
+        return spring
+    return dataclasses.replace(spring, **{f"{k}{a}": share * getattr(spring, f"{k}{a}") for k in "kc" for a in AXES})
 
 
 def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
@@ -450,14 +485,23 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
     frames children of the world with lateral, yaw, vertical, roll and pitch joints at their centres
     of mass, the wheelsets with lateral and yaw; each spring-damper element one fixed tendon per
     direction (x, y, z), its length the element's linearised deflection. Tendons are named
-    <lower>_<upper>_<side>_<axis>, e.g. wheelset1_bogie1_left_z."""
+    <lower>_<upper>_<side>_<axis>, e.g. wheelset1_bogie1_left_z. A spatial train (docs/trains.md):
+    car bodies carbody1, ... each at its place and height, a Jacobs bogie carrying half of each
+    secondary element under each of its two bodies, the couplings as add_train's."""
     sp, world = layout.spatial, spec.worldbody
-    hc, hb, r0 = sp.carbody_height, sp.bogie_height, layout.wheelset.rolling_radius
-    body = world.add_body(name="carbody", pos=[0, 0, _g6(hc)[0]])
-    _set_inertia(body, layout.carbody.mass, layout.carbody.inertia)
-    _add_spatial_joints(body)
-    add_carbody_shell(body, layout)
-    carbody = ("carbody", (0.0, 0.0, hc), SPATIAL_BODY)
+    hb, r0 = sp.bogie_height, layout.wheelset.rolling_radius
+    train = layout.train
+    for k, (name, (x, _, h), _) in enumerate(spatial_carbodies(layout)):
+        body = world.add_body(name=name, pos=[0, 0, _g6(h)[0]] if train is None else _pos(x, h))
+        if train is None:
+            _set_inertia(body, layout.carbody.mass, layout.carbody.inertia)
+            _add_spatial_joints(body)
+            add_carbody_shell(body, layout)
+        else:
+            car = train.cars[k]
+            _set_inertia(body, car.mass, car.inertia)
+            _add_spatial_joints(body)
+            add_coach_shell(body, name, layout, 0.0, car.length / 2 - END_GAP)
     spring_top = side_frame_heights(layout)[0]
     n = len(layout.bogie.wheelset_positions)  # every bogie's ([bogies.N] keeps it)
     for i, (xb, design) in enumerate(zip(layout.carbody.bogie_positions, sp.bogies), start=1):
@@ -471,10 +515,15 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
                 e = design.axlebox
                 spring_tendons(spec, f"{wheelset}_{name}_{side}", (xb + xw, sign * e.spacing, e.height),
                                (wheelset, (xb + xw, 0.0, r0), SPATIAL_WHEELSET), frame, e)
-        for side, sign in SIDES:
-            e = sp.secondary
-            spring_tendons(spec, f"{name}_carbody_{side}", (xb, sign * e.spacing, e.height), frame, carbody, e)
-        secondary_elements(spec, name, xb, frame, carbody, sp)
+        for carbody, share in carried(layout, i):
+            for side, sign in SIDES:
+                e = sp.secondary
+                spring_tendons(spec, f"{name}_{carbody[0]}_{side}", (xb, sign * e.spacing, e.height), frame,
+                               carbody, _shared(e, share))
+            secondary_elements(spec, name, xb, frame, carbody, sp, share)
+    if train is not None:
+        x_of = {f"carbody{k}": car.position for k, car in enumerate(train.cars, start=1)}
+        _coupling_tendons(spec, train, x_of)
 
 
 def preload(spec: mujoco.MjSpec, model: mujoco.MjModel) -> np.ndarray:
@@ -512,9 +561,9 @@ def tendon_jacobian(model: mujoco.MjModel) -> np.ndarray:
 
 def spatial_elements(layout: Layout):
     """The spring-damper elements of a spatial vehicle, as `add_spatial` joins them and in its
-    order: (name, point, lower, upper, spring), the arguments `spring_tendons` takes."""
+    order: (name, point, lower, upper, spring), the arguments `spring_tendons` takes (a Jacobs
+    bogie's secondary springs once under each of its two bodies, each with half the spring)."""
     sp, r0 = layout.spatial, layout.wheelset.rolling_radius
-    carbody = ("carbody", (0.0, 0.0, sp.carbody_height), SPATIAL_BODY)
     n = len(layout.bogie.wheelset_positions)
     for i, (xb, design) in enumerate(zip(layout.carbody.bogie_positions, sp.bogies), start=1):
         frame = (f"bogie{i}", (xb, 0.0, sp.bogie_height), SPATIAL_BODY)
@@ -524,9 +573,10 @@ def spatial_elements(layout: Layout):
             for side, sign in SIDES:
                 point = (xb + xw, sign * e.spacing, e.height)
                 yield f"{wheelset[0]}_{frame[0]}_{side}", point, wheelset, frame, e
-        for side, sign in SIDES:
-            point = (xb, sign * sp.secondary.spacing, sp.secondary.height)
-            yield f"{frame[0]}_carbody_{side}", point, frame, carbody, sp.secondary
+        for carbody, share in carried(layout, i):
+            for side, sign in SIDES:
+                point = (xb, sign * sp.secondary.spacing, sp.secondary.height)
+                yield f"{frame[0]}_{carbody[0]}_{side}", point, frame, carbody, _shared(sp.secondary, share)
 
 
 def gravitational_stiffness(layout: Layout, forces: dict[str, float]) -> dict[str, float]:

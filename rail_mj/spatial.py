@@ -1,5 +1,7 @@
 """Mode names of a spatial vehicle (docs/spatial.md): the car body's and bogie frames' bounce,
-pitch, roll and lower/upper sway besides the planar names.
+pitch, roll and lower/upper sway besides the planar names. A spatial train's (docs/trains.md) with
+the train's numbering of rail_mj.trains: `car body K bounce`, `car bodies (all) pitch`,
+`bogie K (Jacobs) frame bounce`, and the train's snaking.
 
 The model is flat: every coordinate is absolute, so a body's modal motion is read straight off
 its joints: lateral y, yaw psi, vertical z, roll phi, pitch theta (docs/spatial.md). Each motion's
@@ -21,15 +23,18 @@ ROLL_ABOUT_ITSELF = 0.05
 class SpatialModes:
     """Names and energy shares of a spatial vehicle's modes from their eigenvectors."""
 
-    def __init__(self, layout: Layout, model):
-        self.layout = layout
+    def __init__(self, layout: Layout, model, train_modes=None):
+        """`train_modes`: a spatial train's rail_mj.trains.TrainModes (its snaking test)."""
+        self.layout, self.train_modes = layout, train_modes
         dof = lambda body, m: int(model.joint(f"{body}_{m}").dofadr[0])  # noqa: E731
         n = len(layout.bogie.wheelset_positions)
         bogies = [f"bogie{i + 1}" for i in range(len(layout.carbody.bogie_positions))]
-        self.groups = {"carbody": []} | {b: [f"wheelset{i * n + j + 1}" for j in range(n)]
-                                          for i, b in enumerate(bogies)}
+        train = layout.train
+        self.cars = ["carbody"] if train is None else [f"carbody{k + 1}" for k in range(len(train.cars))]
+        self.groups = {c: [] for c in self.cars} | {b: [f"wheelset{i * n + j + 1}" for j in range(n)]
+                                                    for i, b in enumerate(bogies)}
         self.dofs, self.inertia, self.x, self.half = {}, {}, {}, {}
-        for body in ["carbody", *bogies]:
+        for body in [*self.cars, *bogies]:
             self.dofs[body] = [dof(body, m) for m in MOTIONS]
         for group, wheelsets in self.groups.items():
             for w in wheelsets:
@@ -41,26 +46,35 @@ class SpatialModes:
             self.x[name] = model.body_pos[b][0]
         # Half the length over which a frame's pitch and yaw move its ends (bogie or wheelset spacing).
         xs = layout.carbody.bogie_positions
-        self.half["carbody"] = max(abs(x) for x in xs)
+        if train is None:
+            self.half["carbody"] = max(abs(x) for x in xs)
+        else:  # each car body over its own bogies
+            for c, car in zip(self.cars, train.cars):
+                self.half[c] = max(abs(xs[i - 1] - car.position) for i in car.bogies)
         for b, design in zip(bogies, layout.bogie_designs):  # each bogie's own wheelbase ([bogies.N])
             self.half[b] = max(abs(x) for x in design.wheelset_positions)
-        self.height = {"carbody": layout.spatial.carbody_height, **{b: layout.spatial.bogie_height for b in bogies}}
 
     def energies(self, q: np.ndarray) -> dict[str, np.ndarray]:
         """Each body's kinetic-energy measures per motion (its own coordinates only)."""
         return {body: self.inertia[body][: len(d)] * np.abs(q[d]) ** 2 for body, d in self.dofs.items()}
 
+    def _label(self, body: str) -> str:
+        """`car body`, `bogie K frame`; in a train `car body K` and `bogie K (Jacobs) frame`."""
+        if self.train_modes is not None:
+            return self.train_modes.label(body)
+        return "car body" if body == "carbody" else f"{body.replace('bogie', 'bogie ')} frame"
+
     def name(self, q: np.ndarray, share: dict[str, float], energy: dict[str, np.ndarray]) -> str:
         group_energy = {g: share[g] + sum(share[w] for w in ws) for g, ws in self.groups.items()}
-        # The car body against the whole running gear first (as the planar names do in effect: a
+        # The car bodies against the whole running gear first (as the planar names do in effect: a
         # bogie hunting drags the body, which may then carry more than either bogie alone), then
         # the bogie with most energy.
-        if group_energy["carbody"] >= 1.0 - group_energy["carbody"]:
-            top = "carbody"
-        else:
-            top = max((g for g in group_energy if g != "carbody"), key=group_energy.get)
+        cars = sum(group_energy[c] for c in self.cars)
+        if cars >= 1.0 - cars:
+            return self._car_name(q, share, energy)
+        top = max((g for g in group_energy if g not in self.cars), key=group_energy.get)
         wheelsets = self.groups[top]
-        label = "car body" if top == "carbody" else f"{top.replace('bogie', 'bogie ')} frame"
+        label = self._label(top)
         if wheelsets and sum(share[w] for w in wheelsets) > share[top]:
             relative = sum(self._relative(q, top, w) for w in wheelsets)
             absolute = sum(energy[w].sum() for w in wheelsets)
@@ -69,6 +83,29 @@ class SpatialModes:
                 return f"wheelset {ws} (secondary hunting)"
             return f"{label} {'/'.join(self._planar(top, energy))} (primary hunting)"
         return f"{label} {self._motion(q, top, energy)}"
+
+    def _car_name(self, q, share, energy) -> str:
+        """A car-body mode: one body's motion (`car body bounce`; in a train `car body K bounce`),
+        several bodies moving together (`car bodies (all) bounce`, as rail_mj.trains names them:
+        those with at least SUBSTANTIAL of the top one's energy, the top one's motion), or the
+        train's snaking, when the bodies move in the lateral plane (lateral, yaw, roll above
+        bounce and pitch) and TrainModes calls it snaking."""
+        top = max(self.cars, key=share.get)
+        if self.train_modes is None:
+            return f"{self._label(top)} {self._motion(q, top, energy)}"
+        from rail_mj.trains import SNAKING, SUBSTANTIAL
+
+        planar = {c: (energy[c][0], energy[c][1]) for c in self.cars}
+        lateral_plane = sum(energy[c][0] + energy[c][1] + energy[c][3] for c in self.cars)
+        vertical_plane = sum(energy[c][2] + energy[c][4] for c in self.cars)
+        if lateral_plane > vertical_plane and self.train_modes.snaking(q, share, planar):
+            return SNAKING
+        moving = [k + 1 for k, c in enumerate(self.cars) if share[c] >= SUBSTANTIAL * share[top]]
+        motion = self._motion(q, top, energy)
+        if len(moving) > 1:
+            numbers = ", ".join(map(str, moving)) if len(moving) < len(self.cars) else "all"
+            return f"car bodies ({numbers}) {motion}"
+        return f"{self._label(top)} {motion}"
 
     def _planar(self, body: str, energy) -> tuple[str, str]:
         """('lateral', 'yaw') or ('yaw', 'lateral'): the lateral motion at the centre against that
@@ -90,7 +127,7 @@ class SpatialModes:
         first = self._planar(body, energy)[0]
         if first == YAW or e[3] < 0.05 * e[0]:
             return first
-        if body != "carbody":  # a frame's lateral and roll: no sway names (they are the body's)
+        if body not in self.cars:  # a frame's lateral and roll: no sway names (they are the body's)
             return "lateral/roll"
         y, phi = q[self.dofs[body][0]], q[self.dofs[body][3]]
         centre = (y / phi).real  # u_y = y - phi*r_z vanishes at r_z = y/phi above the centre of mass

@@ -145,16 +145,16 @@ class Stability:
             self._absolute[name] = (jacp[1].copy(), jacr[2].copy())
         self._mass = {n: (model.body(n).mass[0], model.body(n).inertia[2]) for n in self.bodies}
         self._yaw_arm = {n: self._arm(n) for n in self.bodies}
-        self._spatial_modes = None
-        if layout.spatial is not None:
-            from rail_mj.spatial import SpatialModes
-
-            self._spatial_modes = SpatialModes(layout, model)
+        self._spatial_modes = self._train_modes = None
         if layout.train is not None:
             from rail_mj.trains import TrainModes
 
             self._train_modes = TrainModes(layout, self.model, self._absolute, self._mass)
             self._yaw_arm.update(self._train_modes.arms())
+        if layout.spatial is not None:  # a spatial train's names: both (docs/trains.md)
+            from rail_mj.spatial import SpatialModes
+
+            self._spatial_modes = SpatialModes(layout, model, self._train_modes)
 
     @property
     def equivalent_conicity(self) -> float:

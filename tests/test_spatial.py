@@ -26,6 +26,23 @@ def dof(model, joint: str) -> int:
     return int(model.joint(joint).dofadr[0])
 
 
+def point_motion_rows(model, body: str, r, has_vertical: bool) -> list[np.ndarray]:
+    """The displacement (x, y, z) of the point at r from `body`'s centre of mass as rows over the
+    model's dofs: translation + (roll, pitch, yaw) x r (docs/spatial.md); a wheelset (not
+    `has_vertical`) only its lateral and yaw."""
+    rx, ry, rz = r
+    rows = [{"pitch": rz, "yaw": -ry}, {"lateral": 1.0, "yaw": rx, "roll": -rz},
+            {"vertical": 1.0, "roll": ry, "pitch": -rx}]
+    out = []
+    for row in rows:
+        a = np.zeros(model.nv)
+        for m, c in row.items():
+            if has_vertical or m in ("lateral", "yaw"):
+                a[dof(model, f"{body}_{m}")] += c
+        out.append(a)
+    return out
+
+
 def hand_stiffness(layout, model, kind="k") -> np.ndarray:
     """K = sum over elements, sides and axes of k * a a^T, a the deflection's coefficients: the
     upper body's point motion minus the lower's, each translation + (roll, pitch, yaw) x r, written
@@ -36,17 +53,7 @@ def hand_stiffness(layout, model, kind="k") -> np.ndarray:
     sp, K = layout.spatial, np.zeros((model.nv, model.nv))
 
     def motion(body, r, has_vertical):
-        rx, ry, rz = r
-        rows = [{"pitch": rz, "yaw": -ry}, {"lateral": 1.0, "yaw": rx, "roll": -rz},
-                {"vertical": 1.0, "roll": ry, "pitch": -rx}]
-        out = []
-        for row in rows:
-            a = np.zeros(model.nv)
-            for m, c in row.items():
-                if has_vertical or m in ("lateral", "yaw"):
-                    a[dof(model, f"{body}_{m}")] += c
-            out.append(a)
-        return out
+        return point_motion_rows(model, body, r, has_vertical)
 
     def element(point, lower, upper, e):
         (lo, lo_c, lo_full), (up, up_c, up_full) = lower, upper
