@@ -613,6 +613,12 @@ def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail, creep_left=(0.0,
     return n_left, n_right, normal_left, normal_right
 
 
+# In Nadal's balance (`profiled_contact`), a wheel whose creep would take away more than this share
+# of its normal forces' vertical part (friction holding it down on a steep flange) is balanced
+# without its creep.
+NADAL_FLOOR = 0.5
+
+
 @numba.njit(cache=True, error_model="numpy")
 def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0,
                      spin_inertia=0.0):
@@ -659,21 +665,30 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
                                                      moment if spatial else 0.0, spatial)
     f = _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning,
                 n_left, n_right)
-    if spatial and (f[7] != 0.0 or f[8] != 0.0):
-        # Nadal's balance: the creep forces' vertical parts (large on a steep flange) belong in the
-        # wheelset's equilibrium, and they grow with the loads they act under. Taken per unit
-        # normal load from a first evaluation, they enter the balance once more: exact where the
-        # creep saturates (mu*N), to the creep's N^(2/3) growth where it does not.
-        creep_left = (f[7] / n_left, f[9] / n_left) if n_left > 0.0 else (0.0, 0.0)
-        creep_right = (f[8] / n_right, f[10] / n_right) if n_right > 0.0 else (0.0, 0.0)
+    # Nadal's balance (a spatial vehicle): the creep forces' vertical parts (large on a steep
+    # flange) belong in the wheelset's equilibrium, and they grow with the loads they act under.
+    # Taken per unit normal load from a first evaluation, they enter the balance once more: exact
+    # where the creep saturates (mu*N), to the creep's N^(2/3) growth where it does not. Where
+    # friction holds a wheel down on a steep flange harder than NADAL_FLOOR of its normal forces'
+    # vertical part (mu*tan(g) past it: the flange's wedge, which a rigid rail and a held
+    # wheelset cannot resolve), that wheel's balance leaves its creep out, as a planar one does.
+    creep_left = creep_right = (0.0, 0.0)
+    if spatial and n_left > 0.0 and f[7] / n_left >= -NADAL_FLOOR * v_left:
+        creep_left = (f[7] / n_left, f[9] / n_left)
+    if spatial and n_right > 0.0 and f[8] / n_right >= -NADAL_FLOOR * v_right:
+        creep_right = (f[8] / n_right, f[10] / n_right)
+    nadal = (creep_left[0] != 0.0 or creep_left[1] != 0.0 or creep_right[0] != 0.0 or creep_right[1] != 0.0)
+    if nadal:
         n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load, r0, moment, True, creep_left, creep_right)
         f = _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning,
                     n_left, n_right)
     # Q: the vertical part of the rails' whole force on each wheel, creep included where the balance
-    # has it (a spatial vehicle); a planar one's normal forces alone, as its balance.
+    # has it; otherwise the normal forces' alone, as the balance.
     q_left, q_right = n_left * v_left, n_right * v_right
-    if spatial:
-        q_left, q_right = q_left + f[7], q_right + f[8]
+    if creep_left != (0.0, 0.0):
+        q_left += f[7]
+    if creep_right != (0.0, 0.0):
+        q_right += f[8]
     return f[0], f[1], f[2], f[3], f[4], q_left, q_right, f[5], f[6], gyro_yaw
 
 

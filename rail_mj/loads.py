@@ -88,8 +88,8 @@ class ShearCouples:
     def of(cls, model: mujoco.MjModel, prefix: str = "") -> "ShearCouples | None":
         if not _couples_on(model, prefix):
             return None
-        names = {model.tendon(t).name.removeprefix(prefix) for t in range(model.ntendon)}
-        joints = {model.joint(j).name.removeprefix(prefix) for j in range(model.njnt)}
+        names = {n.removeprefix(prefix) for t in range(model.ntendon) if (n := model.tendon(t).name).startswith(prefix)}
+        joints = {n.removeprefix(prefix) for j in range(model.njnt) if (n := model.joint(j).name).startswith(prefix)}
         elements = []
         for z, (lower, stem) in sorted(_elements(names).items()):
             if f"{lower}_roll" in joints and f"{lower}_pitch" in joints:
@@ -150,7 +150,7 @@ class AxleLoads:
                 raise ValueError(f"numeric {prefix + NUMERIC_LOADS}: {len(data)} entries for {len(wheelset_names)} "
                                  f"wheelsets: 6, or 6 and 2 per wheelset")
             axleboxes = data[6:].reshape(-1, 2).tolist()
-        names = [model.tendon(t).name.removeprefix(prefix) for t in range(model.ntendon)]
+        names = [n.removeprefix(prefix) for t in range(model.ntendon) if (n := model.tendon(t).name).startswith(prefix)]
         tendons = []
         for w, (spacing, height) in zip(wheelset_names, axleboxes):
             mine = []

@@ -355,15 +355,22 @@ def add_train(spec: mujoco.MjSpec, layout: Layout) -> None:
     _coupling_tendons(spec, train, x_of)
 
 
-def _coupling_tendons(spec, train, x_of: dict[str, float]) -> None:
+def _coupling_tendons(spec, train, x_of: dict[str, float], heights: dict[str, float] | None = None) -> None:
     """Each [[coupling]]'s lateral and yaw tendons (docs/trains.md) on the car bodies' lateral and
-    yaw coordinates, which are absolute in a planar and in a spatial train alike."""
+    yaw coordinates, which are absolute in a planar and in a spatial train alike. A spatial
+    train's (`heights`: each body's centre of mass above the rail) acts at one point, midway
+    between the two bodies' heights, where each body's lateral motion has its roll's part too:
+    the coupling's two forces then lie on one line (no couple of their own)."""
     for c in train.couplings:
         front, rear = (f"carbody{k}" for k in c.cars)
         x = train.coupling_x(c)
         # The rear body's point at x against the front body's: y + (x - x_body)*psi of each.
         lateral = {f"{rear}_{LATERAL}": 1.0, f"{rear}_{YAW}": x - x_of[rear],
                    f"{front}_{LATERAL}": -1.0, f"{front}_{YAW}": -(x - x_of[front])}
+        if heights is not None and heights[front] != heights[rear]:  # and - (z - H_body)*phi
+            z = 0.5 * (heights[front] + heights[rear])
+            lateral[f"{rear}_{ROLL}"] = -(z - heights[rear])
+            lateral[f"{front}_{ROLL}"] = z - heights[front]
         _tendon(spec, f"coupling{c.cars[0]}_{LATERAL}", lateral, c.lateral_stiffness, c.lateral_damping)
         _tendon(spec, f"coupling{c.cars[0]}_{YAW}", {f"{rear}_{YAW}": 1.0, f"{front}_{YAW}": -1.0},
                 c.yaw_stiffness, c.yaw_damping)
@@ -396,12 +403,15 @@ AXES = "xyz"
 
 
 def spring_tendons(spec, name: str, point, lower: tuple[str, tuple, tuple], upper: tuple[str, tuple, tuple],
-                   spring) -> None:
+                   spring, measured: bool = False) -> None:
     """A spatial spring-damper (`spring`: kx..cz) at `point` (x, y, z in the vehicle's frame, z above
     the rail) between `lower` and `upper`, each (body, centre (x, y, z), joints): three fixed tendons
-    <name>_x|y|z, their lengths the deflections u_upper - u_lower of the point along x, y, z."""
+    <name>_x|y|z, their lengths the deflections u_upper - u_lower of the point along x, y, z.
+    `measured`: every axis a tendon, a spring-less one too (its length is what the preload's
+    shear couples act on, rail_mj.loads.ShearCouples)."""
     for axis, coefficients in zip(AXES, deflections(point, lower, upper)):
-        _tendon(spec, f"{name}_{axis}", coefficients, getattr(spring, f"k{axis}"), getattr(spring, f"c{axis}"))
+        k, c = getattr(spring, f"k{axis}"), getattr(spring, f"c{axis}")
+        _tendon(spec, f"{name}_{axis}", coefficients, k, c, keep=measured)
 
 
 def deflections(point, lower: tuple[str, tuple, tuple],
@@ -491,6 +501,7 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
     sp, world = layout.spatial, spec.worldbody
     hb, r0 = sp.bogie_height, layout.wheelset.rolling_radius
     train = layout.train
+    couples = sp.gravity and sp.gravitational_stiffness  # rail_mj.loads.ShearCouples
     for k, (name, (x, _, h), _) in enumerate(spatial_carbodies(layout)):
         body = world.add_body(name=name, pos=[0, 0, _g6(h)[0]] if train is None else _pos(x, h))
         if train is None:
@@ -514,16 +525,17 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
             for side, sign in SIDES:
                 e = design.axlebox
                 spring_tendons(spec, f"{wheelset}_{name}_{side}", (xb + xw, sign * e.spacing, e.height),
-                               (wheelset, (xb + xw, 0.0, r0), SPATIAL_WHEELSET), frame, e)
+                               (wheelset, (xb + xw, 0.0, r0), SPATIAL_WHEELSET), frame, e, couples)
         for carbody, share in carried(layout, i):
             for side, sign in SIDES:
                 e = sp.secondary
                 spring_tendons(spec, f"{name}_{carbody[0]}_{side}", (xb, sign * e.spacing, e.height), frame,
-                               carbody, _shared(e, share))
+                               carbody, _shared(e, share), couples)
             secondary_elements(spec, name, xb, frame, carbody, sp, share)
     if train is not None:
         x_of = {f"carbody{k}": car.position for k, car in enumerate(train.cars, start=1)}
-        _coupling_tendons(spec, train, x_of)
+        heights = {name: h for name, (_, _, h), _ in spatial_carbodies(layout)}
+        _coupling_tendons(spec, train, x_of, heights)
 
 
 def preload(spec: mujoco.MjSpec, model: mujoco.MjModel) -> np.ndarray:
@@ -644,10 +656,10 @@ def _suspension_tendons(spec, child: str, parent: str, x_of: dict[str, float], s
             share * s.yaw_stiffness, share * s.yaw_damping)
 
 
-def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, damping: float):
+def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, damping: float, keep: bool = False):
     """A fixed tendon, length sum(coef*q) (zero when centred), with a linear spring and damper;
-    none (None) when both are zero."""
-    if stiffness == 0.0 and damping == 0.0:
+    none (None) when both are zero, unless `keep` (its length is needed)."""
+    if stiffness == 0.0 and damping == 0.0 and not keep:
         return None
     tendon = spec.add_tendon(name=name, stiffness=_g6(stiffness, 0.0, 0.0), damping=_g6(damping, 0.0, 0.0),
                              springlength=[0.0, 0.0])

@@ -135,9 +135,9 @@ def _offsets() -> tuple[int, ...]:
 
 # --- the numeric block that carries a model's vehicles -----------------------------------
 
-# The block's first number, "this is rail-mj's native block, version 2": six significant
+# The block's first number, "this is rail-mj's native block, version 4": six significant
 # figures, as MuJoCo's MJCF writer keeps them.
-MAGIC = 7043.03
+MAGIC = 7043.04
 # Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
 # of rows of its profile contact table (0: coned wheels), then the contact parameters
 # (ContactParameters.table, row-major), the profile contact table (rail_mj.tables,

@@ -375,18 +375,13 @@ def test_sliding_mean_forgets_a_lifted_wheel():
     np.testing.assert_allclose(mean[~hit], 1.0, rtol=1e-12)
 
 
-def test_whole_vehicle_roll_balance_under_a_lateral_force():
-    """The rails' roll moment on the whole vehicle equals that of every other force on it. A
-    steady lateral force F on the car body (wind, or the unbalanced part of curving), the
-    wheelsets held by the rails: sum over wheelsets of b*(Q_left - Q_right) = F*h_c + sum W_i*y_i
-    over the car body and frames, their weights having moved with them. This holds only with the
-    preloads' shear couples (each spring's load passed on at its upper seat): without them the
-    model gives 0.81 of it on this coach. Linear statics from finite differences of MuJoCo's forces
-    with the native callback (the couples' own, bilinear): 1e-6."""
+def roll_balance(layout, pushed: str, F: float = 10e3) -> tuple[float, float, float]:
+    """(the rails' roll moment, F*h + sum W_i*y_i, sum W_i*y_i) under a steady lateral force F on the
+    body `pushed`, the wheelsets held by the rails: linear statics from central differences of
+    MuJoCo's forces with the native callback at speed 0 (no creep; the shear couples)."""
     from rail_mj import native
-    from rail_mj.model import LATERAL, YAW
+    from rail_mj.model import LATERAL, ROLL, YAW
 
-    layout = layout_from_dict(copy.deepcopy(SPATIAL))
     vehicle = Vehicle(layout)
     model = vehicle.model
     data = mujoco.MjData(model)
@@ -399,23 +394,75 @@ def test_whole_vehicle_roll_balance_under_a_lateral_force():
         return data.qfrc_passive - data.qfrc_bias
 
     step = 1e-6
-    with native.installed():  # speed 0: no creep, the couples only
+    with native.installed():
         K = np.zeros((model.nv, model.nv))
         for j in free:
             e = np.zeros(model.nq)
             e[j] = step
             K[:, j] = -(force(e) - force(-e)) / (2 * step)
-        F = 10e3
         push = np.zeros(model.nv)
-        push[model.joint("carbody_lateral").dofadr[0]] = F
+        push[model.joint(f"{pushed}_{LATERAL}").dofadr[0]] = F
         q = np.zeros(model.nq)
         q[free] = np.linalg.solve(K[np.ix_(free, free)], push[free])
         force(q)
     loads = AxleLoads.of(model, vehicle.wheelset_names)
-    load, moment = loads.evaluate(model, data.ten_length, data.ten_velocity)
-    rails = -moment.sum()  # b*(Q_left - Q_right) = -M with the wheelsets centred
-    weights = sum(G * model.body(name).mass[0] * q[model.joint(f"{name}_{LATERAL}").qposadr[0]]
-                  for name in ("carbody", "bogie1", "bogie2"))
-    expected = F * layout.spatial.carbody_height + weights
+    _, moment = loads.evaluate(model, data.ten_length, data.ten_velocity)
+    bodies = [model.body(b).name for b in range(1, model.nbody) if model.body(b).name.startswith(("carbody", "bogie"))]
+    assert all(model.joint(f"{b}_{ROLL}") for b in bodies)
+    weights = sum(G * model.body(b).mass[0] * q[model.joint(f"{b}_{LATERAL}").qposadr[0]] for b in bodies)
+    height = model.body(pushed).pos[2]
+    return -moment.sum(), F * height + weights, weights
+
+
+@pytest.mark.parametrize("longitudinal", [True, False], ids=["springs", "no-kx"])
+def test_whole_vehicle_roll_balance_under_a_lateral_force(longitudinal):
+    """The rails' roll moment on the whole vehicle equals that of every other force on it. A
+    steady lateral force F on the car body (wind, or the unbalanced part of curving), the
+    wheelsets held by the rails: sum over wheelsets of b*(Q_left - Q_right) = F*h_c + sum W_i*y_i
+    over the car body and frames, their weights having moved with them. This holds only with the
+    preloads' shear couples (each spring's load passed on at its upper seat): without them the
+    model gives 0.81 of it on this coach; also with no longitudinal springs, where the elements'
+    x tendons are kept for the couples (no spring on them). Linear statics: 1e-6."""
+    data = copy.deepcopy(SPATIAL)
+    if not longitudinal:
+        data["primary"]["axlebox"]["kx"] = data["secondary"]["spring"]["kx"] = 0.0
+        data["primary"]["axlebox"].pop("cx", None)
+    rails, expected, weights = roll_balance(layout_from_dict(data), "carbody")
     assert rails == pytest.approx(expected, rel=1e-6)
-    assert weights > 0.1 * F * layout.spatial.carbody_height  # the weights' share matters here
+    assert weights > 0.1 * expected  # the weights' share matters here
+
+
+def test_spatial_train_roll_balance_with_unequal_heights():
+    """The spatial articulated pair, its bodies' centres of mass at 1.8 and 1.9 m: pushed on either
+    body, the rails' roll moment is the force's and the weights' (1e-6 with no longitudinal
+    springs, whose static forces the bodies' pitch on the Jacobs bogie's sag would load, 1.5e-4).
+    The coupling acts midway between the bodies' heights, its two forces on one line; at each
+    body's own height they would add a couple of 1 % here."""
+    data = tomllib.loads((Path(__file__).parent / "data" / "spatial-articulated-pair.toml").read_text())
+    data["primary"]["axlebox"]["kx"] = data["secondary"]["spring"]["kx"] = 0.0
+    data["primary"]["axlebox"].pop("cx", None)
+    data["secondary"]["spring"].pop("cx", None)
+    layout = layout_from_dict(data)
+    heights = {car.height for car in layout.train.cars}
+    assert len(heights) == 2 and layout.train.couplings
+    for body in ("carbody1", "carbody2"):
+        rails, expected, _ = roll_balance(layout, body)
+        assert rails == pytest.approx(expected, rel=1e-6)
+
+
+def test_a_wedged_flange_keeps_its_balance():
+    """Friction holding a wheel down on a steep flange (mu = 0.6, mu*tan(g) past 1: the flange's
+    wedge) would leave it no vertical capacity: that wheel is balanced without its creep, so the
+    loads stay finite, non-negative and sum to the axle load."""
+    from rail_mj.creep import profiled_contact
+
+    data = tomllib.loads((MODELS / "manchester-coach-spatial" / "manchester-coach-spatial.toml").read_text())
+    data["creep"]["friction"] = 0.6
+    layout = layout_from_dict(data)
+    p = contact_parameters(Vehicle(layout).model, 1)
+    axle = 2 * layout.wheelset.wheel_load
+    for y, psi, y_dot, psi_dot, moment in ((0.0065, -0.02, -0.3, -1.0, -65455.0), (0.0064, -0.005, 0.6, 0.0, 0.0)):
+        f = profiled_contact(p.geometry, p.table[:, 0], p.law, False, y, psi, y_dot, psi_dot, 30.0, axle, moment, 0.0)
+        assert np.all(np.isfinite(f)) and f[5] >= 0.0 and f[6] >= 0.0
+        # The axle load to the creep's N^(2/3) growth between the balance's two passes (2e-8 here).
+        assert f[5] + f[6] == pytest.approx(axle, rel=1e-6)

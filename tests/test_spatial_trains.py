@@ -113,6 +113,11 @@ def hand_train_stiffness(layout, model, kind: str = "k") -> np.ndarray:
         a[dof(model, f"carbody{r}_yaw")] += x - rear.position
         a[dof(model, f"carbody{f}_lateral")] -= 1.0
         a[dof(model, f"carbody{f}_yaw")] -= x - front.position
+        # At the point midway between the bodies' heights, where each body's roll moves it too.
+        h_front, h_rear = (car.height if car.height is not None else sp.carbody_height for car in (front, rear))
+        z = (h_front + h_rear) / 2
+        a[dof(model, f"carbody{r}_roll")] -= z - h_rear
+        a[dof(model, f"carbody{f}_roll")] += z - h_front
         K[:] += (c.lateral_stiffness if kind == "k" else c.lateral_damping) * np.outer(a, a)
         a = np.zeros(model.nv)
         a[dof(model, f"carbody{r}_yaw")], a[dof(model, f"carbody{f}_yaw")] = 1.0, -1.0
