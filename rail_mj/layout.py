@@ -682,6 +682,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         spatial = dataclasses.replace(spatial, **secondary_elements, bogies=designs)
         if train is not None:
             train = _spatial_train(top, train, spatial)
+        _static_sags(source, warnings, spatial, carbody, train)
     top.done()
     return Layout(
         name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
@@ -883,6 +884,30 @@ def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, trai
         t.fail("carbody_height", f"must not be below bogie_height ({spatial.bogie_height:g} m), "
                                  f"got {spatial.carbody_height:g} m")
     return spatial
+
+
+def _static_sags(source: str, warnings: list[str], spatial: Spatial, carbody: CarBody, train) -> None:
+    """The springs' mean static deflections under the weight (docs/spatial.md): one that sinks
+    a spring's upper seat below the rail is refused (no suspension stands like that: most often
+    N/m taken for kN/m), one outside practice noted (rail_mj.practice)."""
+    if not spatial.gravity:
+        return
+    bodies = sum(car.mass for car in train.cars) if train is not None else carbody.mass
+    if bodies is None:
+        return
+    n_bogies = len(spatial.bogies)
+    frames = sum(d.mass for d in spatial.bogies)
+    # Every bogie has a secondary spring each side, shared or not; every wheelset two axleboxes.
+    primary = sum(2 * len(d.wheelset_positions) * d.axlebox.kz for d in spatial.bogies)
+    for section, element, weight, stiffness in (
+            ("secondary.spring", spatial.secondary, bodies, 2 * n_bogies * spatial.secondary.kz),
+            ("primary.axlebox", spatial.primary, bodies + frames, primary)):
+        sag = GRAVITY * weight / stiffness
+        t = _Table(source, section, {})
+        if sag >= element.height:
+            t.fail("kz", f"the static deflection under the weight, {sag:.3g} m, is more than the spring's "
+                         f"height above the rail ({element.height:g} m); check the units (N/m)")
+        _practice(t, warnings, ranges="spatial", static_deflection=sag)
 
 
 def _spatial_train(t: _Table, train: Train, spatial: Spatial) -> Train:

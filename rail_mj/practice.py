@@ -96,6 +96,11 @@ RANGES = {
                         "light-rail frames to locomotive bogies with their motors"),
     "carbody.mass": Range((0.0, math.inf), (1000.0, 150000.0), "kg", "a mass",
                           "tram modules to locomotive bodies"),
+    # A spatial vehicle's springs, their mean static deflection under the weight (its hard bound,
+    # the spring's height above the rail, is checked in rail_mj.layout). Practice: stiff
+    # freight primaries of a few mm to soft coil or air secondaries of about 250 mm.
+    "spatial.static_deflection": Range((0.0, math.inf), (0.002, 0.3), "m", "a deflection",
+                                       "freight primaries to soft secondary suspensions"),
 }
 
 

@@ -281,6 +281,9 @@ def test_planar_equivalent(coach):
     (lambda d: d["spatial"].update(carbody_height=0.5), r"spatial\.carbody_height: must not be below bogie_height"),
     (lambda d: d["spatial"].update(heigth=0.5), r"spatial\.heigth: unknown key"),
     (lambda d: d["carbody"].update(fixed=True), r"spatial: needs a free car body"),
+    # kN/m for N/m: a 78 km sag, the car body far below the rail.
+    (lambda d: d["secondary"]["spring"].update(kz=430.0), r"secondary\.spring\.kz: the static deflection"),
+    (lambda d: d["primary"]["axlebox"].update(kz=1220.0), r"primary\.axlebox\.kz: the static deflection"),
 ])
 def test_bad_spatial_layouts_fail_with_one_line(edit, message):
     data = copy.deepcopy(SPATIAL)
@@ -863,3 +866,13 @@ def test_bogies_need_spatial_on_a_planar_layout():
 def test_bogie_mass_outside_practice_warns_under_its_own_name():
     layout = layout_from_dict(different_bogies(mass=40000.0, inertia=[20000.0, 20000.0, 30000.0]))
     assert any("bogies.2.mass" in w for w in layout.warnings), layout.warnings
+
+
+def test_soft_springs_are_noted():
+    """A secondary spring sagging 0.45 m under the car body is legal but outside practice (up to
+    about 0.3 m): the layout loads with a warning naming it; the coach's own (0.18 m) none."""
+    data = copy.deepcopy(SPATIAL)
+    assert not [w for w in layout_from_dict(copy.deepcopy(SPATIAL)).warnings if "static_deflection" in w]
+    data["secondary"]["spring"]["kz"] = 0.4 * data["secondary"]["spring"]["kz"]
+    warnings = [w for w in layout_from_dict(data).warnings if "static_deflection" in w]
+    assert len(warnings) == 1 and "secondary.spring" in warnings[0] and "outside railway practice" in warnings[0]
