@@ -290,11 +290,13 @@ def wheel_safety(run: Run) -> dict:
     smallest, where_smallest = at(q, np.nanargmin)
     # Where Q comes from: a spatial vehicle's suspension (rail_mj.loads); on profiles the contact's
     # equilibrium under the static axle load; on a planar vehicle's cones the static share.
-    source = ("suspension" if run.layout.spatial is not None else
+    spatial = run.layout.spatial
+    source = ("suspension" if spatial is not None and spatial.gravity else
               "profile contact, static axle load" if run.layout.profiles is not None else "static share")
     return {"wheelsets": per, "run": {"largest_y_over_q": largest, "largest_y_over_q_at": where_largest,
                                       "wheel_loads_from": source,
                                       "largest_y_over_q_peak": at(peaks, np.nanargmax)[0],
                                       "y_over_q_window_m": Y_OVER_Q_WINDOW,
                                       "smallest_wheel_load_n": smallest, "smallest_wheel_load_at": where_smallest,
-                                      "y_over_q_limit": Y_OVER_Q_LIMIT}}
+                                      "y_over_q_limit": Y_OVER_Q_LIMIT,
+                                      "y_over_q_exceeded": largest is not None and largest > Y_OVER_Q_LIMIT}}

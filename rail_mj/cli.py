@@ -331,8 +331,9 @@ def _print_summary(result: dict, err: bool = False) -> None:
         say(f"hunting (EN 14363): not assessed, {result['hunting_note']}")
     if result.get("largest_y_over_q") is not None:
         at, low = result["largest_y_over_q_at"], result["smallest_wheel_load_at"]
+        exceeded = "EXCEEDS the limit " if result["y_over_q_exceeded"] else "limit "
         line = (f"wheel loads ({result['wheel_loads_from']}): largest Y/Q {result['largest_y_over_q']:.3f} over "
-                f"{result['y_over_q_window_m']:g} m (limit {result['y_over_q_limit']:g}; peak "
+                f"{result['y_over_q_window_m']:g} m ({exceeded}{result['y_over_q_limit']:g}; peak "
                 f"{result['largest_y_over_q_peak']:.3f}), wheelset {at['wheelset']} {at['wheel']} at "
                 f"x = {at['x_m']:.4g} m")
         if result["wheel_loads_from"] != "static share":

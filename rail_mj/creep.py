@@ -617,6 +617,11 @@ def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail, creep_left=(0.0,
 # of its normal forces' vertical part (friction holding it down on a steep flange) is balanced
 # without its creep.
 NADAL_FLOOR = 0.5
+# Nadal's balance is solved again, the creep per unit load updated, until the wheels' vertical
+# forces meet the axle load to this (relative), in at most NADAL_PASSES passes (one where the
+# creep saturates; at the flange's onset, its load moving fast, a few).
+NADAL_TOLERANCE = 1e-6
+NADAL_PASSES = 4
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -673,15 +678,24 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
     # vertical part (mu*tan(g) past it: the flange's wedge, which a rigid rail and a held
     # wheelset cannot resolve), that wheel's balance leaves its creep out, as a planar one does.
     creep_left = creep_right = (0.0, 0.0)
-    if spatial and n_left > 0.0 and f[7] / n_left >= -NADAL_FLOOR * v_left:
-        creep_left = (f[7] / n_left, f[9] / n_left)
-    if spatial and n_right > 0.0 and f[8] / n_right >= -NADAL_FLOOR * v_right:
-        creep_right = (f[8] / n_right, f[10] / n_right)
-    nadal = (creep_left[0] != 0.0 or creep_left[1] != 0.0 or creep_right[0] != 0.0 or creep_right[1] != 0.0)
-    if nadal:
+    for _ in range(NADAL_PASSES if spatial else 0):
+        creep_left = creep_right = (0.0, 0.0)
+        if n_left > 0.0 and f[7] / n_left >= -NADAL_FLOOR * v_left:
+            creep_left = (f[7] / n_left, f[9] / n_left)
+        if n_right > 0.0 and f[8] / n_right >= -NADAL_FLOOR * v_right:
+            creep_right = (f[8] / n_right, f[10] / n_right)
+        if creep_left == (0.0, 0.0) and creep_right == (0.0, 0.0):
+            break
         n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load, r0, moment, True, creep_left, creep_right)
         f = _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning,
                     n_left, n_right)
+        vertical = n_left * v_left + n_right * v_right
+        if creep_left != (0.0, 0.0):
+            vertical += f[7]
+        if creep_right != (0.0, 0.0):
+            vertical += f[8]
+        if abs(vertical - load) <= NADAL_TOLERANCE * load:  # the balance met: sum Q = the axle load
+            break
     # Q: the vertical part of the rails' whole force on each wheel, creep included where the balance
     # has it; otherwise the normal forces' alone, as the balance.
     q_left, q_right = n_left * v_left, n_right * v_right

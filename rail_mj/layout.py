@@ -887,27 +887,56 @@ def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, trai
 
 
 def _static_sags(source: str, warnings: list[str], spatial: Spatial, carbody: CarBody, train) -> None:
-    """The springs' mean static deflections under the weight (docs/spatial.md): one that sinks
-    a spring's upper seat below the rail is refused (no suspension stands like that: most often
-    N/m taken for kN/m), one outside practice noted (rail_mj.practice)."""
+    """The springs' static deflections under the weight (docs/spatial.md), each bogie's with its
+    equal share of the car bodies' weight: one that sinks a spring's upper seat below the rail is
+    refused (no suspension stands like that: most often N/m taken for kN/m, or a mass in grams),
+    one outside practice noted (rail_mj.practice). And the car body must stand on its springs in
+    roll: their roll stiffness about the springs' level (each anti-roll bar's besides) must
+    exceed the weight's overturning m*g*h there, or the body tips over (a one-line error)."""
     if not spatial.gravity:
         return
     bodies = sum(car.mass for car in train.cars) if train is not None else carbody.mass
     if bodies is None:
         return
     n_bogies = len(spatial.bogies)
-    frames = sum(d.mass for d in spatial.bogies)
-    # Every bogie has a secondary spring each side, shared or not; every wheelset two axleboxes.
-    primary = sum(2 * len(d.wheelset_positions) * d.axlebox.kz for d in spatial.bogies)
-    for section, element, weight, stiffness in (
-            ("secondary.spring", spatial.secondary, bodies, 2 * n_bogies * spatial.secondary.kz),
-            ("primary.axlebox", spatial.primary, bodies + frames, primary)):
-        sag = GRAVITY * weight / stiffness
+    e = spatial.secondary
+    checks = [("secondary.spring", e.height, GRAVITY * bodies / (2 * n_bogies * e.kz))]
+    for i, d in enumerate(spatial.bogies, start=1):
+        a = d.axlebox
+        section = "primary.axlebox" if a == spatial.primary else f"bogies.{i}.axlebox"
+        weight = GRAVITY * (bodies / n_bogies + d.mass)
+        checks.append((section, a.height, weight / (2 * len(d.wheelset_positions) * a.kz)))
+    for section, height, sag in checks:
         t = _Table(source, section, {})
-        if sag >= element.height:
+        if sag >= height:
             t.fail("kz", f"the static deflection under the weight, {sag:.3g} m, is more than the spring's "
-                         f"height above the rail ({element.height:g} m); check the units (N/m)")
-        _practice(t, warnings, ranges="spatial", static_deflection=sag)
+                         f"height above the rail ({height:g} m); check kz's units (N/m) and the masses (kg)")
+        if not any(w.startswith(f"{source}: {section}.static_deflection") for w in warnings):
+            _practice(t, warnings, ranges="spatial", static_deflection=sag)
+    for i, d in enumerate(spatial.bogies, start=1):  # a legal but odd stack: noted
+        if d.axlebox.height > e.height:
+            section = "primary.axlebox" if d.axlebox == spatial.primary else f"bogies.{i}.axlebox"
+            note = (f"{source}: {section}.height: {d.axlebox.height:g} m is above the secondary springs "
+                    f"({e.height:g} m); bogie frames carry their primary springs below their secondary ones")
+            if note not in warnings:
+                warnings.append(note)
+    if spatial.gravitational_stiffness:
+        cars = train.cars if train is not None else [carbody]
+        for k, car in enumerate(cars, start=1):
+            height = getattr(car, "height", None) or spatial.carbody_height
+            n = len(car.bogies) if train is not None else n_bogies
+            overturning = car.mass * GRAVITY * (height - e.height)
+            roll = n * (2 * e.kz * e.spacing ** 2 + (spatial.anti_roll_bar or 0.0))
+            if train is not None:  # a Jacobs bogie's springs are shared by its two bodies
+                roll = sum((2 * e.kz * e.spacing ** 2 + (spatial.anti_roll_bar or 0.0)) / len(train.cars_on(b))
+                           for b in car.bogies)
+            if overturning >= roll:
+                name = "carbody" if train is None else f"car[{k}]"
+                _Table(source, "spatial", {}).fail(
+                    "carbody_height", f"{name} tips over on its springs: its weight's overturning moment "
+                    f"m*g*h = {overturning:.3g} N m/rad (h = {height - e.height:.3g} m above the secondary "
+                    f"springs) exceeds their roll stiffness {roll:.3g} N m/rad; lower the centre of mass, "
+                    f"stiffen or spread the springs, or fit an anti-roll bar")
 
 
 def _spatial_train(t: _Table, train: Train, spatial: Spatial) -> Train:

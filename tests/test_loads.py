@@ -466,3 +466,39 @@ def test_a_wedged_flange_keeps_its_balance():
         assert np.all(np.isfinite(f)) and f[5] >= 0.0 and f[6] >= 0.0
         # The axle load to the creep's N^(2/3) growth between the balance's two passes (2e-8 here).
         assert f[5] + f[6] == pytest.approx(axle, rel=1e-6)
+
+
+def test_nadal_balance_meets_the_axle_load():
+    """Nadal's balance is solved until the wheels' vertical forces meet the axle load: over random
+    states across the whole contact table (flange onsets included), axle loads of 0.7 to 1.5 times
+    the static one and suspension moments of some 10 kN m, sum Q = P within 1e-3 everywhere (the
+    passes' limit at the flange's onset) and within 1e-6 in 95 % of the states; no Q negative."""
+    data = tomllib.loads((MODELS / "manchester-coach-spatial" / "manchester-coach-spatial.toml").read_text())
+    layout = layout_from_dict(data)
+    p = contact_parameters(Vehicle(layout).model, 1)
+    rng = np.random.default_rng(1)
+    n = 4000
+    axle = 2 * layout.wheelset.wheel_load * rng.uniform(0.7, 1.5, n)
+    states = [rng.uniform(-0.01, 0.01, n), rng.normal(0, 0.005, n), rng.normal(0, 0.3, n), rng.normal(0, 0.3, n)]
+    f = contact_forces(p, *(v[:, None] for v in states), 40.0, axle[:, None], rng.normal(0, 1e4, n)[:, None],
+                       layout.wheelset.wheel_load)
+    error = np.abs(f.load_left[:, 0] + f.load_right[:, 0] - axle) / axle
+    assert np.max(error) < 1e-3 and np.mean(error < 1e-6) > 0.95
+    assert np.all(f.load_left >= 0.0) and np.all(f.load_right >= 0.0)
+
+
+def test_summary_flags_y_over_q_and_says_where_q_comes_from(tmp_path):
+    """Above EN 14363's limit the summary says so; a spatial vehicle without gravity (no preload,
+    no loads from its suspension) has the static share, and says it."""
+    data = copy.deepcopy(SPATIAL)
+    data["spatial"]["gravity"] = False
+    from rail_mj.analysis import summary
+    from rail_mj.runner import simulate
+
+    result = summary(simulate(layout_from_dict(data), 40.0, 50.0, 0.002))
+    assert result["wheel_loads_from"] == "static share" and result["y_over_q_exceeded"] is False
+    coach = MODELS / "manchester-coach" / "manchester-coach.toml"
+    out = CliRunner().invoke(cli, ["run", str(coach), "--speed", "85", "--distance", "600", "--json"])
+    assert out.exit_code == 0, out.output
+    hunting = json.loads(out.output)
+    assert hunting["largest_y_over_q"] > hunting["y_over_q_limit"] and hunting["y_over_q_exceeded"] is True

@@ -284,6 +284,10 @@ def test_planar_equivalent(coach):
     # kN/m for N/m: a 78 km sag, the car body far below the rail.
     (lambda d: d["secondary"]["spring"].update(kz=430.0), r"secondary\.spring\.kz: the static deflection"),
     (lambda d: d["primary"]["axlebox"].update(kz=1220.0), r"primary\.axlebox\.kz: the static deflection"),
+    (lambda d: d.update(bogies={"2": {"axlebox": {"kz": 1.0}}}), r"bogies\.2\.axlebox\.kz: the static deflection"),
+    # m*g*h 1.16 MN m/rad over springs giving 0.155: the body tips over.
+    (lambda d: (d["spatial"].update(carbody_height=4.5), d["secondary"]["spring"].update(spacing=0.3)),
+     r"spatial\.carbody_height: carbody tips over on its springs"),
 ])
 def test_bad_spatial_layouts_fail_with_one_line(edit, message):
     data = copy.deepcopy(SPATIAL)
@@ -876,3 +880,10 @@ def test_soft_springs_are_noted():
     data["secondary"]["spring"]["kz"] = 0.4 * data["secondary"]["spring"]["kz"]
     warnings = [w for w in layout_from_dict(data).warnings if "static_deflection" in w]
     assert len(warnings) == 1 and "secondary.spring" in warnings[0] and "outside railway practice" in warnings[0]
+
+
+def test_a_primary_above_the_secondary_is_noted():
+    data = copy.deepcopy(SPATIAL)
+    data["primary"]["axlebox"]["height"] = 0.9  # above the 0.8275 m secondary
+    warnings = layout_from_dict(data).warnings
+    assert any("primary.axlebox.height: 0.9 m is above the secondary springs" in w for w in warnings)
