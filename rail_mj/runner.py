@@ -204,6 +204,8 @@ class Run:
         ylat_left1, ylat_right1, ...    rail's, + to the left) and its derailment quotient Y/Q
         y_over_q_left1, ...             (`derailment_quotients`; NaN where the wheel is off its
                                         rail), for a spatial vehicle (the summary has them for all)
+        bounce_bogie1, roll_bogie1,     a spatial vehicle's frames' and car bodies' vertical
+        pitch_bogie1, ...               displacement from the static equilibrium (m), roll and pitch
         """
         names = ["t", "x"]
         cols = [self.t, self.x]
@@ -226,6 +228,10 @@ class Run:
                 for what, values in (("q", q), ("ylat", lateral), ("y_over_q", quotient)):
                     names += [f"{what}_left{i + 1}", f"{what}_right{i + 1}"]
                     cols += [values[:, i, 0], values[:, i, 1]]
+            roll, pitch, _ = _spatial_angles(self.body_quat[:, self._frame_ids])
+            for k, name in enumerate(self.frame_names):
+                names += [f"bounce_{name}", f"roll_{name}", f"pitch_{name}"]
+                cols += [self.frame_bounce[:, k], roll[:, k], pitch[:, k]]
         return names, np.column_stack(cols)
 
 

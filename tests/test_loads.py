@@ -172,6 +172,9 @@ def test_run_reports_wheel_loads_and_derailment_quotients(tmp_path):
     assert 0.0 < summary["largest_y_over_q"] < summary["y_over_q_limit"]  # a stable coach at 40 m/s
     # The loads move: the suspension's dynamic forces are in them (not a static share).
     assert np.ptp(column("q_left1")) > 1e-3 * np.mean(column("q_left1"))
+    # The frames' and car body's bounce, roll and pitch (the car body sways from the 2 mm start).
+    assert {"bounce_carbody", "roll_carbody", "pitch_carbody", "roll_bogie2"} <= set(names)
+    assert np.max(np.abs(column("roll_carbody"))) > 1e-5
 
 
 def switched(gravitational: bool, gyroscopic: bool) -> dict:
