@@ -77,6 +77,7 @@ class CreepForces:
         n, nv = len(self.body_ids), model.nv
         self.loads = AxleLoads.of(model, wheelset_names)  # a spatial vehicle's: Q from its suspension
         self.couples = ShearCouples.of(model)  # and its frames' shear couples
+        self._couple_rows = None if self.couples is None else self.couples.rows(model)  # looked up once
         self._jacp = np.zeros((n, 3, nv))
         self._jacr = np.zeros((n, 3, nv))
 
@@ -99,7 +100,7 @@ class CreepForces:
             load, moment = self.loads.evaluate(model, data.ten_length, data.ten_velocity)
             fy, mz = wheelset_forces(self.params, *states, self.speed, load, moment, **self.loads.contact())
         if self.couples is not None:
-            data.qfrc_passive += self.couples.forces(model, data.ten_length, data.ten_velocity)
+            data.qfrc_passive += self.couples.forces(model, data.ten_length, data.ten_velocity, self._couple_rows)
         data.qfrc_passive += fy @ jy + mz @ jpsi  # J^T [Fy, Mz] over every wheelset
 
 

@@ -102,10 +102,11 @@ class ShearCouples:
                           model.joint(prefix + roll).dofadr[0], model.joint(prefix + pitch).dofadr[0])
                          for z, y, x, roll, pitch in self.elements], dtype=np.float64).reshape(-1, 5)
 
-    def forces(self, model: mujoco.MjModel, lengths: np.ndarray, rates: np.ndarray) -> np.ndarray:
-        """The generalized forces (nv,) of the couples at tendon lengths and rates (ntendon,)."""
+    def forces(self, model: mujoco.MjModel, lengths: np.ndarray, rates: np.ndarray, rows=None) -> np.ndarray:
+        """The generalized forces (nv,) of the couples at tendon lengths and rates (ntendon,);
+        `rows`: `self.rows(model)`, if the caller keeps them."""
         out = np.zeros(model.nv)
-        rows = self.rows(model).astype(int)
+        rows = (self.rows(model) if rows is None else rows).astype(int)
         if len(rows):
             load = tendon_forces(model, rows[:, 0], lengths, rates)
             np.add.at(out, rows[:, 3], -load * lengths[rows[:, 1]])

@@ -222,16 +222,12 @@ def test_gravity_off_leaves_the_stiffness(coach):
 LOAD_ROUNDING = 5e-6  # relative: the static wheel loads from spring lengths kept to 6 figures
 
 
-def test_all_at_one_height_is_the_planar_model():
-    """Centres of mass and springs all at one height: the lateral and yaw motions part from the
-    vertical ones, and the eigenvalues of the planar layout made of the elements' planar
-    equivalents are all among the spatial model's (the vertical modes besides)."""
-    from rail_mj.stability import Stability
-
+def one_height():
+    """The spatial coach with every centre of mass and spring at one height, gravitational
+    stiffness and gyroscopic terms off (the issue's "both off": the classical planar equations;
+    the suspension's gravitational terms vanish at one height anyway), and the planar layout
+    (as a dict) made of its elements' planar equivalents."""
     data = copy.deepcopy(SPATIAL)
-    # The classical planar equations: no gravitational stiffness at the wheels (the cones' normal
-    # forces) and no gyroscopic coupling (the issue's "both off"); the suspension's gravitational
-    # terms vanish at one height anyway.
     data["spatial"].update(carbody_height=1.0, bogie_height=1.0, gravitational_stiffness=False, gyroscopic=False)
     data["primary"]["axlebox"]["height"] = data["secondary"]["spring"]["height"] = 1.0
     layout = layout_from_dict(data)
@@ -239,6 +235,16 @@ def test_all_at_one_height_is_the_planar_model():
     for key, s in (("primary", layout.primary), ("secondary", layout.secondary)):
         planar[key] = {"lateral_stiffness": s.lateral_stiffness, "yaw_stiffness": s.yaw_stiffness,
                        "lateral_damping": s.lateral_damping, "yaw_damping": s.yaw_damping}
+    return layout, planar
+
+
+def test_all_at_one_height_is_the_planar_model():
+    """Centres of mass and springs all at one height: the lateral and yaw motions part from the
+    vertical ones, and the eigenvalues of the planar layout made of the elements' planar
+    equivalents are all among the spatial model's (the vertical modes besides)."""
+    from rail_mj.stability import Stability
+
+    layout, planar = one_height()
     spatial = Stability(layout).eigenvalues(30.0)
     for lam in Stability(layout_from_dict(planar)).eigenvalues(30.0):
         # The spatial wheels carry the loads their preloaded springs give, the spring lengths
@@ -302,17 +308,7 @@ def test_mode_names_at_one_height_are_the_planar_ones(speed):
     rename the hunting ones."""
     from rail_mj.stability import Stability
 
-    data = copy.deepcopy(SPATIAL)
-    # The classical planar equations: no gravitational stiffness at the wheels (the cones' normal
-    # forces) and no gyroscopic coupling (the issue's "both off"); the suspension's gravitational
-    # terms vanish at one height anyway.
-    data["spatial"].update(carbody_height=1.0, bogie_height=1.0, gravitational_stiffness=False, gyroscopic=False)
-    data["primary"]["axlebox"]["height"] = data["secondary"]["spring"]["height"] = 1.0
-    layout = layout_from_dict(data)
-    planar = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("spatial", "primary", "secondary")}
-    for key, s in (("primary", layout.primary), ("secondary", layout.secondary)):
-        planar[key] = {"lateral_stiffness": s.lateral_stiffness, "yaw_stiffness": s.yaw_stiffness,
-                       "lateral_damping": s.lateral_damping, "yaw_damping": s.yaw_damping}
+    layout, planar = one_height()
     spatial = Stability(layout).modes(speed)
     for mode in Stability(layout_from_dict(planar)).modes(speed):
         twin = min(spatial, key=lambda m: abs(m.eigenvalue - mode.eigenvalue))
