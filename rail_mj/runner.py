@@ -229,9 +229,10 @@ class Run:
                     names += [f"{what}_left{i + 1}", f"{what}_right{i + 1}"]
                     cols += [values[:, i, 0], values[:, i, 1]]
             roll, pitch, _ = _spatial_angles(self.body_quat[:, self._frame_ids])
+            bounce = self.frame_bounce
             for k, name in enumerate(self.frame_names):
                 names += [f"bounce_{name}", f"roll_{name}", f"pitch_{name}"]
-                cols += [self.frame_bounce[:, k], roll[:, k], pitch[:, k]]
+                cols += [bounce[:, k], roll[:, k], pitch[:, k]]
         return names, np.column_stack(cols)
 
 
