@@ -1,23 +1,35 @@
 """rail-mj: railway vehicles on rails in MuJoCo.
 
-Data flows through one module each (README.md, "How the code is laid out"):
+Data flows through one folder each, in this order (README.md, "How the code is laid out");
+a folder imports only from those before it (tests/test_architecture.py, import-linter in CI):
 
-    layout.py, practice.py  layout file (TOML) -> checked `Layout`; what is refused or warned
-    model.py, wheel.py      `Layout` -> MuJoCo model (MjSpec), generated MJCF (`Vehicle`, `generate`)
-    contact.py, creep.py    Hertz and Kalker; the wheel-rail contact law (compiled with numba)
-    forces.py, native.py    that law as MuJoCo's passive-force callback, in Python and native
-    runner.py               timestep choice and headless runs (`simulate` -> `Run`, `simulate_many`)
-    analysis.py             what a run shows: amplitude, growth, frequency, EN 14363
-    recording.py            Rerun recording of a run
-    linear.py, stability.py, bifurcation.py   eigenvalues, modes, critical speeds, limit cycles
-    sweep.py, plots.py      parameter studies and stability maps; figures
-    files.py, cli.py        safe outputs; the `rail-mj` command
+    units, numerics, files   shared units, the model<->callback file format, safe output files
+    contact/      wheel-rail contact: profiles, geometry, conicity, Hertz and Kalker, creep laws
+    layout/       a layout file (TOML) -> checked `Layout`; what practice refuses or warns
+    vehicle/      `Layout` -> MuJoCo model (MjSpec) and its MJCF files (`Vehicle`, `generate`)
+    simulation/   the creep forces as MuJoCo callbacks; timestep, runs and batches (`simulate`)
+    analysis/     what runs and linearisations show: motion, EN 14363, modes, stability, limit cycles
+    output/       recordings (Rerun), run tables and figures
+    studies/      sweeps and maps over many cases
+    cli/          the `rail-mj` command
+
+Example:
+
+    >>> import rail_mj
+    >>> layout = rail_mj.load_layout("models/wheelset/wheelset.toml")
+    >>> layout.n_wheelsets
+    1
 """
 
+from __future__ import annotations
+
 import hashlib
-import importlib
 import os
 from pathlib import Path
+
+from rail_mj import _compat, _lazy
+
+__version__ = "0.2.0"
 
 
 def _numba_cache_dir() -> None:
@@ -25,16 +37,17 @@ def _numba_cache_dir() -> None:
 
     Numba checks only the modification time of the file that defines a cached function,
     yet the compiled law inlines constants and functions from other modules (the contact
-    tables' layout, the laws' numbers, the law itself inside the native callback): after
-    an edit elsewhere a stale cache would give wrong forces without a word. A folder per
-    version of the sources cannot be stale. NUMBA_CACHE_DIR set by the user is respected.
+    tables' layout in rail_mj.numerics, the laws' numbers, the law itself inside the native
+    callback): after an edit elsewhere a stale cache would give wrong forces without a
+    word. A folder per version of the sources, every file of every subpackage included,
+    cannot be stale. NUMBA_CACHE_DIR set by the user is respected.
     """
     if "NUMBA_CACHE_DIR" in os.environ:
         return
     here = Path(__file__).resolve().parent
     digest = hashlib.sha256()
-    for source in sorted(here.glob("*.py")):
-        digest.update(source.name.encode() + source.read_bytes())
+    for source in sorted(here.rglob("*.py")):
+        digest.update(source.relative_to(here).as_posix().encode() + source.read_bytes())
     base = here / "__pycache__"
     if not os.access(here, os.W_OK):  # an installed, read-only package
         base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "rail-mj"
@@ -42,30 +55,33 @@ def _numba_cache_dir() -> None:
 
 
 _numba_cache_dir()
+_compat.install()
 
-# Where each public name lives. Imported on first use (PEP 562), so that `rail-mj --help`
-# and a layout error do not wait for MuJoCo, numba and scipy to load.
+# Where each public name lives, imported on first use.
 _EXPORTS = {
+    # contact
+    "equivalent_conicity": "contact.conicity", "contact_patch": "contact.hertz",
+    "contact_forces": "contact.creep", "wheelset_forces": "contact.creep",
+    "ContactParameters": "contact.creep", "ContactForces": "contact.creep",
+    # layout
     "Layout": "layout", "LayoutError": "layout", "layout_from_dict": "layout", "load_layout": "layout",
-    "Vehicle": "model", "generate": "model",
-    "Run": "runner", "SimulationError": "runner", "simulate": "runner",
+    # vehicle
+    "Vehicle": "vehicle.model", "generate": "vehicle.model",
+    # simulation
+    "Run": "simulation.runner", "SimulationError": "simulation.runner", "simulate": "simulation.runner",
+    "simulate_many": "simulation.runner", "Request": "simulation.runner",
+    # analysis
+    "summary": "analysis.motion", "Stability": "analysis.stability", "CriticalSpeed": "analysis.stability",
+    "time_critical_speed": "analysis.stability", "nonlinear_critical_speed": "analysis.bifurcation",
+    "bifurcation": "analysis.bifurcation",
+    # output
+    "write_recording": "output.recording",
+    # studies
+    "sweep": "studies.sweep",
 }
+__getattr__, _dir = _lazy.exports("rail_mj", _EXPORTS)
+__all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(f"rail_mj.{_EXPORTS[name]}"), name)
-    raise AttributeError(f"module 'rail_mj' has no attribute {name!r}")
-
-
-__all__ = [
-    "Layout",
-    "LayoutError",
-    "Run",
-    "SimulationError",
-    "Vehicle",
-    "generate",
-    "layout_from_dict",
-    "load_layout",
-    "simulate",
-]
+def __dir__() -> list[str]:
+    return [*_dir(), "__version__"]

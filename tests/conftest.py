@@ -67,7 +67,7 @@ def free_truck(positions, lam=0.15, f11=10e6, f22=9e6, primary=1e9):
 def passive_forces(model, callback, qpos, qvel) -> np.ndarray:
     """qfrc_passive of `model` at (qpos, qvel) with `callback` installed (a Python creep
     callback or the native one): the creep forces, plus the suspension springs and dampers."""
-    from rail_mj.forces import installed
+    from rail_mj.simulation.callback import installed
 
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:] = qpos, qvel
@@ -86,8 +86,8 @@ def assert_callbacks_agree(vehicle, speed: float, seed: int, samples: int, posit
     """At random states (positions and rates normal with these scales), the native and the
     Python creep callbacks give one qfrc_passive to 1e-9 of its largest entry: both call one
     compiled law; only the kinematics and J^T are written twice."""
-    from rail_mj import native
-    from rail_mj.forces import CreepForces
+    from rail_mj.simulation import native
+    from rail_mj.simulation.callback import CreepForces
 
     model = vehicle.model
     native.set_speed(model, speed)

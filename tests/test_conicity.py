@@ -12,7 +12,7 @@ import pytest
 from scipy.special import ellipk
 
 from rail_mj.cli import main
-from rail_mj.conicity import (DEFAULT_AMPLITUDES, ConicityError, DeltaR, equivalent_conicity,
+from rail_mj.contact.conicity import (DEFAULT_AMPLITUDES, ConicityError, DeltaR, equivalent_conicity,
                               harmonic_conicity, klingel_ode, wavelength)
 
 from conftest import MODELS

@@ -10,9 +10,9 @@ import pytest
 
 from conftest import MODELS, linear_text
 from rail_mj.cli import main
-from rail_mj.contact import KALKER, KALKER_S, contact_patch, hertz_ellipse, kalker_coefficients
+from rail_mj.contact.hertz import KALKER, KALKER_S, contact_patch, hertz_ellipse, kalker_coefficients
 from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
-from rail_mj.runner import simulate
+from rail_mj.simulation.runner import simulate
 
 E, NU = 210e9, 0.28
 

@@ -11,16 +11,16 @@ import numpy as np
 import pytest
 
 from conftest import linear_text, passive_forces
-from rail_mj import native
+from rail_mj.simulation import native
 from rail_mj.cli import main
-from rail_mj.contact import contact_patch, ellipse_patch
-from rail_mj.creep import (FASTSIM, FASTSIM_ELEMENTS, FASTSIM_STRIPS, LINEAR, ContactParameters, _fastsim,
+from rail_mj.contact.hertz import contact_patch, ellipse_patch
+from rail_mj.contact.creep import (FASTSIM, FASTSIM_ELEMENTS, FASTSIM_STRIPS, LINEAR, ContactParameters, _fastsim,
                            contact_forces, fastsim, patch_forces)
-from rail_mj.forces import CreepForces
+from rail_mj.simulation.callback import CreepForces
 from rail_mj.layout import LayoutError, layout_from_dict
-from rail_mj.model import NUMERIC_ELLIPSE, Vehicle
-from rail_mj.runner import simulate
-from rail_mj.stability import Stability
+from rail_mj.vehicle.model import NUMERIC_ELLIPSE, Vehicle
+from rail_mj.simulation.runner import simulate
+from rail_mj.analysis.stability import Stability
 
 # The reference case of docs/contact.md: a 10 t wheel, r0 0.46 m, rail crown 0.30 m, steel.
 PATCH = contact_patch(98.1e3, 0.46, 0.30, young_modulus=210e9, poisson_ratio=0.28)

@@ -1,4 +1,4 @@
-"""Contact geometry of a rigid wheelset (rail_mj/geometry.py, docs/geometry.md), the
+"""Contact geometry of a rigid wheelset (rail_mj/contact/geometry.py, docs/geometry.md), the
 [profiles] layout table and `rail-mj contact-geometry`."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from rail_mj import geometry
-from rail_mj.geometry import Track, contact_table, gaps
+from rail_mj.contact import geometry
+from rail_mj.contact.geometry import Track, contact_table, gaps
 from rail_mj.layout import LayoutError, load_layout
-from rail_mj.profiles import Profile, rail_60e1, s1002
+from rail_mj.contact.profiles import Profile, rail_60e1, s1002
 
 from conftest import PROFILES_TOML
 
@@ -199,7 +199,7 @@ def test_profiled_layout_loads_with_the_profiles_conicity(tmp_path, standard):
 
 def test_profile_files_are_relative_to_the_layout(tmp_path):
     from rail_mj.layout import load_layout
-    from rail_mj.profiles import write_csv
+    from rail_mj.contact.profiles import write_csv
 
     (tmp_path / "p").mkdir()
     (tmp_path / "p" / "wheel.csv").write_bytes(write_csv(s1002()))

@@ -1,6 +1,6 @@
 """Bad input to `rail-mj` is refused cleanly.
 
-The rule (see rail_mj/cli.py and rail_mj/layout.py): bad input -- TOML syntax, an
+The rule (see rail_mj/cli/main.py and rail_mj/layout/reader.py): bad input -- TOML syntax, an
 unknown or missing key, a wrong type, mass <= 0, negative stiffness, conicity not in
 (0, 0.5], overlapping positions ... -- exits with status 2 and one clear line on stderr
 naming the file, the key and what is wrong. Never a traceback, never a half-written

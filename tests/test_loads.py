@@ -1,4 +1,4 @@
-"""Wheel loads Q of a spatial vehicle from its suspension (rail_mj.loads, docs/spatial.md):
+"""Wheel loads Q of a spatial vehicle from its suspension (rail_mj.vehicle.loads, docs/spatial.md):
 static loads sum to the weight and follow the layout, a frame's roll moves load between the
 wheels as the springs' moments say, both callbacks agree with the loads in, and runs report
 each wheel's Q, Y and Y/Q."""
@@ -17,11 +17,11 @@ from click.testing import CliRunner
 
 from conftest import MODELS, assert_callbacks_agree
 from rail_mj.cli import cli
-from rail_mj.creep import contact_forces
-from rail_mj.forces import contact_parameters
+from rail_mj.contact.creep import contact_forces
+from rail_mj.simulation.callback import contact_parameters
 from rail_mj.layout import layout_from_dict
-from rail_mj.loads import AxleLoads
-from rail_mj.model import Vehicle
+from rail_mj.vehicle.loads import AxleLoads
+from rail_mj.vehicle.model import Vehicle
 from test_spatial import G, SPATIAL
 
 # The static loads come from spring lengths kept to 6 significant figures (docs/spatial.md).
@@ -112,7 +112,7 @@ def test_frame_roll_moves_load_between_the_wheels():
                          ids=["cones-linear", "cones-polach", "profiles-polach", "profiles-fastsim"])
 def test_native_and_python_callbacks_agree_with_the_loads_in(data, law):
     """The native callback sums the axlebox tendons' forces in its block; the Python one reads
-    them through rail_mj.loads: at random states (the frames rolled, pitched and bouncing) both
+    them through rail_mj.vehicle.loads: at random states (the frames rolled, pitched and bouncing) both
     give one qfrc_passive."""
     data = copy.deepcopy(data)
     data.setdefault("creep", {})["law"] = law
@@ -185,7 +185,7 @@ def switched(gravitational: bool, gyroscopic: bool) -> dict:
 
 def wheelset_entries(stability, speed: float):
     """A at `speed`, and each wheelset's (lateral, yaw) dofs."""
-    from rail_mj.model import LATERAL, YAW
+    from rail_mj.vehicle.model import LATERAL, YAW
 
     model = stability.model
     dofs = [(int(model.joint(f"{w}_{LATERAL}").dofadr[0]), int(model.joint(f"{w}_{YAW}").dofadr[0]))
@@ -199,7 +199,7 @@ def test_gyroscopic_yaw_moment_in_the_linearisation():
     each wheelset's yaw acceleration against its own lateral velocity, by that over I_z, a term
     growing with V. (The rails' share of the roll moment, -I_y*(V/r0)*psi', moves load between
     the wheels, which at the centred state changes no creep force.)"""
-    from rail_mj.stability import Stability
+    from rail_mj.analysis.stability import Stability
 
     on, off = Stability(layout_from_dict(switched(False, True))), Stability(layout_from_dict(switched(False, False)))
     w = on.layout.wheelset
@@ -209,7 +209,7 @@ def test_gyroscopic_yaw_moment_in_the_linearisation():
         for lateral, yaw in dofs:
             expected[nv + yaw, nv + lateral] = (-w.inertia[1] * speed / w.rolling_radius * w.conicity
                                                 / w.contact_half_spacing / w.inertia[2])
-        # Finite differences of MuJoCo's step (rail_mj.linear): 1e-6 of the term.
+        # Finite differences of MuJoCo's step (rail_mj.simulation.linear): 1e-6 of the term.
         scale = np.abs(expected).max()
         assert np.abs((a_on - a_off) - expected).max() <= 1e-6 * scale
 
@@ -224,7 +224,7 @@ def test_cone_gravitational_stiffness_in_the_linearisation():
     (sheared by -y: the shear couple) and the rails' levers b -/+ y, shifts
     (2*Q - 2*h*ky - 2*P0)*y/b between the wheels, and the loaded wheel's normal force leans the
     other way: d(Sigma Y)/dy = (2*lam/b)*(h*ky + P0 - Q*(2 + lam^2)), P0 = Q - m_w*g/2."""
-    from rail_mj.stability import Stability
+    from rail_mj.analysis.stability import Stability
 
     on, off = Stability(layout_from_dict(switched(True, False))), Stability(layout_from_dict(switched(False, False)))
     w, e = on.layout.wheelset, on.layout.spatial.primary
@@ -272,7 +272,7 @@ def test_different_bogies_static_wheel_loads(positions):
 
 def test_motor_bogie_roll_moves_load_by_its_own_axleboxes():
     """The motor bogie (2) rolled by phi: its wheelsets' roll moment is its own axleboxes', M =
-    2*kz*d^2*phi + 2*h*ky*phi*(h - H_b) with its kz, ky, spacing d and height h (rail_mj.loads reads
+    2*kz*d^2*phi + 2*h*ky*phi*(h - H_b) with its kz, ky, spacing d and height h (rail_mj.vehicle.loads reads
     each wheelset's spacing and height from the model), to round-off (1e-9); with bogie 1's
     axleboxes it would be 31 % less."""
     from test_spatial import different_bogies
@@ -336,7 +336,8 @@ def test_a_climbing_flange_meets_nadal():
     wheel up the flange, carries Y/Q = (tan g - mu)/(1 + mu*tan g) (Nadal, 1908) and the two
     wheels' Q still sum to the axle load (both to round-off: the friction is saturated, where the
     two-pass balance is exact)."""
-    from rail_mj import tables as T
+    from rail_mj.contact import tables as T
+    from rail_mj.units import M_PER_MM
 
     data = tomllib.loads((MODELS / "manchester-coach-spatial" / "manchester-coach-spatial.toml").read_text())
     data["profiles"]["spin_creep"] = False
@@ -347,11 +348,11 @@ def test_a_climbing_flange_meets_nadal():
     geo, mu = p.geometry, layout.creep.friction
     y = 0.0063  # the left wheel on its flange alone (slot 1, weight 1), the right on its tread
     rows = geo[1:int(geo[0, T.HEADER_ROWS]) + 1]
-    column = lambda k: np.interp(y / T.MM, rows[:, T.Y], rows[:, k])  # noqa: E731
+    column = lambda k: np.interp(y / M_PER_MM, rows[:, T.Y], rows[:, k])  # noqa: E731
     flange = T.FIRST_POINT + 1 * T.POINT
     assert column(flange + T.WEIGHT) == pytest.approx(1.0)
     g = column(flange + T.ANGLE)
-    rise, lever = column(flange + T.RADIUS) * T.MM, column(flange + T.LEVER) * T.MM
+    rise, lever = column(flange + T.RADIUS) * M_PER_MM, column(flange + T.LEVER) * M_PER_MM
     speed, psi = 30.0, 0.05  # nose-left: the left wheel's front into the left rail
     psi_dot = -rise * speed / (layout.wheelset.rolling_radius * lever)  # xi_x = -rise/r0 - l*psi'/V = 0
     axle = 2 * layout.wheelset.wheel_load
@@ -382,8 +383,8 @@ def roll_balance(layout, pushed: str, F: float = 10e3) -> tuple[float, float, fl
     """(the rails' roll moment, F*h + sum W_i*y_i, sum W_i*y_i) under a steady lateral force F on the
     body `pushed`, the wheelsets held by the rails: linear statics from central differences of
     MuJoCo's forces with the native callback at speed 0 (no creep; the shear couples)."""
-    from rail_mj import native
-    from rail_mj.model import LATERAL, ROLL, YAW
+    from rail_mj.simulation import native
+    from rail_mj.vehicle.model import LATERAL, ROLL, YAW
 
     vehicle = Vehicle(layout)
     model = vehicle.model
@@ -457,7 +458,7 @@ def test_a_wedged_flange_keeps_its_balance():
     """Friction holding a wheel down on a steep flange (mu = 0.6, mu*tan(g) past 1: the flange's
     wedge) would leave it no vertical capacity: that wheel is balanced without its creep, so the
     loads stay finite, non-negative and sum to the axle load."""
-    from rail_mj.creep import profiled_contact
+    from rail_mj.contact.creep import profiled_contact
 
     data = tomllib.loads((MODELS / "manchester-coach-spatial" / "manchester-coach-spatial.toml").read_text())
     data["creep"]["friction"] = 0.6
@@ -496,7 +497,7 @@ def test_summary_flags_y_over_q_and_says_where_q_comes_from(tmp_path):
     data = copy.deepcopy(SPATIAL)
     data["spatial"]["gravity"] = False
     from rail_mj.analysis import summary
-    from rail_mj.runner import simulate
+    from rail_mj.simulation.runner import simulate
 
     result = summary(simulate(layout_from_dict(data), 40.0, 50.0, 0.002))
     assert result["wheel_loads_from"] == "static share" and result["y_over_q_exceeded"] is False

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from conftest import MODELS, ROOT, SHIPPED, free_truck
-from rail_mj.forces import CreepForces, installed
+from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.layout import layout_from_dict, load_layout
-from rail_mj.model import Vehicle, generate, generated_files
+from rail_mj.vehicle.model import Vehicle, generate, generated_files
 
 sys.path.insert(0, str(ROOT / "tools"))
 import regenerate_models  # noqa: E402

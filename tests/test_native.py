@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from mujoco import rollout
 
-from rail_mj import native
+from rail_mj.simulation import native
 from rail_mj.layout import load_layout
-from rail_mj.model import Vehicle, generate
-from rail_mj.runner import simulate
+from rail_mj.vehicle.model import Vehicle, generate
+from rail_mj.simulation.runner import simulate
 
 from conftest import SHIPPED, assert_callbacks_agree
 

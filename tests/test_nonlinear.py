@@ -13,14 +13,14 @@ from scipy.optimize import minimize_scalar
 from conftest import MODELS
 from rail_mj.analysis import (band_pass, dominant_frequency, flange_strikes, hunting_limit, late_motion,
                               oscillation, sliding_rms)
-from rail_mj.bifurcation import bifurcation
+from rail_mj.analysis.bifurcation import bifurcation
 from rail_mj.cli import main
-from rail_mj.creep import POLACH, ContactParameters, contact_forces, flange_force, flange_lead, radius_rise
+from rail_mj.contact.creep import POLACH, ContactParameters, contact_forces, flange_force, flange_lead, radius_rise
 from rail_mj.layout import LayoutError, load_layout
-from rail_mj.plots import bifurcation_csv, bifurcation_png
-from rail_mj.recording import FLANGE_EVENTS, flange_path, write_recording
-from rail_mj.runner import simulate
-from rail_mj.stability import Stability
+from rail_mj.output.plots import bifurcation_csv, bifurcation_png
+from rail_mj.output.recording import FLANGE_EVENTS, flange_path, write_recording
+from rail_mj.simulation.runner import simulate
+from rail_mj.analysis.stability import Stability
 
 FLANGED = """
 wheel_load = 60e3
@@ -277,7 +277,7 @@ def test_one_nonlinear_critical_speed_from_both_commands(tmp_path, capsys):
 def test_a_limit_cycle_dying_above_the_linear_critical_speed_gives_no_nonlinear_one(tmp_path, monkeypatch):
     """Where the staircase loses the limit cycle before reaching the linear critical speed
     (a supercritical bifurcation, within the step), nothing above it is reported."""
-    import rail_mj.bifurcation as bifurcation_module
+    import rail_mj.analysis.bifurcation as bifurcation_module
 
     layout = load_layout(flanged_wheelset(tmp_path))
 

@@ -16,7 +16,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 import peer_numba  # noqa: E402
 import peer_solve_ivp  # noqa: E402
 import peers  # noqa: E402
-from rail_mj.creep import ContactParameters, wheelset_forces  # noqa: E402
+from rail_mj.contact.creep import ContactParameters, wheelset_forces  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,5 @@
-"""The dynamics on wheel and rail profiles: the contact tables (rail_mj/tables.py) and the
-compiled law that interpolates them (rail_mj.creep.profiled_contact), docs/dynamics-on-profiles.md."""
+"""The dynamics on wheel and rail profiles: the contact tables (rail_mj/contact/tables.py) and the
+compiled law that interpolates them (rail_mj.contact.creep.profiled_contact), docs/dynamics-on-profiles.md."""
 
 from __future__ import annotations
 
@@ -11,13 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rail_mj import geometry, tables
+from rail_mj.contact import geometry, tables
 from rail_mj.cli import main
-from rail_mj.creep import ContactParameters, contact_forces
+from rail_mj.contact.creep import ContactParameters, contact_forces
 from rail_mj.layout import LayoutError, load_layout
-from rail_mj.model import Vehicle
-from rail_mj.runner import simulate
-from rail_mj.stability import Stability
+from rail_mj.units import M_PER_MM, N_PER_KN
+from rail_mj.vehicle.model import Vehicle
+from rail_mj.simulation.runner import simulate
+from rail_mj.analysis.stability import Stability
 
 from conftest import PROFILES_TOML, assert_callbacks_agree
 
@@ -67,7 +68,7 @@ def test_normal_forces_do_the_virtual_work_of_the_axle_load(coach, y_mm):
     y = y_mm * 1e-3
     i = int(round((y - geo.y[0]) / (geo.y[1] - geo.y[0])))
     dz_dy = (geo.z[i + 1] - geo.z[i - 1]) / (geo.y[i + 1] - geo.y[i - 1])
-    w = table[0, tables.HEADER_AXLE_LOAD] * tables.KN
+    w = table[0, tables.HEADER_AXLE_LOAD] * N_PER_KN
     got = float(forces_at(table, geo.y[i]).flange_lateral[0])
     assert got == pytest.approx(-w * dz_dy, rel=1e-3)
     assert got * y < 0  # it pushes the wheelset back to the centre
@@ -86,7 +87,7 @@ def test_forces_are_odd_on_a_symmetric_track(coach):
         assert float(b.lateral[0]) == pytest.approx(-float(a.lateral[0]), abs=1e-7 * scale)
         assert float(b.yaw[0]) == pytest.approx(-float(a.yaw[0]), abs=1e-7 * scale)
     centred = forces_at(table, 0.0)
-    assert abs(float(centred.lateral[0])) < 1e-9 * table[0, tables.HEADER_AXLE_LOAD] * tables.KN
+    assert abs(float(centred.lateral[0])) < 1e-9 * table[0, tables.HEADER_AXLE_LOAD] * N_PER_KN
 
 
 def cone_on_knives(tmp_path, lam):
@@ -118,11 +119,11 @@ def test_a_cone_on_knife_edges_is_the_classical_restrained_wheelset(tmp_path):
     stability = Stability(layout, amplitude=2.0)
     table = tables.dynamics_table(layout)
     centre = table[1:][np.argmin(np.abs(table[1:, tables.Y]))]
-    b = centre[tables.point_column(0, 0, tables.LEVER)] * tables.MM
+    b = centre[tables.point_column(0, 0, tables.LEVER)] * M_PER_MM
     lam = stability.equivalent_conicity
     w, c = layout.wheelset, layout.creep
     # r0: the centred contact's rolling radius (the knives touch 18.5 mm inside the taping line)
-    m, iz, r0, kpsi = w.mass, w.inertia[2], table[0, tables.HEADER_R0] * tables.MM, layout.primary.yaw_stiffness
+    m, iz, r0, kpsi = w.mass, w.inertia[2], table[0, tables.HEADER_R0] * M_PER_MM, layout.primary.yaw_stiffness
     p = m * c.f11 * b**2 + iz * c.f22
     q = c.f22 * kpsi
     closed = math.sqrt(p * q / (p**2 * lam / (b * r0) - (m * kpsi) ** 2 / 4))
@@ -196,8 +197,8 @@ def test_a_steep_flange_holds_the_wheelset_on_the_flanging_wheel(coach):
     row = 1 + int(np.argmin(np.abs(table[1:, tables.Y] - 6.4)))
     for slot in range(tables.SLOTS):
         table[row, tables.point_column(0, slot, tables.ANGLE)] = math.radians(75.0)
-    w = table[0, tables.HEADER_AXLE_LOAD] * tables.KN
-    got = float(forces_at(table, table[row, tables.Y] * tables.MM).flange_lateral[0])
+    w = table[0, tables.HEADER_AXLE_LOAD] * N_PER_KN
+    got = float(forces_at(table, table[row, tables.Y] * M_PER_MM).flange_lateral[0])
     assert got == pytest.approx(-w * math.tan(math.radians(75.0)), rel=1e-9)
 
 
@@ -265,7 +266,7 @@ def test_linearisation_is_the_describing_function(tmp_path):
 
 
 def test_a_wheelset_past_the_table_has_climbed_its_flange(coach):
-    from rail_mj.runner import Derailed
+    from rail_mj.simulation.runner import Derailed
 
     with pytest.raises(Derailed, match="climbed the flange"):
         simulate(coach, 30.0, 50.0, 0.0105)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rail_mj.cli import main
-from rail_mj.profiles import (
+from rail_mj.contact.profiles import (
     S1002_SECTIONS, ProfileError, Profile, rail_60e1, rail_60e1_head, read_profile, s1002,
     s1002_radius, s1002_radius_slope, write_csv,
 )

@@ -13,11 +13,11 @@ from conftest import BOGIE_FRAME, MODELS, WHEELSET
 from rail_mj.analysis import flange_strikes, late_motion, oscillation
 from rail_mj.cli import main
 from rail_mj.layout import layout_from_dict, load_layout
-from rail_mj.model import Vehicle
-from rail_mj.recording import (DISTANCE, FLANGE_EVENTS, FLOOR_RATE, SAMPLES_PER_CYCLE, TIME, axis_range,
+from rail_mj.vehicle.model import Vehicle
+from rail_mj.output.recording import (DISTANCE, FLANGE_EVENTS, FLOOR_RATE, SAMPLES_PER_CYCLE, TIME, axis_range,
                                flange_path, frame_lateral_path, frame_yaw_path, guiding_path, lateral_path,
                                plots, recorded_samples, recording_rate, write_recording, yaw_path)
-from rail_mj.runner import Run, simulate
+from rail_mj.simulation.runner import Run, simulate
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
 
@@ -283,7 +283,7 @@ def test_spatial_recording_plots_roll_bounce_and_wheel_loads(tmp_path):
     """A spatial run's recording has the frames' and car body's roll and bounce, and each wheel's
     Q and Y/Q, the values the Run gives (Q in kN); the wheel loads' axis from 0, bounce's no
     narrower than 0.1 mm (its round-off, 6e-4 mm, would fill a tighter one)."""
-    from rail_mj.recording import frame_bounce_path, frame_roll_path, quotient_path, wheel_load_path
+    from rail_mj.output.recording import frame_bounce_path, frame_roll_path, quotient_path, wheel_load_path
 
     run = simulate(load_layout(MODELS.parent / "tests" / "data" / "manchester-coach-spatial.toml"), speed=40.0,
                    distance=30.0, initial_lateral=0.002)

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from conftest import MODELS, SHIPPED, free_truck
-from rail_mj import native
+from rail_mj.simulation import native
 from rail_mj.cli import main
-from rail_mj.forces import CreepForces
+from rail_mj.simulation.callback import CreepForces
 from rail_mj.layout import load_layout
-from rail_mj.model import Vehicle
-from rail_mj.runner import (MAX_TIMESTEP, STEP_FRACTION, Request, RunRefused, SimulationError,
+from rail_mj.vehicle.model import Vehicle
+from rail_mj.simulation.runner import (MAX_TIMESTEP, STEP_FRACTION, Request, RunRefused, SimulationError,
                             simulate, simulate_many, stable_timestep)
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
@@ -72,8 +72,8 @@ def test_a_flat_vehicle_is_linearised_on_its_flanges():
     own (its wheel loads come from its suspension and Nadal's balance): 930 rad/s against 300
     centred, so the 1 ms cap holds, with which a 90 m/s flange-hunting run agrees with one at
     0.25 ms to 0.1 % in amplitude and 3e-4 in frequency (measured)."""
-    from rail_mj.linear import state_matrix
-    from rail_mj.runner import _table_header
+    from rail_mj.simulation.linear import state_matrix
+    from rail_mj.simulation.runner import _table_header
 
     steps = []
     for name in ("manchester-coach-s1002", "manchester-coach-spatial"):

@@ -9,10 +9,10 @@ import pytest
 import tomllib
 
 from conftest import linear_text
-from rail_mj.creep import (LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactParameters, contact_forces,
+from rail_mj.contact.creep import (LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactParameters, contact_forces,
                            falling_friction, saturation, wheelset_forces)
 from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
-from rail_mj.stability import Stability
+from rail_mj.analysis.stability import Stability
 
 LIMIT = 0.3 * 50e3  # mu*N, N
 
@@ -73,7 +73,7 @@ def test_saturation_keeps_the_linear_critical_speed(law, tmp_path):
     assert layout.wheelset.wheel_load == pytest.approx(GRAVITY * (32000 + 2 * 2615 + 4 * 1813) / 8)
     linear = Stability(layout_from_dict(tomllib.loads(linear_text("manchester-coach")))).critical_speed()
     saturated = Stability(layout).critical_speed()
-    # The finite differences (rail_mj.linear, 1e-8 m) see SHE's O(u) curvature at
+    # The finite differences (rail_mj.simulation.linear, 1e-8 m) see SHE's O(u) curvature at
     # u ~ 1e-6, and Brent stops within 1e-4 of the crossing: agreement to 1e-4.
     assert saturated.critical_speed == pytest.approx(linear.critical_speed, rel=1e-4)
     assert saturated.mode == linear.mode

@@ -16,7 +16,7 @@ import tomllib
 from scipy.linalg import eigh
 
 from rail_mj.layout import LayoutError, layout_from_dict
-from rail_mj.model import Vehicle
+from rail_mj.vehicle.model import Vehicle
 
 SPATIAL = tomllib.loads((Path(__file__).parent / "data" / "manchester-coach-spatial.toml").read_text())
 G = 9.81
@@ -242,7 +242,7 @@ def test_all_at_one_height_is_the_planar_model():
     """Centres of mass and springs all at one height: the lateral and yaw motions part from the
     vertical ones, and the eigenvalues of the planar layout made of the elements' planar
     equivalents are all among the spatial model's (the vertical modes besides)."""
-    from rail_mj.stability import Stability
+    from rail_mj.analysis.stability import Stability
 
     layout, planar = one_height()
     spatial = Stability(layout).eigenvalues(30.0)
@@ -257,7 +257,7 @@ def test_all_at_one_height_is_the_planar_model():
 def test_mode_names():
     """The car body's bounce, pitch, yaw and its two sways, lower (roll centre below the centre of
     mass) at the lower frequency; the frames' bounce and pitch."""
-    from rail_mj.stability import Stability
+    from rail_mj.analysis.stability import Stability
 
     modes = Stability(layout_from_dict(copy.deepcopy(SPATIAL))).modes(30.0)
     names = {m.name for m in modes}
@@ -306,7 +306,7 @@ def test_mode_names_at_one_height_are_the_planar_ones(speed):
     """All at one height, each planar mode is among the spatial ones (above) and carries the
     planar model's name there: the spatial names add the vertical and roll modes, they do not
     rename the hunting ones."""
-    from rail_mj.stability import Stability
+    from rail_mj.analysis.stability import Stability
 
     layout, planar = one_height()
     spatial = Stability(layout).modes(speed)
@@ -601,7 +601,7 @@ def test_preload_leaves_out_the_deadband_tendons():
     not reach: the sag is m g / k alone (1e-6, the 6 figures of a spring length), so q = 0 is the
     equilibrium, and the deadband is kept. (A lateral stop on the coach cannot show this: gravity
     has no lateral part.)"""
-    from rail_mj.model import preload
+    from rail_mj.vehicle.model import preload
 
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body(name="b", mass=2.0, inertia=[1.0, 1.0, 1.0])
@@ -624,7 +624,7 @@ def test_gravitational_stiffness_is_the_drop_of_the_attachment_points(coach_grav
     points moved by the bodies' true rotations; its Hessian over the car body's and frames' roll,
     pitch and yaw (central differences, 1e-3 rad: truncation ~1e-6) is diagonal, roll and pitch
     only, and equals the joints' stiffness to 1e-5 of the largest (the MJCF's 6 figures: 2e-6)."""
-    from rail_mj.model import spatial_elements
+    from rail_mj.vehicle.model import spatial_elements
 
     layout, vehicle = coach_gravitational
     model, data = vehicle.model, mujoco.MjData(vehicle.model)
@@ -687,9 +687,9 @@ def test_shipped_coach_bounce_is_the_two_mass_chain():
     (the wheelsets' vertical motion is the rails'), and by symmetry the frames bounce in phase under
     it, so it is a root of the two-mass chain, car body m_c on the secondary (4 kz, 4 cz) over the
     frames 2 m_b on the primary (8 kz, 8 cz): (M s^2 + C s + K) v = 0, damping included (1e-7: the
-    finite-difference linearisation, rail_mj.linear, gives 6e-9)."""
+    finite-difference linearisation, rail_mj.simulation.linear, gives 6e-9)."""
     from rail_mj.layout import load_layout
-    from rail_mj.stability import Stability
+    from rail_mj.analysis.stability import Stability
 
     layout = load_layout(SHIPPED_SPATIAL)
     sp, c, b = layout.spatial, layout.carbody, layout.bogie
@@ -797,7 +797,7 @@ def test_different_bogies_frame_bounce():
     fore-aft and left-right: bounce couples with nothing), to 1e-7: 7.4566 Hz for bogie 1 and
     7.1490 Hz for the motor bogie. In the whole vehicle each is named a frame bounce, the motor
     bogie's lower."""
-    from rail_mj.stability import Stability
+    from rail_mj.analysis.stability import Stability
 
     layout = layout_from_dict(different_bogies())
     vehicle = Vehicle(layout)

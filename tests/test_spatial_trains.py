@@ -18,9 +18,9 @@ from click.testing import CliRunner
 from conftest import assert_callbacks_agree
 from rail_mj.cli import cli
 from rail_mj.layout import LayoutError, layout_from_dict
-from rail_mj.model import Vehicle, build_spec, compile_spec, preload, tendon_jacobian
-from rail_mj.stability import Stability
-from rail_mj.trains import SNAKING
+from rail_mj.vehicle.model import Vehicle, build_spec, compile_spec, preload, tendon_jacobian
+from rail_mj.analysis.stability import Stability
+from rail_mj.analysis.train_modes import SNAKING
 from test_loads import ROUNDING, static_wheel_loads
 from test_spatial import G, SPATIAL, dof, fd_stiffness, point_motion_rows
 from test_trains import matched_error
@@ -312,8 +312,8 @@ def test_bad_spatial_trains_fail_with_one_line(case):
 def test_a_spatial_trains_recording(tmp_path):
     """Per car its lateral and yaw plots (as a planar train's), and the spatial roll, bounce, Q and Y/Q."""
     from rail_mj.layout import load_layout
-    from rail_mj.recording import plots, write_recording
-    from rail_mj.runner import simulate
+    from rail_mj.output.recording import plots, write_recording
+    from rail_mj.simulation.runner import simulate
 
     run = simulate(load_layout(PAIR_FILE), 40.0, 20.0, 0.002)
     titles = [p.title for p in plots(run)]

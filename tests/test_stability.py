@@ -14,9 +14,9 @@ from scipy.optimize import linear_sum_assignment
 from conftest import CONED, MODELS, SHIPPED, free_truck
 from planar import closed_form_critical_speed, planar_eigenvalues
 from rail_mj.cli import main
-from rail_mj.forces import CreepForces, installed
+from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.layout import layout_from_dict, load_layout
-from rail_mj.stability import Stability, time_critical_speed
+from rail_mj.analysis.stability import Stability, time_critical_speed
 
 
 def restrained(m, Iz, ky, kpsi, f11, f22, lam, r0, b):

@@ -10,11 +10,11 @@ import time
 
 import pytest
 
-from rail_mj import sweep as sweep_module
+from rail_mj.studies import sweep as sweep_module
 from rail_mj.cli import main
-from rail_mj.stability import Stability
+from rail_mj.analysis.stability import Stability
 from rail_mj.layout import load_layout
-from rail_mj.sweep import Journal, SweepError, plan, summarise, sweep
+from rail_mj.studies.sweep import Journal, SweepError, plan, summarise, sweep
 
 from conftest import MODELS
 

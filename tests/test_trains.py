@@ -13,8 +13,8 @@ from scipy.optimize import linear_sum_assignment
 from conftest import MODELS
 from planar import planar_train_eigenvalues
 from rail_mj.layout import LayoutError, layout_from_dict, load_layout
-from rail_mj.stability import Stability
-from rail_mj.trains import SNAKING
+from rail_mj.analysis.stability import Stability
+from rail_mj.analysis.train_modes import SNAKING
 
 import tomllib
 
@@ -174,7 +174,7 @@ def test_bad_topologies_fail_with_one_line(case):
 
 
 def test_sweep_keys_reach_into_a_trains_couplings():
-    from rail_mj.sweep import SweepError, with_value
+    from rail_mj.studies.sweep import SweepError, with_value
 
     data = tomllib.loads((MODELS / "articulated-set" / "articulated-set.toml").read_text())
     every = with_value(data, "coupling.*.yaw_damping", 1.0)
@@ -191,8 +191,8 @@ def test_sweep_keys_reach_into_a_trains_couplings():
 def test_a_trains_recording_groups_its_plots_per_car(tmp_path):
     """Each car's body, bogies and wheelsets plotted together (lateral and yaw); a Jacobs
     bogie in both its cars' plots, and its series sent once."""
-    from rail_mj.recording import plots, write_recording
-    from rail_mj.runner import simulate
+    from rail_mj.output.recording import plots, write_recording
+    from rail_mj.simulation.runner import simulate
 
     layout = load_layout(MODELS / "articulated-set" / "articulated-set.toml")
     run = simulate(layout, 60.0, 60.0, 0.002)

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from conftest import MODELS, ROOT
-from rail_mj import geometry
-from rail_mj.conicity import equivalent_conicity
+from rail_mj.contact import geometry
+from rail_mj.contact.conicity import equivalent_conicity
 from rail_mj.layout import load_layout
-from rail_mj.profiles import Profile, rail_60e1, read_profile, s1002_radius
+from rail_mj.contact.profiles import Profile, rail_60e1, read_profile, s1002_radius
 
 sys.path.insert(0, str(ROOT / "tools"))
 import worn_profile  # noqa: E402

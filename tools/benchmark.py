@@ -40,14 +40,14 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from rail_mj import native
-from rail_mj.forces import CreepForces, installed
+from rail_mj.simulation import native
+from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.layout import layout_from_dict, load_layout
-from rail_mj.model import Vehicle
-from rail_mj.plots import root_locus
-from rail_mj.runner import PACK, Request, prepare, simulate, simulate_many
-from rail_mj.stability import Stability
-from rail_mj.sweep import sweep
+from rail_mj.vehicle.model import Vehicle
+from rail_mj.output.plots import root_locus
+from rail_mj.simulation.runner import PACK, Request, prepare, simulate, simulate_many
+from rail_mj.analysis.stability import Stability
+from rail_mj.studies.sweep import sweep
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import peer_numba  # noqa: E402
@@ -105,7 +105,7 @@ def batches(layout, turns: int = 5) -> dict[str, tuple[float, float]]:
 def packed_steps(layout, n: int = 4000, repeats: int = 7) -> tuple[float, float]:
     """CPU seconds of one coach's RK4 step in a model of PACK coaches (20-100 m/s, from the
     2 mm start), bare and with the native creep callback, alternating (best of each)."""
-    from rail_mj.runner import _Pack, _Running, _stepping  # the runner's own packing and options
+    from rail_mj.simulation.runner import _Pack, _Running, _stepping  # the runner's own packing and options
 
     runs = [_Running(k, prepare(Request(layout, v, 1000.0, 0.002))) for k, v in enumerate(np.linspace(20, 100, PACK))]
     pack = _Pack(runs)
@@ -141,7 +141,7 @@ def start_up() -> list[tuple[str, float]]:
             ("`rail-mj run` on a layout with an error", best(
                 lambda: process("-m", "rail_mj.cli", "run", str(bad), "--speed", "30", "--distance", "10"), 5)),
             ("importing what a run needs (MuJoCo, numba, scipy)", best(
-                lambda: process("-c", "import rail_mj.runner, rail_mj.analysis, scipy.signal"), 3)),
+                lambda: process("-c", "import rail_mj.simulation.runner, rail_mj.analysis, scipy.signal"), 3)),
         ]
 
 

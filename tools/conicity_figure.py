@@ -2,8 +2,8 @@
 
     python tools/conicity_figure.py [--out tools/figures]
 
-Computes the rigid contact geometry (rail_mj.geometry, -10 to +10 mm in 0.05 mm steps) and
-EN 15302's equivalent conicity (rail_mj.conicity, the integration method) for three wheel-rail
+Computes the rigid contact geometry (rail_mj.contact.geometry, -10 to +10 mm in 0.05 mm steps) and
+EN 15302's equivalent conicity (rail_mj.contact.conicity, the integration method) for three wheel-rail
 pairs on standard gauge (1435 mm, flange backs 1360 mm):
 
 - new S1002 (EN 13715) on 60E1 (EN 13674-1) inclined 1:40,
@@ -29,9 +29,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rail_mj import geometry as G
-from rail_mj import profiles as P
-from rail_mj.conicity import equivalent_conicity
+from rail_mj.contact import geometry as G
+from rail_mj.contact import profiles as P
+from rail_mj.contact.conicity import equivalent_conicity
 from rail_mj.files import atomic_write
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -28,10 +28,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rail_mj.bifurcation import nonlinear_critical_speed  # noqa: E402
+from rail_mj.analysis.bifurcation import nonlinear_critical_speed  # noqa: E402
 from rail_mj.files import atomic_write  # noqa: E402
 from rail_mj.layout import load_layout  # noqa: E402
-from rail_mj.stability import Stability  # noqa: E402
+from rail_mj.analysis.stability import Stability  # noqa: E402
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 VMIN, VMAX = 20.0, 250.0

@@ -7,7 +7,7 @@
 2. The two-axle wagon: primary lateral stiffness against lateral damping (Wickens' soft,
    damped suspension), 20 x 20.
 
-Each map is `rail-mj map` (rail_mj.sweep with the eigen method); every cell is an eigen
+Each map is `rail-mj map` (rail_mj.studies.sweep with the eigen method); every cell is an eigen
 critical speed of the model. Writes map_coach.png and map_wagon.png and prints what the
 README quotes.
 """
@@ -19,8 +19,8 @@ import time
 from pathlib import Path
 
 from rail_mj.files import atomic_write
-from rail_mj.plots import stability_map_png
-from rail_mj.sweep import sweep
+from rail_mj.output.plots import stability_map_png
+from rail_mj.studies.sweep import sweep
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 MAPS = [

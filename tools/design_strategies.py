@@ -8,7 +8,7 @@
 3. Wickens' route: a softer suspension with lateral damping on the two-axle wagon.
 
 Every number printed, and every point plotted, is an eigen critical speed of the
-model (rail_mj.stability); nothing is taken from text. Prints a Markdown table
+model (rail_mj.analysis.stability); nothing is taken from text. Prints a Markdown table
 (copied into README.md) and writes design_strategies.png.
 """
 
@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 
 from rail_mj.files import atomic_write  # noqa: E402
 from rail_mj.layout import load_layout  # noqa: E402
-from rail_mj.stability import Stability  # noqa: E402
+from rail_mj.analysis.stability import Stability  # noqa: E402
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 VMIN, VMAX = 5.0, 300.0

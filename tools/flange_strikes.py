@@ -18,8 +18,8 @@ import numpy as np
 
 from rail_mj.analysis import flange_strikes
 from rail_mj.layout import load_layout
-from rail_mj.runner import simulate
-from rail_mj.stability import Stability
+from rail_mj.simulation.runner import simulate
+from rail_mj.analysis.stability import Stability
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 SETTLE, SAMPLE = 8.0, 4.0  # s on the limit cycle before sampling, and sampled

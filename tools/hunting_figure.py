@@ -24,8 +24,8 @@ import numpy as np
 from rail_mj.analysis import hunting_limit, hunting_rms
 from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
-from rail_mj.runner import simulate
-from rail_mj.stability import Stability
+from rail_mj.simulation.runner import simulate
+from rail_mj.analysis.stability import Stability
 
 BOGIE = Path(__file__).resolve().parent.parent / "models" / "bogie" / "bogie.toml"
 ZOOM = 40.0  # m at the end of the run

@@ -13,10 +13,10 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from rail_mj.bifurcation import STEP, bifurcation
+from rail_mj.analysis.bifurcation import STEP, bifurcation
 from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
-from rail_mj.plots import bifurcation_png
+from rail_mj.output.plots import bifurcation_png
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 

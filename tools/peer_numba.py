@@ -3,7 +3,7 @@
 What a user would write instead of rail-mj to run the Manchester coach fast: the
 14 planar equations of its 7 bodies with exact nested kinematics (see tools/peers.py
 for the derivation), rail-mj's own creep law called from inside the compiled code
-(`rail_mj.creep.wheelset_contact`: Polach saturation and flange contact, the same
+(`rail_mj.contact.creep.wheelset_contact`: Polach saturation and flange contact, the same
 function rail-mj's MuJoCo callback calls), and the classical RK4 at rail-mj's timestep.
 It follows rail-mj's trajectory to round-off: 1e-18 m over 1 km at 60 m/s, 4e-16 m
 hunting on the flanges at 100 m/s, where |y| reaches 15 mm.
@@ -26,7 +26,7 @@ import numpy as np
 
 from peers import (DISTANCE, INITIAL_LATERAL, SPEED, TIMESTEP, Coach, best, coach, initial_state,
                    max_difference, reference, table, time_rail_mj)
-from rail_mj.creep import wheelset_contact
+from rail_mj.contact.creep import wheelset_contact
 
 BATCH_SPEEDS = (20.0, 100.0)  # m/s: the batch's speeds, evenly spaced
 BATCH_RUNS = 64

@@ -3,7 +3,7 @@
 What a user would write instead of rail-mj with the scientific Python stack alone:
 the 14 planar equations of the Manchester coach's 7 bodies with exact nested
 kinematics (derived in tools/peers.py), the creep law written out in numpy over the
-4 wheelsets (rail-mj's law, transcribed from rail_mj/creep.py: Kalker's linear
+4 wheelsets (rail-mj's law, transcribed from rail_mj/contact/creep.py: Kalker's linear
 forces per wheel, Polach's saturation, flange contact), and an adaptive Runge-Kutta
 method (RK45 or DOP853) at tight tolerances.
 
@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from peers import (DISTANCE, INITIAL_LATERAL, SPEED, TIMESTEP, Coach, best, coach, initial_state,
                    max_difference, reference, table, time_rail_mj)
-from rail_mj.creep import POLACH
+from rail_mj.contact.creep import POLACH
 
 METHODS = ("RK45", "DOP853")
 # Tight: 1e-13 m from the converged trajectory at 60 m/s, where rail-mj's RK4 at 1 ms is
@@ -38,7 +38,7 @@ def creep_forces(contact: np.ndarray, law: int, flange: bool, falling: bool, y, 
                  speed: float):
     """The rails' lateral force Fy (N) and yaw moment Mz (N m) on each wheelset: rail-mj's
     law (docs/creep.md, docs/flange.md) in numpy, arrays over the wheelsets. `contact` is
-    rail_mj.creep.ContactParameters.table (one column a wheelset); `falling`: Polach's
+    rail_mj.contact.creep.ContactParameters.table (one column a wheelset); `falling`: Polach's
     falling friction on."""
     if law != POLACH:
         raise ValueError("this peer writes Polach's law only, the coach's")

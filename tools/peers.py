@@ -44,10 +44,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rail_mj.forces import contact_parameters
+from rail_mj.simulation.callback import contact_parameters
 from rail_mj.layout import load_layout
-from rail_mj.model import Vehicle
-from rail_mj.runner import Run, simulate
+from rail_mj.vehicle.model import Vehicle
+from rail_mj.simulation.runner import Run, simulate
 
 COACH = Path(__file__).resolve().parent.parent / "models" / "manchester-coach" / "manchester-coach.toml"
 
@@ -71,8 +71,8 @@ class Coach:
     stiffness: np.ndarray  # (2*bodies,) of each joint: N/m (lateral), N m/rad (yaw)
     damping: np.ndarray  # (2*bodies,) N s/m, N m s/rad
     wheelsets: np.ndarray  # (4,) the wheelsets' body indices, wheelset 1 first
-    contact: np.ndarray  # (ROWS, 4) rail_mj.creep.ContactParameters.table: one column a wheelset
-    law: int  # rail_mj.creep's law number (POLACH for the coach)
+    contact: np.ndarray  # (ROWS, 4) rail_mj.contact.creep.ContactParameters.table: one column a wheelset
+    law: int  # rail_mj.contact.creep's law number (POLACH for the coach)
     flange: bool  # flange contact on
     falling: bool  # Polach's falling friction on
 

@@ -3,11 +3,11 @@
     python tools/snaking_figure.py [--out tools/figures]
 
 For models/articulated-set with every [[coupling]]'s yaw_damping set in turn to each value
-below: the snaking mode (car bodies yawing in alternation, rail_mj.trains) at SPEED, its
+below: the snaking mode (car bodies yawing in alternation, rail_mj.analysis.train_modes) at SPEED, its
 frequency and damping ratio, and the eigen critical speed with the mode that crosses, on
 the shipped conicity (0.15) and on a low one (LOW_CONICITY), where the end car bodies join the
 bogies' hunting. Every
-number is the MuJoCo model's (rail_mj.stability). Prints a Markdown table (copied into
+number is the MuJoCo model's (rail_mj.analysis.stability). Prints a Markdown table (copied into
 README.md) and writes snaking_articulated.png.
 """
 
@@ -26,8 +26,8 @@ import numpy as np  # noqa: E402
 
 from rail_mj.files import atomic_write  # noqa: E402
 from rail_mj.layout import load_layout  # noqa: E402
-from rail_mj.stability import Stability  # noqa: E402
-from rail_mj.trains import SNAKING  # noqa: E402
+from rail_mj.analysis.stability import Stability  # noqa: E402
+from rail_mj.analysis.train_modes import SNAKING  # noqa: E402
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 SPEED = 50.0  # m/s, where the snaking mode is read

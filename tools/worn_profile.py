@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rail_mj import profiles as P
+from rail_mj.contact import profiles as P
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "models" / "manchester-coach-worn" / "assets"
@@ -116,8 +116,8 @@ def files() -> dict[Path, bytes]:
 
 def report() -> None:
     """Equivalent conicity of the new and the worn wheel on 60E1 at 1:40, from the files."""
-    from rail_mj import geometry as G
-    from rail_mj.conicity import equivalent_conicity
+    from rail_mj.contact import geometry as G
+    from rail_mj.contact.conicity import equivalent_conicity
 
     amplitudes = [1.0, 3.0, 5.0]
     for name, wheel in (("new S1002", P.s1002()), ("worn", P.read_profile(OUT / f"{NAME}.csv", "wheel"))):

@@ -9,7 +9,7 @@ Example:
     (2, 60)
 
 `simulate` picks the timestep (`stable_timestep`), steps MuJoCo with the native creep
-callback (rail_mj.native) in chunks (`mujoco.rollout`), records every body's pose and
+callback (rail_mj.simulation.native) in chunks (`mujoco.rollout`), records every body's pose and
 each wheelset's rates with MuJoCo's sensors, and raises `SimulationError` if the run
 diverges, numerically or physically, saying why. `simulate_many` steps many runs
 together, packed several vehicles to a model, each with exactly `simulate`'s result.
@@ -29,15 +29,17 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from rail_mj.creep import ContactForces, contact_forces
-from rail_mj.forces import CreepForces, contact_parameters, installed
+from rail_mj.contact.creep import ContactForces, contact_forces
+from rail_mj.simulation.callback import CreepForces, installed
+from rail_mj.vehicle.block import contact_parameters
 from rail_mj.layout import Layout
-from rail_mj.loads import AxleLoads, ShearCouples
-from rail_mj.practice import DERAILMENT_LATERAL
-from rail_mj.linear import modal_roots, state_matrix
-from rail_mj.model import NUMERIC_GEOMETRY, YAW, Vehicle
-from rail_mj import native
-from rail_mj.native import set_speed
+from rail_mj.vehicle.loads import AxleLoads, ShearCouples
+from rail_mj.layout.practice import DERAILMENT_LATERAL
+from rail_mj.simulation.linear import modal_roots, state_matrix
+from rail_mj.vehicle.model import NUMERIC_GEOMETRY, YAW, Vehicle
+from rail_mj.simulation import native
+from rail_mj.vehicle import block
+from rail_mj.vehicle.block import set_speed
 
 # RK4 is stable for |lambda|*dt up to 2.78 on the real axis and 2.83 on the imaginary
 # axis; 1.0 for the fastest mode lambda of the linearised vehicle leaves margin, and the
@@ -82,7 +84,7 @@ class Run:
     wheelset_rates: np.ndarray  # (n_samples, n_wheelsets, 2): y_dot (m/s) and psi_dot (rad/s)
     final_state: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at the end
     # (n_samples, n_wheelsets, 2): a spatial vehicle's axle load P (N) and roll moment M (N m)
-    # from its suspension (rail_mj.loads); None or NaN: the wheels carry the layout's static load.
+    # from its suspension (rail_mj.vehicle.loads); None or NaN: the wheels carry the layout's static load.
     axle_loads: np.ndarray | None = None
 
     def contact_forces(self) -> ContactForces:
@@ -110,7 +112,7 @@ class Run:
 
     def wheel_loads(self) -> np.ndarray:
         """(n_samples, n_wheelsets, 2): each wheel's vertical load Q (N), left then right. A
-        spatial vehicle's come from its suspension (rail_mj.loads) and the contact; a planar
+        spatial vehicle's come from its suspension (rail_mj.vehicle.loads) and the contact; a planar
         one's are the static share, or on profiles the contact's equilibrium under it (NaN
         when the layout gives no wheel load)."""
         f = self.contact_forces()
@@ -244,7 +246,7 @@ def _yaw(quat: np.ndarray) -> np.ndarray:
 
 def _spatial_angles(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(roll, pitch, yaw) of a spatial body's quaternions (w, x, y, z), its joints turning it
-    by yaw, then roll, then pitch (rail_mj.model: R = Rz(psi) Rx(phi) Ry(theta)): from R's
+    by yaw, then roll, then pitch (rail_mj.vehicle.model: R = Rz(psi) Rx(phi) Ry(theta)): from R's
     entries R21 = sin(phi), R20 = -cos(phi) sin(theta), R01 = -sin(psi) cos(phi)."""
     w, x, y, z = (quat[..., k] for k in range(4))
     roll = np.arcsin(np.clip(2.0 * (y * z + w * x), -1.0, 1.0))
@@ -254,11 +256,12 @@ def _spatial_angles(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
 
 
 def _table_header(model: mujoco.MjModel) -> tuple[float, float]:
-    """(first y, step in y), m, of a profiled model's contact table (rail_mj.tables)."""
-    from rail_mj.tables import HEADER_DY, HEADER_Y0, MM
+    """(first y, step in y), m, of a profiled model's contact table (rail_mj.contact.tables)."""
+    from rail_mj.numerics import HEADER_DY, HEADER_Y0
+    from rail_mj.units import M_PER_MM
 
     header = model.numeric(NUMERIC_GEOMETRY).data
-    return float(header[HEADER_Y0]) * MM, float(header[HEADER_DY]) * MM
+    return float(header[HEADER_Y0]) * M_PER_MM, float(header[HEADER_DY]) * M_PER_MM
 
 
 def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> float:
@@ -382,7 +385,7 @@ def simulate(
     new speed, `state` = (qpos, qvel), for example a previous run's `final_state`.
     Raises ValueError for an impossible request and `SimulationError` for a run that
     cannot be done or diverges. The creep forces come from the native callback
-    (rail_mj.native); `python_callback` uses the Python one (rail_mj.forces) instead.
+    (rail_mj.simulation.native); `python_callback` uses the Python one (rail_mj.simulation.callback) instead.
     """
     prepared = prepare(Request(layout, speed, distance, initial_lateral, initial_yaw, state), python_callback)
     result = _alone(prepared, derailment_lateral, progress)
@@ -569,7 +572,7 @@ class _Place:
     """Where one vehicle sits in the model that is stepped: its sensors, and its qpos and
     qvel entries."""
 
-    sensors: object  # rail_mj.model.Sensors
+    sensors: object  # rail_mj.vehicle.model.Sensors
     qpos: np.ndarray
     qvel: np.ndarray
     lateral: np.ndarray  # qpos entries of its root lateral joints
@@ -649,7 +652,7 @@ def _unconstrained(model: mujoco.MjModel) -> bool:
 def _pack(vehicles: list[Vehicle], speeds: list[float]):
     """One model holding every vehicle, attached under the prefixes v0/, v1/, ..., the
     native block listing them all with their speeds."""
-    from rail_mj.model import NUMERIC_NATIVE, Sensors, compile_spec
+    from rail_mj.vehicle.model import NUMERIC_NATIVE, Sensors, compile_spec
 
     parent = mujoco.MjSpec()
     first = vehicles[0].spec
@@ -673,9 +676,9 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     for k, (vehicle, speed) in enumerate(zip(vehicles, speeds)):
         bodies = [model.body(f"v{k}/{w}").id for w in vehicle.wheelset_names]
         loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
-        entries.append(native.vehicle_block(model, bodies, contact_parameters(vehicle.model, len(bodies)), speed,
+        entries.append(block.vehicle_block(model, bodies, contact_parameters(vehicle.model, len(bodies)), speed,
                                             loads, prefix=f"v{k}/", couples=ShearCouples.of(vehicle.model)))
-    native_numeric.data = native.block(entries).tolist()
+    native_numeric.data = block.block(entries).tolist()
     model = compile_spec(parent, layout)
     places = []
     for k, vehicle in enumerate(vehicles):
@@ -806,7 +809,7 @@ def _drive(pack: _Pack, roller: _Roller, done, derailment_lateral: float, forces
             item = queue.take_like(pack.runs[m].prepared) if queue is not None else None
             pack.runs[m] = None if item is None else _Running(*item)
             if item is not None:
-                native.set_speed(pack.model, item[1].request.speed, vehicle=m)
+                set_speed(pack.model, item[1].request.speed, vehicle=m)
             pack.start(m)
         if progress is not None:
             progress(min(first + count, runs[0].count - 1) / max(runs[0].count - 1, 1))

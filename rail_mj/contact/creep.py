@@ -3,7 +3,7 @@
 One wheelset at a time, written as plain scalar arithmetic and compiled with numba
 (the per-step force callback calls it four times a step: numpy's per-operation cost
 on arrays of a few wheelsets was most of a step). Independent of MuJoCo (the binding
-is `rail_mj.forces`), it takes arrays of any shape whose last axis is the wheelsets:
+is `rail_mj.simulation.callback`), it takes arrays of any shape whose last axis is the wheelsets:
 one call serves every wheelset of a model at one instant, or a whole run's samples.
 
 Frames and signs are those of docs/frames.md: y to the left, psi positive
@@ -12,7 +12,7 @@ nose-left, forces in the track frame. The physics is in docs/creep.md and docs/f
 Example:
 
     >>> import numpy as np
-    >>> from rail_mj.creep import ContactParameters, wheelset_forces
+    >>> from rail_mj.contact.creep import ContactParameters, wheelset_forces
     >>> p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, f11=10e6, f22=9e6)
     >>> Fy, Mz = wheelset_forces(p, np.array([0.003]), np.zeros(1), np.zeros(1), np.zeros(1), 30.0)
     >>> round(float(Mz[0]), 6)   # -2*f11*b*lam*y/r0: yaws the displaced wheelset back (nose-right)
@@ -29,8 +29,9 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from rail_mj import tables as _t
-from rail_mj.layout import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
+from rail_mj import numerics as _t
+from rail_mj.units import M_PER_MM, N_PER_KN, PA_PER_GPA
+from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -63,7 +64,7 @@ class ContactParameters:
     c23: np.ndarray
     law: int = LINEAR
     flange: bool = False  # flange contact on
-    # A profiled wheelset's contact table (rail_mj.tables); empty: coned wheels.
+    # A profiled wheelset's contact table (rail_mj.contact.tables); empty: coned wheels.
     geometry: np.ndarray = dataclasses.field(default_factory=lambda: NO_GEOMETRY)
 
     def __post_init__(self):
@@ -83,7 +84,7 @@ class ContactParameters:
     def table(self) -> np.ndarray:
         """The per-wheelset numbers as rows of one array, for the compiled kernel; the
         shear modulus in GPa (GPA), as the model's numerics carry it."""
-        rows = [getattr(self, name) / (GPA if name == "shear_modulus" else 1.0) for name in _ROWS]
+        rows = [getattr(self, name) / (PA_PER_GPA if name == "shear_modulus" else 1.0) for name in _ROWS]
         return np.ascontiguousarray(np.stack(rows))
 
     @classmethod
@@ -107,18 +108,15 @@ NO_GEOMETRY = np.zeros((0, _t.COLUMNS))
 # The shear modulus travels in GPa (ContactParameters.table, the rail_mj/ellipse numeric):
 # MuJoCo's MJCF writer writes as 0 every entry of a numeric below 1e-12 of its largest,
 # and 8e10 Pa would take a flangeway clearance of 0.008 m with it.
-GPA = _t.GPA
 
-# The rows of ContactParameters.table, in order. The native callback's numeric block carries
-# ROWS numbers per wheelset (rail_mj.native).
-_FASTSIM_ROWS = ("semi_axis_a", "semi_axis_b", "normal_force", "shear_modulus", "c11", "c22", "c23")
+
+
+from rail_mj.numerics import _FASTSIM_ROWS, _ROWS, ROWS  # noqa: E402,F401  (re-exported)
+
 _FASTSIM_NEEDS = ("friction_limit", *_FASTSIM_ROWS)
-_ROWS = ("r0", "b", "conicity", "f11", "f22", "f23", "f33", "friction_limit", "falling_friction_ratio",
-         "falling_friction_rate", "clearance", "flange_stiffness", "flange_damping", "flange_slope",
-         *_FASTSIM_ROWS)
-ROWS = len(_ROWS)
-(_R0, _B, _LAM, _F11, _F22, _F23, _F33, _LIMIT, _FALL_RATIO, _FALL_RATE, _CLEARANCE, _K_FLANGE,
- _C_FLANGE, _SLOPE, _SEMI_A, _SEMI_B, _NORMAL, _SHEAR, _C11, _C22, _C23) = range(ROWS)
+from rail_mj.numerics import (  # noqa: E402
+    _B, _C11, _C22, _C23, _C_FLANGE, _CLEARANCE, _F11, _F22, _F23, _F33, _FALL_RATE, _FALL_RATIO, _K_FLANGE, _LAM,
+    _LIMIT, _NORMAL, _R0, _SEMI_A, _SEMI_B, _SHEAR, _SLOPE)
 
 
 # The scalar laws are compiled functions for the kernel (`_saturation`, ...), each with an
@@ -275,7 +273,7 @@ def patch_forces(patch, law, xi: float, eta: float, phi: float, friction: float 
     """One wheel's (Fx, Fy, Mz), N and N m, on one contact patch by `law` (a name of LAWS
     or its number), for creepages xi, eta and spin phi (rad/m); what `rail-mj creep` prints.
 
-    `patch` is a `rail_mj.contact.ContactPatch` (ellipse, load, shear modulus, Kalker's
+    `patch` is a `rail_mj.contact.hertz.ContactPatch` (ellipse, load, shear modulus, Kalker's
     coefficients); `friction` is mu, needed by every law but the linear one. The linear and
     saturating laws are Kalker's Fx = -f11*xi, Fy = -f22*eta - f23*phi, Mz = f23*eta - f33*phi,
     scaled together onto the law as in a run (`contact_forces`; Polach with constant mu);
@@ -448,7 +446,7 @@ def _fastsim_wheel(p, xi_x, xi_y, xi_sp, q):
     if q <= 0.0:
         return 0.0, 0.0, 0.0
     grow = 1.0 if q == 1.0 else q ** (1.0 / 3.0)
-    return _fastsim(p[_SEMI_A] * grow, p[_SEMI_B] * grow, p[_NORMAL] * q, p[_LIMIT] / p[_NORMAL], p[_SHEAR] * GPA,
+    return _fastsim(p[_SEMI_A] * grow, p[_SEMI_B] * grow, p[_NORMAL] * q, p[_LIMIT] / p[_NORMAL], p[_SHEAR] * PA_PER_GPA,
                     p[_C11], p[_C22], p[_C23], xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS)
 
 
@@ -501,7 +499,7 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, loa
     couple, spin moment, flange moment), N and N m (see `ContactForces`), then each wheel's
     vertical load Q and lateral force Y (Q_left, Q_right, Y_left, Y_right). `p`: its column
     of `ContactParameters.table`. The one implementation of the contact law: the array
-    kernel below and the native passive-force callback (rail_mj.native) both call it.
+    kernel below and the native passive-force callback (rail_mj.simulation.native) both call it.
 
     `load` and `moment`: the wheelset's axle load and the roll moment on it about the rail
     level from the model's suspension (`cone_wheel_loads`; a spatial vehicle's, docs/spatial.md),
@@ -587,10 +585,10 @@ def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail, creep_left=(0.0,
         for slot in range(_t.SLOTS):
             c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
             w = _between(lo, hi, t, c + _t.WEIGHT)
-            rise = _between(lo, hi, t, c + _t.RADIUS) * _t.MM
+            rise = _between(lo, hi, t, c + _t.RADIUS) * M_PER_MM
             h = rise if about_rail else r0 + rise
             g = _between(lo, hi, t, c + _t.ANGLE)
-            lever = _between(lo, hi, t, c + _t.LEVER) * _t.MM
+            lever = _between(lo, hi, t, c + _t.LEVER) * M_PER_MM
             v, m = w * math.cos(g), w * (lever * math.cos(g) - s * h * math.sin(g))
             if side == 0:
                 v_left, m_left = v_left + v, m_left + m
@@ -629,7 +627,7 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
                      spin_inertia=0.0):
     """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
     them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
-    its contact table (rail_mj.tables), interpolated linearly in y and held at its end rows
+    its contact table (rail_mj.contact.tables), interpolated linearly in y and held at its end rows
     beyond (the runner stops a wheelset that leaves it); `p`: its column of
     ContactParameters.table, for the falling-friction constants. docs/dynamics-on-profiles.md.
 
@@ -649,10 +647,10 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
     Y_left, Y_right) as `wheelset_contact` does, and the gyroscopic yaw moment (`spin_inertia`,
     a spatial vehicle's: the wheelset's roll rate from the table's roll against y).
     """
-    # The table is stored in mm, kN and GPa (rail_mj.tables): SI from here on.
-    y0, dy, rows = geo[0, _t.HEADER_Y0] * _t.MM, geo[0, _t.HEADER_DY] * _t.MM, int(geo[0, _t.HEADER_ROWS])
-    axle_load, shear = geo[0, _t.HEADER_AXLE_LOAD] * _t.KN, geo[0, _t.HEADER_SHEAR_MODULUS] * _t.GPA
-    mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0] * _t.MM
+    # The table is stored in mm, kN and GPa (rail_mj.contact.tables): SI from here on.
+    y0, dy, rows = geo[0, _t.HEADER_Y0] * M_PER_MM, geo[0, _t.HEADER_DY] * M_PER_MM, int(geo[0, _t.HEADER_ROWS])
+    axle_load, shear = geo[0, _t.HEADER_AXLE_LOAD] * N_PER_KN, geo[0, _t.HEADER_SHEAR_MODULUS] * PA_PER_GPA
+    mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0] * M_PER_MM
     gravity, spinning = geo[0, _t.HEADER_GRAVITY] != 0.0, geo[0, _t.HEADER_SPIN] != 0.0
     if math.isnan(y):  # a diverged state: no table row, and the runner reports it
         return math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
@@ -725,11 +723,11 @@ def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r
             normal = wheel * _between(lo, hi, t, c + _t.WEIGHT)
             if not normal > 0.0:
                 continue
-            rise = _between(lo, hi, t, c + _t.RADIUS) * _t.MM
+            rise = _between(lo, hi, t, c + _t.RADIUS) * M_PER_MM
             r = r0 + rise
             g = _between(lo, hi, t, c + _t.ANGLE)
-            lever = _between(lo, hi, t, c + _t.LEVER) * _t.MM
-            cube = (normal / _t.KN) ** (1.0 / 3.0) * _t.MM  # semi-axes per unit load: mm/kN^(1/3)
+            lever = _between(lo, hi, t, c + _t.LEVER) * M_PER_MM
+            cube = (normal / N_PER_KN) ** (1.0 / 3.0) * M_PER_MM  # semi-axes per unit load: mm/kN^(1/3)
             a = cube * _between(lo, hi, t, c + _t.SEMI_A)
             b = cube * _between(lo, hi, t, c + _t.SEMI_B)
             ab = a * b

@@ -1,10 +1,10 @@
 """The MuJoCo binding of the creep law: wheel-rail forces through `mjcb_passive`.
 
 `CreepForces` reads each wheelset's lateral position, yaw and their rates from
-MuJoCo, asks `rail_mj.creep` for the forces of all wheelsets in one call, and adds
+MuJoCo, asks `rail_mj.contact.creep` for the forces of all wheelsets in one call, and adds
 them to `qfrc_passive` through the wheelset Jacobians. It reads the contact data
 from the compiled model by name (the `rail_mj/*` numerics written by
-`rail_mj.model`), so a generated MJCF alone is enough.
+`rail_mj.vehicle.model`), so a generated MJCF alone is enough.
 
 MuJoCo's passive callback is process-global, cannot be installed while a model
 compiles, and its forces are integrated explicitly: see `installed` and the
@@ -14,7 +14,7 @@ Example:
 
     >>> import mujoco
     >>> from rail_mj.layout import load_layout
-    >>> from rail_mj.model import Vehicle
+    >>> from rail_mj.vehicle.model import Vehicle
     >>> vehicle = Vehicle(load_layout("models/wheelset/wheelset.toml"))
     >>> data = mujoco.MjData(vehicle.model)
     >>> data.qpos[0] = 0.003
@@ -30,34 +30,9 @@ import contextlib
 import mujoco
 import numpy as np
 
-from rail_mj.creep import GPA, ContactParameters, wheelset_forces
-from rail_mj.model import (NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE, NUMERIC_GEOMETRY, NUMERIC_SATURATION,
-                           NUMERIC_WHEEL)
-from rail_mj.loads import AxleLoads, ShearCouples
-from rail_mj.tables import COLUMNS
-
-
-def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParameters:
-    r0, b, conicity, clearance = model.numeric(NUMERIC_WHEEL).data
-    f11, f22, f23, f33 = model.numeric(NUMERIC_CREEP).data
-    law, limit, falling_ratio, falling_rate = model.numeric(NUMERIC_SATURATION).data
-    flange, stiffness, damping, slope = model.numeric(NUMERIC_FLANGE).data
-    try:
-        a, semi_b, normal, shear, c11, c22, c23 = model.numeric(NUMERIC_ELLIPSE).data
-    except KeyError:  # an MJCF written before the ellipse was carried: no fastsim law
-        a = semi_b = normal = shear = c11 = c22 = c23 = 0.0
-    try:
-        geometry = model.numeric(NUMERIC_GEOMETRY).data.reshape(-1, COLUMNS).copy()
-    except KeyError:  # coned wheels
-        geometry = None
-    return ContactParameters.broadcast(
-        n_wheelsets, r0=r0, b=b, conicity=conicity, f11=f11, f22=f22, f23=f23, f33=f33,
-        friction_limit=limit, falling_friction_ratio=falling_ratio, falling_friction_rate=falling_rate,
-        law=int(law), clearance=clearance, flange_stiffness=stiffness,
-        flange_damping=damping, flange_slope=slope if flange else None, geometry=geometry,
-        semi_axis_a=a, semi_axis_b=semi_b, normal_force=normal, shear_modulus=shear * GPA, c11=c11, c22=c22,
-        c23=c23,
-    )
+from rail_mj.contact.creep import wheelset_forces
+from rail_mj.vehicle.block import contact_parameters  # noqa: F401  (re-exported)
+from rail_mj.vehicle.loads import AxleLoads, ShearCouples
 
 
 class CreepForces:
@@ -106,7 +81,7 @@ class CreepForces:
 
 @contextlib.contextmanager
 def installed(callback):
-    """Install `callback` (a Python callable, or a C function: `rail_mj.native.callback()`)
+    """Install `callback` (a Python callable, or a C function: `rail_mj.simulation.native.callback()`)
     as MuJoCo's passive-force callback, and always remove it.
 
     MuJoCo refuses to compile any model while a Python callback is installed, and

@@ -1,6 +1,6 @@
 """Stability: eigenvalues and modes of the linearised vehicle, and its critical speed.
 
-The vehicle is linearised about the centred state by `rail_mj.linear` (central
+The vehicle is linearised about the centred state by `rail_mj.simulation.linear` (central
 finite differences of MuJoCo's own forward dynamics, creep callback installed), so
 the eigenvalues are the MuJoCo model's, not a re-derivation.
 
@@ -27,10 +27,10 @@ from scipy.optimize import brentq
 
 from rail_mj.analysis import late_motion, oscillation
 from rail_mj.layout import Layout
-from rail_mj.linear import RIGID_TOLERANCE, modal_roots, state_matrix
-from rail_mj.model import LATERAL, YAW, Vehicle
-from rail_mj.native import set_speed
-from rail_mj.runner import Derailed, simulate
+from rail_mj.simulation.linear import RIGID_TOLERANCE, modal_roots, state_matrix
+from rail_mj.vehicle.model import LATERAL, YAW, Vehicle
+from rail_mj.vehicle.block import set_speed
+from rail_mj.simulation.runner import Derailed, simulate
 
 CRITICAL_XTOL = 1e-4  # relative; the issue asks for 0.1 % or better
 # Speeds (m/s) at which A(V) = A0 + D/V + G*V is sampled: spread by factors of 4, so that
@@ -113,11 +113,11 @@ class Stability:
 
     def __init__(self, layout: Layout, amplitude: float | None = None):
         """On profiles the contact is linearised at the lateral amplitude `amplitude` (mm;
-        default 3, where EN 15302 quotes the equivalent conicity): rail_mj.tables.linearised."""
+        default 3, where EN 15302 quotes the equivalent conicity): rail_mj.contact.tables.linearised."""
         self.layout = layout
         self.amplitude = None
         if layout.profiles is not None:
-            from rail_mj.conicity import QUOTED_AMPLITUDE, MIN_AMPLITUDE
+            from rail_mj.contact.conicity import QUOTED_AMPLITUDE, MIN_AMPLITUDE
 
             self.amplitude = QUOTED_AMPLITUDE if amplitude is None else float(amplitude)
             if not (math.isfinite(self.amplitude) and MIN_AMPLITUDE <= self.amplitude <= LARGEST_AMPLITUDE):
@@ -147,12 +147,12 @@ class Stability:
         self._yaw_arm = {n: self._arm(n) for n in self.bodies}
         self._spatial_modes = self._train_modes = None
         if layout.train is not None:
-            from rail_mj.trains import TrainModes
+            from rail_mj.analysis.train_modes import TrainModes
 
             self._train_modes = TrainModes(layout, self.model, self._absolute, self._mass)
             self._yaw_arm.update(self._train_modes.arms())
         if layout.spatial is not None:  # a spatial train's names: both (docs/trains.md)
-            from rail_mj.spatial import SpatialModes
+            from rail_mj.analysis.spatial_modes import SpatialModes
 
             self._spatial_modes = SpatialModes(layout, model, self._train_modes)
 
@@ -162,7 +162,7 @@ class Stability:
         `amplitude` (EN 15302), otherwise the cone's."""
         if self.amplitude is None:
             return self.layout.wheelset.conicity
-        from rail_mj import geometry
+        from rail_mj.contact import geometry
 
         return geometry.equivalent_conicity(geometry.contact_table(self.layout), self.amplitude)
 
@@ -253,7 +253,7 @@ class Stability:
           'wheelset i (wheelset hunting)' when its frame cannot move;
         - a car body above bogies: 'car body lateral' or 'car body yaw'.
 
-        A train's modes are named by rail_mj.trains.TrainModes (which body or bogie, and
+        A train's modes are named by rail_mj.analysis.train_modes.TrainModes (which body or bogie, and
         the snaking of its car bodies).
         """
         if self.layout.train is not None:

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from rail_mj.runner import Run
+    from rail_mj.simulation.runner import Run
 
 # scipy.signal takes most of a second to import: it is imported where it is used.
 
@@ -288,7 +288,7 @@ def wheel_safety(run: Run) -> dict:
                     "smallest_wheel_load_n": at(q[:, i:i + 1], np.nanargmin)[0]})
     largest, where_largest = at(quotient, np.nanargmax)
     smallest, where_smallest = at(q, np.nanargmin)
-    # Where Q comes from: a spatial vehicle's suspension (rail_mj.loads); on profiles the contact's
+    # Where Q comes from: a spatial vehicle's suspension (rail_mj.vehicle.loads); on profiles the contact's
     # equilibrium under the static axle load; on a planar vehicle's cones the static share.
     spatial = run.layout.spatial
     source = ("suspension" if spatial is not None and spatial.gravity else

@@ -16,7 +16,7 @@ docs/frames.md once linearised. A fixed car body has no joints.
 Example:
 
     >>> from rail_mj.layout import load_layout
-    >>> from rail_mj.model import Vehicle
+    >>> from rail_mj.vehicle.model import Vehicle
     >>> vehicle = Vehicle(load_layout("models/bogie/bogie.toml"))
     >>> vehicle.wheelset_names
     ('wheelset1', 'wheelset2')
@@ -34,9 +34,9 @@ import mujoco
 import numpy as np
 
 from rail_mj.files import staged
+from rail_mj.units import PA_PER_GPA
 from rail_mj.layout import GRAVITY, LAWS, Layout, Suspension
-from rail_mj.tables import GPA
-from rail_mj.wheel import wheel_profile, wheel_stl
+from rail_mj.vehicle.wheel import wheel_profile, wheel_stl
 
 # Heights of the bodies above the rail, m. The model is planar (lateral and yaw), so
 # these place the bodies for viewing and have no effect on the dynamics. Bogie frame
@@ -47,7 +47,7 @@ AXLE_RADIUS = 0.08
 RAIL_HEAD_WIDTH = 0.072  # UIC60, m
 
 # The drawn parts, m: a handful of boxes and cylinders per body besides the wheel meshes
-# (shapes that rail_mj.recording draws in Rerun too). No geom collides or weighs anything
+# (shapes that rail_mj.output.recording draws in Rerun too). No geom collides or weighs anything
 # (inertias come from the layout), so none of this touches the dynamics. Lengths follow
 # the layout (wheelbase, b, r0, body positions); heights above the rail stack up from r0:
 # axlebox, primary spring, bogie side frame, secondary spring, car body.
@@ -81,20 +81,8 @@ FRAME_RGBA = [0.2, 0.3, 0.6, 1]
 # The run's speed replaces nothing here: the timestep is chosen by the runner.
 DEFAULT_TIMESTEP = 1e-3
 
-# Names of the custom numerics that carry the contact data for the creep forces,
-# so that a generated MJCF alone is enough to simulate the vehicle.
-# The first numeric: everything the native creep callback needs, per vehicle (its speed,
-# contact table, wheelset bodies and their joints), written by rail_mj.native.
-NUMERIC_NATIVE = "rail_mj/native"
-NUMERIC_WHEEL = "rail_mj/wheel"  # r0, b, conicity, flangeway clearance
-NUMERIC_CREEP = "rail_mj/creep"  # f11, f22, f23, f33
-NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.creep.LAWS), mu*N per wheel,
-# and Polach's falling friction: mu_infinity/mu0 and its rate, s/m
-NUMERIC_GEOMETRY = "rail_mj/geometry"  # a profiled wheelset's contact table (rail_mj.tables), row-major
-NUMERIC_FLANGE = "rail_mj/flange"  # on (1) or off (0), stiffness, damping, tan(flange angle)
-# The contact ellipse, for the fastsim law: semi-axes a (rolling) and b, m, wheel load N, shear
-# modulus G, GPa (see creep.GPA), and Kalker's C11, C22, C23; zeros for a layout without [contact].
-NUMERIC_ELLIPSE = "rail_mj/ellipse"
+from rail_mj.numerics import (  # noqa: E402,F401  (re-exported)
+    NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE, NUMERIC_GEOMETRY, NUMERIC_NATIVE, NUMERIC_SATURATION, NUMERIC_WHEEL)
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
 LATERAL, YAW = "lateral", "yaw"
@@ -408,7 +396,7 @@ def spring_tendons(spec, name: str, point, lower: tuple[str, tuple, tuple], uppe
     the rail) between `lower` and `upper`, each (body, centre (x, y, z), joints): three fixed tendons
     <name>_x|y|z, their lengths the deflections u_upper - u_lower of the point along x, y, z.
     `measured`: every axis a tendon, a spring-less one too (its length is what the preload's
-    shear couples act on, rail_mj.loads.ShearCouples)."""
+    shear couples act on, rail_mj.vehicle.loads.ShearCouples)."""
     for axis, coefficients in zip(AXES, deflections(point, lower, upper)):
         k, c = getattr(spring, f"k{axis}"), getattr(spring, f"c{axis}")
         _tendon(spec, f"{name}_{axis}", coefficients, k, c, keep=measured)
@@ -501,7 +489,7 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
     sp, world = layout.spatial, spec.worldbody
     hb, r0 = sp.bogie_height, layout.wheelset.rolling_radius
     train = layout.train
-    couples = sp.gravity and sp.gravitational_stiffness  # rail_mj.loads.ShearCouples
+    couples = sp.gravity and sp.gravitational_stiffness  # rail_mj.vehicle.loads.ShearCouples
     for k, (name, (x, _, h), _) in enumerate(spatial_carbodies(layout)):
         body = world.add_body(name=name, pos=[0, 0, _g6(h)[0]] if train is None else _pos(x, h))
         if train is None:
@@ -700,21 +688,21 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     spec.assets = {mesh_file(layout): stl}
     if layout.spatial is not None:
         add_spatial(spec, layout)
-        if layout.spatial.gravity:  # the wheel loads come from the suspension (rail_mj.loads)
-            from rail_mj.loads import NUMERIC_LOADS
+        if layout.spatial.gravity:  # the wheel loads come from the suspension (rail_mj.vehicle.loads)
+            from rail_mj.vehicle.loads import NUMERIC_LOADS
 
             e = layout.spatial.primary
             spin = w.inertia[1] if layout.spatial.gyroscopic else 0.0
             cone_gravity = layout.spatial.gravitational_stiffness and layout.profiles is None
             # Each wheelset's axlebox spacing and height after the defaults, when a bogie has its
-            # own ([bogies.N.axlebox]; rail_mj.loads reads either form).
+            # own ([bogies.N.axlebox]; rail_mj.vehicle.loads reads either form).
             own = [(d.axlebox.spacing, d.axlebox.height) for d in layout.spatial.bogies
                    for _ in d.wheelset_positions]
             own = [] if all(a == (e.spacing, e.height) for a in own) else [v for a in own for v in a]
             spec.add_numeric(name=NUMERIC_LOADS, data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin,
                                                           float(cone_gravity), *own))
-            if layout.spatial.gravitational_stiffness:  # the preloads' shear couples (rail_mj.loads)
-                from rail_mj.loads import NUMERIC_COUPLES
+            if layout.spatial.gravitational_stiffness:  # the preloads' shear couples (rail_mj.vehicle.loads)
+                from rail_mj.vehicle.loads import NUMERIC_COUPLES
 
                 spec.add_numeric(name=NUMERIC_COUPLES, data=[1.0])
     elif layout.train is not None:
@@ -735,7 +723,7 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
                      if f else _g6(0.0, 0.0, 0.0, 0.0))
     spec.add_numeric(name=NUMERIC_ELLIPSE, data=_g6(*_ellipse(layout)))
     if layout.profiles is not None:
-        from rail_mj.tables import TableError, dynamics_table
+        from rail_mj.contact.tables import TableError, dynamics_table
 
         try:
             table = dynamics_table(layout)
@@ -753,7 +741,7 @@ def _ellipse(layout: Layout) -> tuple[float, ...]:
     from rail_mj.layout import contact_patch_of  # scipy: only for layouts with [contact]
 
     patch = contact_patch_of(layout)
-    return (patch.a, patch.b, patch.normal_load, patch.shear_modulus / GPA, patch.C["C11"], patch.C["C22"],
+    return (patch.a, patch.b, patch.normal_load, patch.shear_modulus / PA_PER_GPA, patch.C["C11"], patch.C["C22"],
             patch.C["C23"])
 
 
@@ -769,7 +757,7 @@ def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
     """The vehicle's spec and compiled model, its native block filled in: the block lists
     bodies, joints and dofs by the ids the compiler gave them, so it is written after a
     first compile (a millisecond or two) and the model compiled again."""
-    from rail_mj import native  # numba: only once a model is built
+    from rail_mj.vehicle import block  # numba (the contact law's module): only once a model is built
 
     spec = build_spec(layout)
     model = compile_spec(spec, layout)
@@ -782,7 +770,7 @@ def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
                 add_gravitational_stiffness(spec, layout, model, q_eq)
         else:
             spec.option.gravity = [0.0, 0.0, 0.0]
-    spec.numerics[0].data = native.block_for(model, layout.n_wheelsets).tolist()
+    spec.numerics[0].data = block.block_for(model, layout.n_wheelsets).tolist()
     add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
     add_load_sensors(spec, model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)])
     return spec, compile_spec(spec, layout)
@@ -805,8 +793,8 @@ def add_sensors(spec: mujoco.MjSpec, bodies: list[str]) -> None:
 
 def add_load_sensors(spec: mujoco.MjSpec, model: mujoco.MjModel, wheelsets: list[str]) -> None:
     """A spatial vehicle's axlebox tendons' lengths and rates, what its wheel loads come from
-    (rail_mj.loads): <tendon>_length and <tendon>_rate."""
-    from rail_mj.loads import AxleLoads
+    (rail_mj.vehicle.loads): <tendon>_length and <tendon>_rate."""
+    from rail_mj.vehicle.loads import AxleLoads
 
     loads = AxleLoads.of(model, wheelsets)
     if loads is None:
@@ -833,8 +821,8 @@ class Sensors:
         # The lateral velocity and yaw rate of each wheelset, in the world (track) frame.
         self.lateral_rate = np.array([address(f"{w}_linvel") + 1 for w in wheelset_names])
         self.yaw_rate = np.array([address(f"{w}_angvel") + 2 for w in wheelset_names])
-        # A spatial vehicle's axlebox tendons (rail_mj.loads), read as the model's ten_length/velocity.
-        from rail_mj.loads import AxleLoads
+        # A spatial vehicle's axlebox tendons (rail_mj.vehicle.loads), read as the model's ten_length/velocity.
+        from rail_mj.vehicle.loads import AxleLoads
 
         self.model, self.prefix = model, prefix
         self.axle_loads = AxleLoads.of(model, wheelset_names, prefix)
@@ -857,7 +845,7 @@ class Sensors:
         rates[..., 1] = readings[:, self.yaw_rate]
 
     def loads(self, readings: np.ndarray, loads: np.ndarray) -> None:
-        """Fill each wheelset's (axle load P, roll moment M) from sensor readings (rail_mj.loads);
+        """Fill each wheelset's (axle load P, roll moment M) from sensor readings (rail_mj.vehicle.loads);
         NaN for a vehicle whose wheels carry the layout's static load."""
         if self.axle_loads is None:
             loads[...] = np.nan

@@ -1,7 +1,7 @@
 """Contact tables: a profiled wheelset's contact, ready for the compiled creep law.
 
-`rail_mj.geometry` finds where a rigid wheelset touches its rails at each lateral shift y.
-This module turns that into one array the compiled law (`rail_mj.creep.profiled_contact`)
+`rail_mj.contact.geometry` finds where a rigid wheelset touches its rails at each lateral shift y.
+This module turns that into one array the compiled law (`rail_mj.contact.creep.profiled_contact`)
 interpolates at every step: per row y, the roll, and per wheel two contact slots, each
 following one contact point across the rows, with its share of the wheel's load, rolling
 radius, contact angle, lateral lever, and the Hertz ellipse and Kalker coefficients of that
@@ -23,8 +23,8 @@ rows 1.. are the uniform y grid.
 Example, S1002 on 60E1 at 1:40 near the centre, a 110 kN axle, the Polach law's mu:
 
     >>> import numpy as np
-    >>> from rail_mj.geometry import Track, contact_table
-    >>> from rail_mj.profiles import rail_60e1, s1002
+    >>> from rail_mj.contact.geometry import Track, contact_table
+    >>> from rail_mj.contact.profiles import rail_60e1, s1002
     >>> geo = contact_table(Track(s1002(), rail_60e1()), ys=np.linspace(-1e-3, 1e-3, 41))
     >>> t = build(geo, 110e3, 210e9, 0.28, 0.3)
     >>> t.shape == (42, COLUMNS), round(float(t[21, point_column(0, 0, ANGLE)]), 4)
@@ -38,32 +38,13 @@ import math
 
 import numpy as np
 
-# The table is stored in mm, kN and GPa: MuJoCo's MJCF writer writes as 0 any entry of a
-# numeric smaller than 1e-12 of its largest, and in SI a shear modulus of 8e10 Pa beside
-# shifts of 5e-5 m would lose them (the native block also carries creep coefficients of 1e7 N).
-MM, KN, GPA, MRAD = 1e-3, 1e3, 1e9, 1e-3  # SI per stored unit
+from rail_mj.numerics import (  # noqa: E402,F401  (the table's layout, re-exported)
+    ANGLE, C11, C22, C23, C33, COLUMNS, FIRST_POINT, HEADER_AXLE_LOAD, HEADER_DY, HEADER_FRICTION, HEADER_GRAVITY,
+    HEADER_R0, HEADER_ROWS, HEADER_SHEAR_MODULUS, HEADER_SPIN, HEADER_Y0, LEVER, POINT, RADIUS, ROLL, SEMI_A, SEMI_B,
+    SLOTS, WEIGHT, Y, point_column)
+from rail_mj.units import M_PER_MM, N_PER_KN, PA_PER_GPA, RAD_PER_MRAD  # noqa: E402
 
-# Header entries (row 0): y0 and dy (mm), rows, axle load (kN), shear modulus (GPa),
-# friction coefficient, r0 (mm), gravitational stiffness and spin creep on (1) or off (0).
-HEADER_Y0, HEADER_DY, HEADER_ROWS, HEADER_AXLE_LOAD, HEADER_SHEAR_MODULUS, HEADER_FRICTION, \
-    HEADER_R0, HEADER_GRAVITY, HEADER_SPIN = range(9)
-# Per row: y (mm), roll (mrad, left side up), then per side (left, right) per slot POINT entries.
-Y, ROLL = range(2)
-FIRST_POINT = 2
-# Per point: load share, rolling radius less r0 (mm: MJCF's 6 significant figures keep it to
-# 1e-9 mm near the centre), contact angle (rad, leaning towards the track centre), lateral
-# lever (mm, the contact's y less the wheelset's), Hertz semi-axes per unit load
-# (mm/kN^(1/3), a along the rolling direction), Kalker's C11, C22, C23, C33.
-WEIGHT, RADIUS, ANGLE, LEVER, SEMI_A, SEMI_B, C11, C22, C23, C33 = range(10)
-POINT = 10
-SLOTS = 2  # each followed across the rows (_assign_slots): slot 0 starts at the centred outer point
-COLUMNS = FIRST_POINT + 2 * SLOTS * POINT
 _JUMP = 2e-3  # m across the wheel: a contact point moving further between two rows is a new one
-
-
-def point_column(side: int, slot: int, field: int) -> int:
-    """The column of `field` for side 0 (left) / 1 (right) and slot 0 / 1."""
-    return FIRST_POINT + (side * SLOTS + slot) * POINT + field
 
 
 class TableError(ValueError):
@@ -73,7 +54,7 @@ class TableError(ValueError):
 def _hertz_per_unit_load(A, B, young, poisson):
     """Semi-axes at 1 N, Kalker's coefficients (ratio clamped to his table) and the
     approach coefficient c (approach = c*N^(2/3)) of a point with curvature sums A, B."""
-    from rail_mj.contact import KALKER_S, hertz_ellipse, kalker_coefficients
+    from rail_mj.contact.hertz import KALKER_S, hertz_ellipse, kalker_coefficients
 
     # A conformal point (B near 0 or below: a worn tread on a rail of nearly its shape)
     # has a long, narrow ellipse across; Hertz needs B > 0, so it is held at A/1000.
@@ -167,7 +148,7 @@ def _assign_slots(wheel_s, centre: int) -> list[list[int]]:
 
 
 def build(geometry, axle_load: float, young: float, poisson: float, friction: float) -> np.ndarray:
-    """The table (in its stored units: mm, kN, GPa) from a rail_mj.geometry.ContactTable
+    """The table (in its stored units: mm, kN, GPa) from a rail_mj.contact.geometry.ContactTable
     (uniform y), for an axle load (N, the vertical load the two wheels carry together),
     steel of Young's modulus `young` (Pa) and Poisson's ratio `poisson`, and the friction
     coefficient (0 for the linear law)."""
@@ -179,11 +160,11 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
     rows = len(ys)
     table = np.zeros((rows + 1, COLUMNS))
     r0 = 0.5 * float(np.interp(0.0, ys, cols["r_left"]) + np.interp(0.0, ys, cols["r_right"]))
-    table[0, :9] = (ys[0] / MM, steps[0] / MM, rows, axle_load / KN, young / (2.0 * (1.0 + poisson)) / GPA,
-                    friction, r0 / MM, 1.0, 1.0)
+    table[0, :9] = (ys[0] / M_PER_MM, steps[0] / M_PER_MM, rows, axle_load / N_PER_KN, young / (2.0 * (1.0 + poisson)) / PA_PER_GPA,
+                    friction, r0 / M_PER_MM, 1.0, 1.0)
     body = table[1:]
-    body[:, Y] = ys / MM
-    body[:, ROLL] = np.asarray(cols["roll"], float) / MRAD
+    body[:, Y] = ys / M_PER_MM
+    body[:, ROLL] = np.asarray(cols["roll"], float) / RAD_PER_MRAD
     centre = int(np.argmin(np.abs(ys)))
     for k, side in enumerate(("left", "right")):
         points = [_side_points(cols, side, i) for i in range(rows)]
@@ -198,8 +179,8 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
             weights = [1.0] if len(shapes) == 1 else _share(shapes, axle_load / 2.0, young, poisson)
             for (gap, s, r, gamma, y_c, kw, kr), (_, _, A, B), w, slot in zip(points[i], shapes, weights, slots[i]):
                 a, b, C, _ = _hertz_per_unit_load(A, B, young, poisson)
-                per_kn = KN ** (1.0 / 3.0) / MM  # m/N^(1/3) -> mm/kN^(1/3)
-                values = (w, (r - r0) / MM, gamma, (y_c - ys[i]) / MM, a * per_kn, b * per_kn,
+                per_kn = N_PER_KN ** (1.0 / 3.0) / M_PER_MM  # m/N^(1/3) -> mm/kN^(1/3)
+                values = (w, (r - r0) / M_PER_MM, gamma, (y_c - ys[i]) / M_PER_MM, a * per_kn, b * per_kn,
                           C["C11"], C["C22"], C["C23"], C["C33"])
                 c = point_column(k, slot, 0)
                 body[i, c:c + POINT] = values
@@ -267,7 +248,7 @@ def linearised(table: np.ndarray, geometry, amplitude: float) -> np.ndarray:
     is first made one point carrying its whole load (`_one_point_per_wheel`), so that a
     wheel's contact angle, lever and creep coefficients are linearised as the wheel's, not
     slot by slot. Three rows, one grid step apart."""
-    from rail_mj import geometry as g
+    from rail_mj.contact import geometry as g
 
     lam = g.equivalent_conicity(geometry, amplitude)
     body = _one_point_per_wheel(table)[1:]
@@ -300,7 +281,7 @@ def dynamics_table(layout, amplitude: float | None = None) -> np.ndarray:
 
 def table_for(profiles, wheelset, contact, law: str, friction, amplitude: float | None = None) -> np.ndarray:
     """`dynamics_table` from the layout's parts (the layout checks itself with it)."""
-    from rail_mj import geometry as g
+    from rail_mj.contact import geometry as g
 
     if wheelset.wheel_load is None:
         raise TableError("wheelset.wheel_load: missing: the contact on profiles needs the wheel load, and a "
@@ -332,12 +313,12 @@ def centred_coefficients(profiles, wheelset, contact, law: str, friction) -> dic
     table = table_for(profiles, wheelset, contact, law, friction)
     body = table[1:]
     row = np.array([np.interp(0.0, body[:, Y], body[:, c]) for c in range(COLUMNS)])
-    shear, out = table[0, HEADER_SHEAR_MODULUS] * GPA, dict(f11=0.0, f22=0.0, f23=0.0, f33=0.0)
+    shear, out = table[0, HEADER_SHEAR_MODULUS] * PA_PER_GPA, dict(f11=0.0, f22=0.0, f23=0.0, f33=0.0)
     for slot in range(SLOTS):
         w = row[point_column(0, slot, WEIGHT)]
         if w <= 0:
             continue
-        cube = (w * wheelset.wheel_load / KN) ** (1.0 / 3.0) * MM
+        cube = (w * wheelset.wheel_load / N_PER_KN) ** (1.0 / 3.0) * M_PER_MM
         ab = cube**2 * row[point_column(0, slot, SEMI_A)] * row[point_column(0, slot, SEMI_B)]
         out["f11"] += shear * ab * row[point_column(0, slot, C11)]
         out["f22"] += shear * ab * row[point_column(0, slot, C22)]

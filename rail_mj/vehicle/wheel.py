@@ -2,7 +2,7 @@
 
 The mesh is for looking at. MuJoCo collides meshes through their convex hulls,
 which would fill the flange throat, so wheel-rail contact is computed in
-`rail_mj.creep` from the same numbers (r0, conicity), never from this mesh.
+`rail_mj.contact.creep` from the same numbers (r0, conicity), never from this mesh.
 """
 
 from __future__ import annotations

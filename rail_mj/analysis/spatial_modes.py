@@ -1,6 +1,6 @@
 """Mode names of a spatial vehicle (docs/spatial.md): the car body's and bogie frames' bounce,
 pitch, roll and lower/upper sway besides the planar names. A spatial train's (docs/trains.md) with
-the train's numbering of rail_mj.trains: `car body K bounce`, `car bodies (all) pitch`,
+the train's numbering of rail_mj.analysis.train_modes: `car body K bounce`, `car bodies (all) pitch`,
 `bogie K (Jacobs) frame bounce`, and the train's snaking.
 
 The model is flat: every coordinate is absolute, so a body's modal motion is read straight off
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from rail_mj.layout import Layout
-from rail_mj.model import LATERAL, PITCH, ROLL, VERTICAL, YAW
+from rail_mj.vehicle.model import LATERAL, PITCH, ROLL, VERTICAL, YAW
 
 MOTIONS = (LATERAL, YAW, VERTICAL, ROLL, PITCH)
 # A sway's roll centre nearer the centre of mass than this (m): the body rolls about itself.
@@ -24,7 +24,7 @@ class SpatialModes:
     """Names and energy shares of a spatial vehicle's modes from their eigenvectors."""
 
     def __init__(self, layout: Layout, model, train_modes=None):
-        """`train_modes`: a spatial train's rail_mj.trains.TrainModes (its snaking test)."""
+        """`train_modes`: a spatial train's rail_mj.analysis.train_modes.TrainModes (its snaking test)."""
         self.layout, self.train_modes = layout, train_modes
         dof = lambda body, m: int(model.joint(f"{body}_{m}").dofadr[0])  # noqa: E731
         n = len(layout.bogie.wheelset_positions)
@@ -86,14 +86,14 @@ class SpatialModes:
 
     def _car_name(self, q, share, energy) -> str:
         """A car-body mode: one body's motion (`car body bounce`; in a train `car body K bounce`),
-        several bodies moving together (`car bodies (all) bounce`, as rail_mj.trains names them:
+        several bodies moving together (`car bodies (all) bounce`, as rail_mj.analysis.train_modes names them:
         those with at least SUBSTANTIAL of the top one's energy, the top one's motion), or the
         train's snaking, when the bodies move in the lateral plane (lateral, yaw, roll above
         bounce and pitch) and TrainModes calls it snaking."""
         top = max(self.cars, key=share.get)
         if self.train_modes is None:
             return f"{self._label(top)} {self._motion(q, top, energy)}"
-        from rail_mj.trains import SNAKING, SUBSTANTIAL
+        from rail_mj.analysis.train_modes import SNAKING, SUBSTANTIAL
 
         planar = {c: (energy[c][0], energy[c][1]) for c in self.cars}
         lateral_plane = sum(energy[c][0] + energy[c][1] + energy[c][3] for c in self.cars)

@@ -15,7 +15,7 @@ arithmetic. The gap is measured vertically in the track frame.
 
 Example, S1002 on 60E1 at 1:40, standard gauge:
 
-    >>> from rail_mj.profiles import rail_60e1, s1002
+    >>> from rail_mj.contact.profiles import rail_60e1, s1002
     >>> t = contact_table(Track(s1002(), rail_60e1()), ys=[-0.003, 0.0, 0.003])
     >>> [round(float(v) * 1e3, 4) for v in t.delta_r]          # mm
     [-0.9585, 0.0, 0.9585]
@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from rail_mj import profiles as _p
+from rail_mj.contact import profiles as _p
 
 # Columns of `ContactTable.to_csv`: the contract first, then the rest.
 LEADING_COLUMNS = ("y_m", "r_left_m", "r_right_m", "delta_r_m", "contact_angle_left_rad",
@@ -41,7 +41,7 @@ DEFAULT_YS = np.round(np.arange(-200, 201) * 0.05e-3, 12)  # m: -10 to +10 mm in
 TWO_POINT_GAP = 1e-5   # m: a second local minimum of the gap this close to 0 is a second contact
 # m: a second local minimum this close is recorded (r2_*, ... gap2_*): under load the elastic
 # approach of wheel and rail, ~0.05-0.1 mm for a 50-100 kN wheel, closes such a gap, and the
-# dynamics share the wheel's load between the two points (rail_mj.tables).
+# dynamics share the wheel's load between the two points (rail_mj.contact.tables).
 NEAR_GAP = 1e-4
 _SECOND_APART = 1e-3   # m: ... and at least this far across the wheel from the first
 _COARSE = 0.1e-3       # m between wheel points in the first search of the gap
@@ -84,7 +84,7 @@ def track_of(layout) -> Track:
 
 def track_of_profiles(p, r0: float) -> Track:
     """The Track of a layout.Profiles with wheels of nominal radius r0."""
-    from rail_mj.layout import read_profiles
+    from rail_mj.contact.pair import read_profiles
 
     wheel, rail = read_profiles(p)
     return Track(wheel, rail, p.rail_inclination, p.track_gauge, p.flange_back_spacing, r0)
@@ -359,9 +359,9 @@ def default_table(profiles, r0: float) -> ContactTable:
     """The contact table of a layout.Profiles at the default shifts (DEFAULT_YS), made once a
     process for each profiles and r0 (a profile file that changes is read again): a layout's
     equivalent conicity and `rail-mj contact-geometry` share it."""
-    from rail_mj.layout import _stamp
+    from rail_mj.contact.pair import stamp
 
-    return _default_table(profiles, r0, _stamp(profiles))
+    return _default_table(profiles, r0, stamp(profiles))
 
 
 @functools.lru_cache(maxsize=8)
@@ -445,7 +445,7 @@ def gaps(table: ContactTable, i: int, side: str, s) -> np.ndarray:
 
 def delta_r(table: ContactTable):
     """Δr(y) of the table as a conicity.DeltaR (mm)."""
-    from rail_mj.conicity import DeltaR
+    from rail_mj.contact.conicity import DeltaR
 
     return DeltaR.from_points(table.y * 1e3, table.delta_r * 1e3, source=f"contact geometry "
                               f"({table.track.wheel.name} on {table.track.rail.name})")
@@ -454,6 +454,6 @@ def delta_r(table: ContactTable):
 def equivalent_conicity(table: ContactTable, amplitude: float = 3.0) -> float:
     """EN 15302's equivalent conicity of the table's Δr at `amplitude` mm (the integration
     method), with e the contact points' spacing at y = 0 and r0 the nominal radius."""
-    from rail_mj.conicity import equivalent_conicity as lam
+    from rail_mj.contact.conicity import equivalent_conicity as lam
 
     return float(lam(delta_r(table), [amplitude])[0])

@@ -2,7 +2,7 @@
 
 Exit status: 0 success; 2 bad input (layout, arguments, output path); 3 a run that
 cannot be done or that diverged. Every failure is one line on stderr, and so is every
-warning (a legal value far outside railway practice: rail_mj.practice).
+warning (a legal value far outside railway practice: rail_mj.layout.practice).
 
 MuJoCo, numba and scipy take seconds to load: each command imports what it uses, so
 `--help` and a bad layout answer at once.
@@ -21,7 +21,7 @@ import click
 
 from rail_mj.files import STDOUT, is_special, staged
 from rail_mj.layout import LAWS, MAX_MAGNITUDE, Layout, LayoutError, load_layout
-from rail_mj.practice import RANGES, max_initial_yaw
+from rail_mj.layout.practice import RANGES, max_initial_yaw
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 3
@@ -114,7 +114,7 @@ def cli():
               help="Folder for <name>.xml, scene.xml and assets/.")
 def generate_cmd(layout, out_dir):
     """Generate the MJCF model of LAYOUT."""
-    from rail_mj.model import generate
+    from rail_mj.vehicle.model import generate
 
     lay = _layout(layout)
     _check_outputs(layout, [("-o", out_dir)], folders=True)
@@ -210,7 +210,7 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
     rate = _recording_rate(rrd_rate)
     _check_outputs(layout, [("--out", out), ("--rrd", rrd)])
     from rail_mj.analysis import summary
-    from rail_mj.runner import SimulationError
+    from rail_mj.simulation.runner import SimulationError
 
     try:
         run = _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw)
@@ -226,7 +226,7 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
                 if path == out:
                     tmp.write_bytes(_csv_bytes(run))
                 else:
-                    from rail_mj.recording import recorded_samples, sample_rate, save_recording
+                    from rail_mj.output.recording import recorded_samples, sample_rate, save_recording
 
                     save_recording(run, tmp, rate)
                     keep = recorded_samples(run, rate)
@@ -281,7 +281,7 @@ def _check_disturbance(layout: Layout, lateral: float, yaw: float) -> None:
 
 
 def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw):
-    from rail_mj.runner import simulate
+    from rail_mj.simulation.runner import simulate
 
     if not sys.stderr.isatty():
         return simulate(lay, speed, distance, initial_lateral, initial_yaw)
@@ -349,7 +349,7 @@ def _print_summary(result: dict, err: bool = False) -> None:
 
 
 def _stability(layout: Layout, amplitude: float | None = None):
-    from rail_mj.stability import Stability
+    from rail_mj.analysis.stability import Stability
 
     try:
         return Stability(layout, amplitude)
@@ -413,7 +413,7 @@ def _check_step(step: float | None) -> float:
     """--step, or the one step every nonlinear critical speed uses (not imported before
     it is needed: it comes with MuJoCo and numba)."""
     if step is None:
-        from rail_mj.bifurcation import STEP
+        from rail_mj.analysis.bifurcation import STEP
 
         return STEP
     if not (math.isfinite(step) and 0.001 <= step <= 0.2):
@@ -432,7 +432,7 @@ def _check_step(step: float | None) -> float:
 @click.option("--step", type=float,
               help="nonlinear: the speed step down the limit cycle, a fraction of the speed (the "
                    "nonlinear critical speed is known to within it)  [default: 0.02, "
-                   "rail_mj.bifurcation.STEP]")
+                   "rail_mj.analysis.bifurcation.STEP]")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @_amplitude_option
 def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
@@ -440,7 +440,7 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
     lay = _layout(layout)
     _speed_range(vmin, vmax)
     step = _check_step(step)
-    from rail_mj.runner import SimulationError
+    from rail_mj.simulation.runner import SimulationError
 
     stability = _stability(lay, amplitude)  # a model that does not compile fails here, with exit 2
     try:
@@ -448,12 +448,12 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
             if method == "eigen":
                 result = stability.critical_speed(vmin, vmax)
             elif method == "nonlinear":
-                from rail_mj.bifurcation import nonlinear_critical_speed
+                from rail_mj.analysis.bifurcation import nonlinear_critical_speed
 
                 result, _ = nonlinear_critical_speed(lay, vmin, vmax, step, progress=progress,
                                                      amplitude=amplitude)
             else:
-                from rail_mj.stability import time_critical_speed
+                from rail_mj.analysis.stability import time_critical_speed
 
                 result = time_critical_speed(lay, vmin, vmax, progress=progress)
     except SimulationError as e:
@@ -501,7 +501,7 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
         raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output",
                       EXIT_BAD_INPUT)
     _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
-    from rail_mj.plots import locus_csv, root_locus, root_locus_png
+    from rail_mj.output.plots import locus_csv, root_locus, root_locus_png
 
     stability = _stability(lay, amplitude)
     with _status("root locus") as progress:
@@ -532,7 +532,7 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
 @click.option("--step", type=float,
               help="The speed step along both branches, a fraction of the speed: the same procedure "
                    "and step as critical-speed --method nonlinear  [default: 0.02, "
-                   "rail_mj.bifurcation.STEP]")
+                   "rail_mj.analysis.bifurcation.STEP]")
 @_amplitude_option
 def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
     """Limit-cycle amplitude of LAYOUT against speed: both branches, both critical speeds."""
@@ -544,9 +544,9 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
         raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output",
                       EXIT_BAD_INPUT)
     _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
-    from rail_mj.bifurcation import bifurcation
-    from rail_mj.plots import bifurcation_csv, bifurcation_png
-    from rail_mj.runner import SimulationError
+    from rail_mj.analysis.bifurcation import bifurcation
+    from rail_mj.output.plots import bifurcation_csv, bifurcation_png
+    from rail_mj.simulation.runner import SimulationError
 
     _stability(lay, amplitude)
     try:
@@ -602,7 +602,7 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler,
     _check_outputs(layout, [("-o", out)])
     if rrd_dir:
         _check_outputs(layout, [("--rrd-dir", rrd_dir)], folders=True)
-    from rail_mj.sweep import SweepError, summarise, sweep
+    from rail_mj.studies.sweep import SweepError, summarise, sweep
 
     try:
         with _status("sweep") as show:
@@ -683,8 +683,8 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
                       EXIT_BAD_INPUT)
     _check_executor(workers, scheduler)
     _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
-    from rail_mj.plots import stability_map_png
-    from rail_mj.sweep import SweepError, parse_assignment, sweep
+    from rail_mj.output.plots import stability_map_png
+    from rail_mj.studies.sweep import SweepError, parse_assignment, sweep
 
     try:
         keys = [parse_assignment(text, option)[0] for option, text in (("--x", x_axis), ("--y", y_axis))]
@@ -806,8 +806,8 @@ def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poiss
             raise Failure(f"--friction: missing: the {law} law needs the friction coefficient", EXIT_BAD_INPUT)
     else:
         _positive("--friction", friction, "creep.friction")
-    from rail_mj.contact import ContactError, ellipse_patch
-    from rail_mj.creep import FASTSIM_ELEMENTS, FASTSIM_STRIPS, patch_forces
+    from rail_mj.contact.hertz import ContactError, ellipse_patch
+    from rail_mj.contact.creep import FASTSIM_ELEMENTS, FASTSIM_STRIPS, patch_forces
 
     try:
         patch = ellipse_patch(normal_force, a, b, shear_modulus=shear_modulus, poisson_ratio=poisson)
@@ -858,7 +858,7 @@ def _finite(option: str, *values: float) -> None:
 def profile_cmd(profile, out, png, kind):
     """Write a wheel or rail profile as CSV, and draw it: the standard S1002 wheel (EN 13715)
     or 60E1 rail (EN 13674-1), or a measured one (.csv, SIMPACK .prw or .prr)."""
-    from rail_mj import profiles
+    from rail_mj.contact import profiles
 
     is_standard = profile.lower() in ("s1002", "60e1")
     if not is_standard and Path(profile).suffix.lower() not in (".csv", ".prw", ".prr"):
@@ -877,7 +877,7 @@ def profile_cmd(profile, out, png, kind):
         with staged(outputs) as temps:  # both or neither
             temps[0].write_bytes(profiles.write_csv(shape))
             if png:
-                from rail_mj.plots import profile_png
+                from rail_mj.output.plots import profile_png
 
                 temps[1].write_bytes(profile_png(shape))
     except OSError as e:
@@ -914,7 +914,7 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
         if png and png != STDOUT and Path(png).resolve() == Path(source).resolve():
             raise Failure(f"--png {png}: would overwrite the input {source}", EXIT_BAD_INPUT)
     _check_outputs(source, [("--png", png)])
-    from rail_mj.conicity import DEFAULT_AMPLITUDES, QUOTED_AMPLITUDE, ConicityError, DeltaR, equivalent_conicity
+    from rail_mj.contact.conicity import DEFAULT_AMPLITUDES, QUOTED_AMPLITUDE, ConicityError, DeltaR, equivalent_conicity
 
     try:
         if layout is not None:
@@ -943,7 +943,7 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
         if QUOTED_AMPLITUDE <= largest:
             quoted = (QUOTED_AMPLITUDE, float(equivalent_conicity(delta_r, [QUOTED_AMPLITUDE], e=spacing, r0=r0)[0]))
         if png:
-            from rail_mj.plots import conicity_png
+            from rail_mj.output.plots import conicity_png
 
             harmonic = [_harmonic_or_nan(delta_r, a) for a in wanted]
             picture = conicity_png(wanted, values, Path(source).name, harmonic, quoted)
@@ -976,7 +976,7 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
 
 def _contact_table(lay: Layout):
     """The contact geometry of a layout with [profiles]."""
-    from rail_mj.geometry import GeometryError, contact_table
+    from rail_mj.contact.geometry import GeometryError, contact_table
 
     try:
         return contact_table(lay)
@@ -986,7 +986,7 @@ def _contact_table(lay: Layout):
 
 def _delta_r_of_profiles(lay: Layout):
     """Δr (mm) of a layout's wheel and rail profiles, from their contact geometry."""
-    from rail_mj.geometry import delta_r
+    from rail_mj.contact.geometry import delta_r
 
     return delta_r(_contact_table(lay))
 
@@ -1013,7 +1013,7 @@ def contact_geometry_cmd(layout, out, png):
         with staged(outputs) as temps:  # both or neither
             temps[0].write_bytes(table.to_csv())
             if png:
-                from rail_mj.plots import contact_geometry_png
+                from rail_mj.output.plots import contact_geometry_png
 
                 cone = None if lay.wheelset.conicity is None else lay.wheelset.conicity
                 temps[1].write_bytes(contact_geometry_png(table, lay.name, cone))
@@ -1022,7 +1022,7 @@ def contact_geometry_cmd(layout, out, png):
     err = _uses_stdout(out, png)
     import numpy as np
 
-    from rail_mj.geometry import flange_contact_shift
+    from rail_mj.contact.geometry import flange_contact_shift
 
     shift = flange_contact_shift(table)
     where = (f"flange contact from |y| = {shift * 1e3:.2f} mm" if shift is not None
@@ -1033,7 +1033,7 @@ def contact_geometry_cmd(layout, out, png):
 
 
 def _harmonic_or_nan(delta_r, amplitude: float) -> float:
-    from rail_mj.conicity import ConicityError, harmonic_conicity
+    from rail_mj.contact.conicity import ConicityError, harmonic_conicity
 
     try:
         return harmonic_conicity(delta_r, amplitude)
@@ -1044,7 +1044,7 @@ def _harmonic_or_nan(delta_r, amplitude: float) -> float:
 def _amplitudes(text: str) -> list[float]:
     """--amplitudes A:B:N: N amplitudes from A to B mm, 0 < A <= B."""
     a, b, n = _triple("--amplitudes", text, "mm")
-    from rail_mj.conicity import MIN_AMPLITUDE
+    from rail_mj.contact.conicity import MIN_AMPLITUDE
 
     if not (math.isfinite(a) and math.isfinite(b) and 0 < a <= b and 1 <= n <= 10_000 and (n > 1 or a == b)):
         raise Failure(f"--amplitudes A:B:N needs 0 < A <= B and 1 <= N <= 10000 (N = 1: A = B), got {text!r}",

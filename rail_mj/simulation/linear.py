@@ -7,7 +7,7 @@ the creep callback installed) give the continuous-time state matrix
 
 with no integrator in between. The linear creep law and the kinematics near the
 centred state make central differences exact but for round-off. The runner
-uses A to choose its timestep, `rail_mj.stability` for eigenvalues and modes.
+uses A to choose its timestep, `rail_mj.analysis.stability` for eigenvalues and modes.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from rail_mj.forces import CreepForces, installed
+from rail_mj.simulation.callback import CreepForces, installed
 
 # m or rad. Small enough that a saturating law's O(|F|) curvature at zero (the
 # Shen-Hedrick-Elkins u^2/3 term, u ~ 1e-6 here) is below 1e-6, large enough that
@@ -36,13 +36,13 @@ def state_matrix(model: mujoco.MjModel, forces: CreepForces | None = None,
                  data: mujoco.MjData | None = None, qpos0: np.ndarray | None = None) -> np.ndarray:
     """A (2nv x 2nv) of `model` with the creep forces acting, about qpos = qpos0 (default
     the centred state, 0) and qvel = 0: `forces` (the Python callback), or by default the
-    native one at the speed the model carries (`rail_mj.native.set_speed`)."""
+    native one at the speed the model carries (`rail_mj.simulation.native.set_speed`)."""
     data = data or mujoco.MjData(model)
     nv = model.nv
     A = np.zeros((2 * nv, 2 * nv))
     A[:nv, nv:] = np.eye(nv)
     if forces is None:
-        from rail_mj import native
+        from rail_mj.simulation import native
 
         context = native.installed()
     else:

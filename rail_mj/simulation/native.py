@@ -1,8 +1,8 @@
 """The creep law as MuJoCo's passive-force callback in native code: no Python in a step.
 
-`rail_mj.forces.CreepForces` is the same physics in Python: readable, and what the tests
+`rail_mj.simulation.callback.CreepForces` is the same physics in Python: readable, and what the tests
 compare this with. This module compiles a C callback with numba that reads each
-wheelset's state from mjData, calls the one contact law (`rail_mj.creep.wheelset_contact`)
+wheelset's state from mjData, calls the one contact law (`rail_mj.contact.creep.wheelset_contact`)
 and adds the forces to `qfrc_passive`. It holds the GIL never and shares no buffer, so
 MuJoCo may call it from many threads at once (`mujoco.rollout`, `mujoco.batch`).
 
@@ -22,7 +22,7 @@ Example:
 
     >>> import mujoco
     >>> from rail_mj.layout import load_layout
-    >>> from rail_mj.model import Vehicle
+    >>> from rail_mj.vehicle.model import Vehicle
     >>> vehicle = Vehicle(load_layout("models/wheelset/wheelset.toml"))
     >>> set_speed(vehicle.model, 20.0)
     >>> data = mujoco.MjData(vehicle.model)
@@ -47,11 +47,9 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from rail_mj.creep import ROWS, profiled_contact, wheelset_contact
-from rail_mj.tables import COLUMNS
-from rail_mj.forces import contact_parameters
-from rail_mj.loads import AxleLoads, ShearCouples
-from rail_mj.model import NUMERIC_NATIVE
+from rail_mj.contact.creep import profiled_contact, wheelset_contact
+from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, VEHICLE_HEADER
+from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-exported: a native model's speed)
 
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
 
@@ -61,10 +59,6 @@ _VALUE_TYPES = {
     "size_t": ctypes.c_size_t, "uintptr_t": ctypes.c_size_t, "uint64_t": ctypes.c_uint64,
     "mjtBool": ctypes.c_ubyte, "mjtByte": ctypes.c_ubyte, "char": ctypes.c_char,
 }
-
-
-class NativeError(ValueError):
-    """The native callback cannot run on this MuJoCo, or on this model."""
 
 
 def _ctype(declared, structs):
@@ -114,7 +108,7 @@ def _offsets() -> tuple[int, ...]:
         data_layout = _struct("mjData", structs.STRUCTS)
     except (KeyError, AttributeError) as e:
         raise NativeError(f"MuJoCo {mujoco.__version__}: its struct declarations are not as expected "
-                          f"({e}); use the Python callback (rail_mj.forces)") from None
+                          f"({e}); use the Python callback (rail_mj.simulation.callback)") from None
     model = mujoco.MjModel.from_xml_string(
         '<mujoco><custom><numeric name="probe" data="1 2 3"/></custom><worldbody><body>'
         '<joint name="j" type="hinge"/><geom size="0.1"/></body></worldbody>'
@@ -128,111 +122,11 @@ def _offsets() -> tuple[int, ...]:
             expected = value.ctypes.data if isinstance(value, np.ndarray) else value
             if getattr(live, name) != expected:
                 raise NativeError(f"MuJoCo {mujoco.__version__}: {layout.__name__}.{name} is not where its "
-                                  f"declaration puts it; use the Python callback (rail_mj.forces)")
+                                  f"declaration puts it; use the Python callback (rail_mj.simulation.callback)")
             offsets.append(getattr(layout, name).offset)
     return tuple(offsets)
 
 
-# --- the numeric block that carries a model's vehicles -----------------------------------
-
-# The block's first number, "this is rail-mj's native block, version 4": six significant
-# figures, as MuJoCo's MJCF writer keeps them.
-MAGIC = 7043.04
-# Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
-# of rows of its profile contact table (0: coned wheels), then the contact parameters
-# (ContactParameters.table, row-major), the profile contact table (rail_mj.tables,
-# row-major), then per wheelset its body and the joints from it to the world: count, then
-# (joint, dof, 1 for a hinge / 0 for a slide); then its weight (N), the nominal wheel load
-# (N), its spin inertia (gyroscopic terms; 0: off), the cones' gravitational stiffness (0/1)
-# and its axlebox tendons (rail_mj.loads): count, then (tendon, on P, on M); count 0: the
-# wheels carry the static load; then its shear couples: count, then (z tendon, y tendon).
-# After the wheelsets, the frames' shear couples (rail_mj.loads.ShearCouples): count, then
-# (z, y, x tendon, roll dof, pitch dof).
-LOADS_HEADER = 5
-COUPLE = 5
-VEHICLE_HEADER = 6
-_SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE)
-SPEED = 0  # offset of the speed within a vehicle's entries
-
-
-def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0, loads=None,
-                  prefix: str = "", couples=None) -> np.ndarray:
-    """One vehicle's entries of the block: see VEHICLE_HEADER. `loads`: its AxleLoads
-    (rail_mj.loads), its tendons named in `model` under `prefix`; None: static loads.
-    `couples`: its frames' ShearCouples, or None."""
-    table, geometry = params.table, params.geometry
-    entries = [speed, len(wheelset_bodies), params.law, float(params.flange), float(params.falling),
-               float(geometry.shape[0])]
-    entries += list(table.reshape(-1)) + list(geometry.reshape(-1))
-    for i, body in enumerate(wheelset_bodies):
-        chain = []
-        b = int(body)
-        while b:
-            for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
-                kind = int(model.jnt_type[j])
-                if kind not in (_SLIDE, _HINGE):
-                    raise NativeError(f"joint {model.joint(j).name}: the native callback handles slide "
-                                      f"and hinge joints only")
-                chain += [j, model.jnt_dofadr[j], float(kind == _HINGE)]
-            b = model.body_parentid[b]
-        entries += [body, len(chain) // 3] + chain
-        if loads is None:
-            entries += [0.0] * LOADS_HEADER
-        else:
-            rows = loads.rows(model, i, prefix)
-            entries += [loads.weight, loads.nominal, loads.spin_inertia, float(loads.cone_gravity),
-                        float(len(rows))] + list(rows.reshape(-1))
-        pairs = loads.shear_rows(model, i, prefix) if loads is not None else np.zeros((0, 2))
-        entries += [float(len(pairs))] + list(pairs.reshape(-1))
-    rows = couples.rows(model, prefix) if couples is not None else np.zeros((0, COUPLE))
-    entries += [float(len(rows))] + list(rows.reshape(-1))
-    return np.asarray(entries, dtype=np.float64)
-
-
-def block(vehicles: list[np.ndarray]) -> np.ndarray:
-    """The whole numeric: MAGIC, the number of vehicles, then each vehicle's entries."""
-    return np.concatenate([[MAGIC, float(len(vehicles))], *vehicles])
-
-
-def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
-    """The block of a model built by rail_mj.model: one vehicle, wheelset1..N, its contact
-    parameters read from the model's named numerics, no speed yet."""
-    names = [f"wheelset{i + 1}" for i in range(n_wheelsets)]
-    bodies = [model.body(name).id for name in names]
-    return block([vehicle_block(model, bodies, contact_parameters(model, n_wheelsets), loads=AxleLoads.of(model, names),
-                                couples=ShearCouples.of(model))])
-
-
-def _block_of(model: mujoco.MjModel) -> np.ndarray:
-    if model.nnumeric == 0 or model.numeric(0).name != NUMERIC_NATIVE or model.numeric_data[0] != MAGIC:
-        raise NativeError(f"model {model.names[:40]!r}...: its first numeric is not {NUMERIC_NATIVE}; "
-                          f"build it with rail_mj.model.Vehicle")
-    return model.numeric_data
-
-
-def vehicle_starts(model: mujoco.MjModel) -> list[int]:
-    """Where each vehicle's entries start in the block."""
-    data = _block_of(model)
-    starts, k = [], 2
-    for _ in range(int(data[1])):
-        starts.append(k)
-        n, rows = int(data[k + 1]), int(data[k + 5])
-        k += VEHICLE_HEADER + ROWS * n + rows * COLUMNS
-        for _ in range(n):
-            k += 2 + 3 * int(data[k + 1])
-            k += LOADS_HEADER + 3 * int(data[k + LOADS_HEADER - 1])
-            k += 1 + 2 * int(data[k])
-        k += 1 + COUPLE * int(data[k])
-    return starts
-
-
-def set_speed(model: mujoco.MjModel, speed: float, vehicle: int | None = None) -> None:
-    """Set the forward speed (m/s) of one vehicle of `model` (all of them by default)."""
-    if not (math.isfinite(speed) and speed > 0):
-        raise ValueError(f"speed must be a positive number, got {speed}")
-    starts = vehicle_starts(model)
-    for k in starts if vehicle is None else [starts[vehicle]]:
-        model.numeric_data[k + SPEED] = speed
 
 
 # --- the callback -------------------------------------------------------------------------
@@ -283,7 +177,7 @@ def _wheelset_rates(chain, n, qvel, xpos, xanchor, xaxis, body):
 
 @numba.njit(cache=True, inline="always")
 def _tendon_force(stiffness, damping, springlength, length, velocity, t):
-    """A fixed tendon's spring and damper force (no deadband), as rail_mj.loads.tendon_forces."""
+    """A fixed tendon's spring and damper force (no deadband), as rail_mj.vehicle.loads.tendon_forces."""
     return -stiffness[t] * (length[t] - springlength[2 * t]) - damping[t] * velocity[t]
 
 
@@ -325,7 +219,7 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
             cone_gravity, tendons = block[k + 3] != 0.0, int(block[k + 4])
             k += LOADS_HEADER
             load, moment = math.nan, 0.0
-            if tendons:  # a spatial vehicle: its axle load and roll moment (rail_mj.loads)
+            if tendons:  # a spatial vehicle: its axle load and roll moment (rail_mj.vehicle.loads)
                 load = weight
                 for c in range(tendons):
                     f = _tendon_force(stiffness, damping, springlength, length, velocity, int(block[k + 3 * c]))
@@ -333,7 +227,7 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
                     moment += block[k + 3 * c + 2] * f
                 k += 3 * tendons
             pairs = int(block[k])
-            for c in range(pairs):  # the axlebox loads passed on at the frame's seats (rail_mj.loads)
+            for c in range(pairs):  # the axlebox loads passed on at the frame's seats (rail_mj.vehicle.loads)
                 z, lateral = int(block[k + 1 + 2 * c]), int(block[k + 2 + 2 * c])
                 moment -= _tendon_force(stiffness, damping, springlength, length, velocity, z) * length[lateral]
             k += 1 + 2 * pairs
@@ -361,7 +255,7 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
                 else:
                     force[dof] += ay * fy
         couples = int(block[k])
-        for c in range(couples):  # the frames' shear couples (rail_mj.loads.ShearCouples)
+        for c in range(couples):  # the frames' shear couples (rail_mj.vehicle.loads.ShearCouples)
             e = k + 1 + COUPLE * c
             load = _tendon_force(stiffness, damping, springlength, length, velocity, int(block[e]))
             force[int(block[e + 3])] -= load * length[int(block[e + 1])]
@@ -404,7 +298,7 @@ def installed():
 
     One callback serves every model (each carries its own block; a model without one is
     left alone), so threads that step different vehicles at different speeds share it.
-    The Python callback (rail_mj.forces) cannot be installed meanwhile.
+    The Python callback (rail_mj.simulation.callback) cannot be installed meanwhile.
     """
     global _users
     pointer = callback()

@@ -55,17 +55,15 @@ import rerun.blueprint as rrb
 
 from rail_mj.analysis import flange_strikes
 from rail_mj.files import staged
-from rail_mj.model import RAIL_HEAD_WIDTH
-from rail_mj.runner import Run
+from rail_mj.units import MM_PER_M, MRAD_PER_RAD, N_PER_KN
+from rail_mj.vehicle.model import RAIL_HEAD_WIDTH
+from rail_mj.simulation.runner import Run
 
 APP_ID = "rail-mj"
 TIME = "time"
 DISTANCE = "distance_mm"
 FLANGE_EVENTS = "/events/flange"
 
-MM = 1e3  # per m
-MRAD = 1e3  # per rad
-N_PER_KN = 1e3
 
 # The recording rate. The plots and the 3D view need each motion drawn smoothly, not
 # every millisecond: every sample costs about 0.75 MB per simulated second. The motion's
@@ -232,15 +230,15 @@ def plots(run: Run) -> list[Plot]:
         return [Series(path(name), f"{label} ({unit})", colour, values[:, k])
                 for k, (name, (label, colour)) in enumerate(zip(run.frame_names, frames))]
 
-    out = [Plot("Wheelsets: lateral y (mm)", wheelset_series(lateral_path, "mm", y * MM)),
-           Plot("Wheelsets: yaw ψ (mrad)", wheelset_series(yaw_path, "mrad", psi * MRAD)),
+    out = [Plot("Wheelsets: lateral y (mm)", wheelset_series(lateral_path, "mm", y * MM_PER_M)),
+           Plot("Wheelsets: yaw ψ (mrad)", wheelset_series(yaw_path, "mrad", psi * MRAD_PER_RAD)),
            Plot("Wheelsets: ΣY guiding force (kN)",
                 wheelset_series(guiding_path, "kN", forces.lateral / N_PER_KN))]
     train = run.layout.train
     if train is not None:  # a train: each car's body, bogies and wheelsets together
         per_bogie = len(run.layout.bogie.wheelset_positions)
-        lateral = frame_series(frame_lateral_path, "mm", run.frame_y * MM)
-        yaw = frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD)
+        lateral = frame_series(frame_lateral_path, "mm", run.frame_y * MM_PER_M)
+        yaw = frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD_PER_RAD)
         wheel_lateral, wheel_yaw = out[0].series, out[1].series
         index = {name: k for k, name in enumerate(run.frame_names)}
         for k, car in enumerate(train.cars, start=1):
@@ -249,12 +247,12 @@ def plots(run: Run) -> list[Plot]:
             out += [Plot(f"Car {k}: lateral y (mm)", [lateral[m] for m in mine] + [wheel_lateral[i] for i in axles]),
                     Plot(f"Car {k}: yaw ψ (mrad)", [yaw[m] for m in mine] + [wheel_yaw[i] for i in axles])]
     elif run.frame_names:
-        out += [Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM)),
-                Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD))]
+        out += [Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM_PER_M)),
+                Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD_PER_RAD))]
     if run.layout.spatial is not None:  # what the spatial vehicle adds: roll, bounce, wheel loads
-        out += [Plot("Bogies, car body: roll φ (mrad)", frame_series(frame_roll_path, "mrad", run.frame_roll * MRAD),
+        out += [Plot("Bogies, car body: roll φ (mrad)", frame_series(frame_roll_path, "mrad", run.frame_roll * MRAD_PER_RAD),
                      floor=0.1),
-                Plot("Bogies, car body: bounce z (mm)", frame_series(frame_bounce_path, "mm", run.frame_bounce * MM),
+                Plot("Bogies, car body: bounce z (mm)", frame_series(frame_bounce_path, "mm", run.frame_bounce * MM_PER_M),
                      floor=0.1)]
         out += _wheel_plots(run, wheelsets)
     if run.layout.profiles is not None:  # the normal forces: gravitational stiffness and the flange

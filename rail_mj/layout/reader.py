@@ -25,7 +25,9 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from rail_mj.practice import RANGES
+from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
+from rail_mj.contact.pair import STANDARD_PROFILES, Profiles, read_profiles, stamp
+from rail_mj.layout.practice import RANGES
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 # Beyond these no vehicle is meant, and arithmetic on them overflows.
@@ -33,9 +35,7 @@ MAX_MAGNITUDE = 1e15  # any number in SI units
 MAX_POSITION = 1000.0  # m from the body centre
 
 
-# Creep laws (docs/creep.md, saturation), by the number the model stores for the compiled law.
-LINEAR, SHEN_HEDRICK_ELKINS, POLACH, FASTSIM = 0, 1, 2, 3
-LAWS = {"linear": LINEAR, "shen-hedrick-elkins": SHEN_HEDRICK_ELKINS, "polach": POLACH, "fastsim": FASTSIM}
+
 
 
 class LayoutError(ValueError):
@@ -59,7 +59,7 @@ class Creep:
     f22: float  # N, lateral
     f23: float = 0.0  # N m, lateral/spin
     f33: float = 0.0  # N m^2, spin
-    law: str = "linear"  # one of rail_mj.creep.LAWS
+    law: str = "linear"  # one of rail_mj.contact.creep.LAWS
     friction: float | None = None  # mu, for the saturating laws
     # Polach's falling friction (2005), mu = mu0*((1 - A)*exp(-B*w) + A) with slip velocity
     # w: A = mu_infinity/mu0 and B. A = 1 keeps mu constant (the 1999 law).
@@ -85,25 +85,6 @@ class Contact:
     poisson_ratio: float
     rail_transverse_radius: float | None  # m, the rail head's crown; None with [profiles]
     wheel_transverse_radius: float | None  # m; None: a conical tread, flat across
-
-
-@dataclasses.dataclass(frozen=True)
-class Profiles:
-    """[profiles]: wheel and rail profiles and how the track places them (docs/geometry.md).
-    `wheel` and `rail` are a standard name ("s1002", "60e1") or a file's resolved path."""
-
-    wheel: str
-    rail: str
-    rail_inclination: float  # tan of each rail's cant towards the track centre
-    track_gauge: float  # m, 14 mm below the rail top
-    flange_back_spacing: float  # m, between the wheels' inner faces
-    # Switches that keep the classical planar law reachable: the normal forces' lateral
-    # parts, and spin creep (off: f23 = f33 = 0).
-    gravitational_stiffness: bool = True
-    spin_creep: bool = True
-    # Not a layout key: linear analysis sets it to linearise the contact at this lateral
-    # amplitude, mm (rail_mj.tables.linearised); None: the full tables.
-    linearised_at: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -280,7 +261,7 @@ class Layout:
     contact: Contact | None = None  # when given, `creep` was computed from it
     flange: Flange | None = None  # None: no flange contact (the classical linear model)
     # Wheel and rail profiles: with them the dynamics run on their contact tables
-    # (rail_mj.tables); wheelset.conicity is their equivalent conicity at 3 mm, creep.f11..f33
+    # (rail_mj.contact.tables); wheelset.conicity is their equivalent conicity at 3 mm, creep.f11..f33
     # the centred contact's (docs/dynamics-on-profiles.md).
     profiles: Profiles | None = None
     # Several car bodies ([train]): then `carbody` stands for the train (its bogie_positions
@@ -291,7 +272,7 @@ class Layout:
     # and direction; `primary` and `secondary` then hold the elements' planar equivalents.
     spatial: Spatial | None = None
     source: str = "<layout>"
-    # Legal values far outside railway practice (rail_mj.practice), one line each.
+    # Legal values far outside railway practice (rail_mj.layout.practice), one line each.
     warnings: tuple[str, ...] = dataclasses.field(default=(), compare=False)
 
     @property
@@ -442,7 +423,7 @@ def _suspension(table: _Table) -> Suspension:
 
 def _practice(table: _Table, warnings: list[str], ranges: str | None = None, **values) -> None:
     """Refuse values that cannot describe a rail vehicle, and note those outside railway
-    practice (rail_mj.practice.RANGES, keyed by section.key; `ranges`: the section whose ranges
+    practice (rail_mj.layout.practice.RANGES, keyed by section.key; `ranges`: the section whose ranges
     hold, if not the table's own)."""
     for key, value in values.items():
         if value is None:
@@ -624,7 +605,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if wheelset.wheel_load is None and carbody.mass is not None:
         # The mean static wheel load, the nominal load the creep coefficients are given at: each
         # wheel's own for a symmetric vehicle. (A spatial vehicle's wheels carry their own static
-        # loads, from its suspension: rail_mj.loads.) fsum of equal masses is n times one, exactly.
+        # loads, from its suspension: rail_mj.vehicle.loads.) fsum of equal masses is n times one, exactly.
         n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
             bogie.wheelset_positions)
         masses = [d.mass for d in designs] or ([bogie.mass] * len(carbody.bogie_positions) if bogie else [])
@@ -646,7 +627,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         if law == "linear":
             warnings.append(f"{source}: creep.law \"linear\" on profiles: on the flanges the creep forces "
                             f"grow without bound; choose a saturating law for runs")
-        from rail_mj.tables import TableError, centred_coefficients
+        from rail_mj.contact.tables import TableError, centred_coefficients
 
         try:
             coefficients = centred_coefficients(profiles, wheelset, contact, law, friction)
@@ -890,7 +871,7 @@ def _static_sags(source: str, warnings: list[str], spatial: Spatial, carbody: Ca
     """The springs' static deflections under the weight (docs/spatial.md), each bogie's with its
     equal share of the car bodies' weight: one that sinks a spring's upper seat below the rail is
     refused (no suspension stands like that: most often N/m taken for kN/m, or a mass in grams),
-    one outside practice noted (rail_mj.practice). And the car body must stand on its springs in
+    one outside practice noted (rail_mj.layout.practice). And the car body must stand on its springs in
     roll: their roll stiffness about the springs' level (each anti-roll bar's besides) must
     exceed the weight's overturning m*g*h there, or the body tips over (a one-line error)."""
     if not spatial.gravity:
@@ -1038,14 +1019,14 @@ def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, w
     total = sum(car.mass for car in cars)
     carbody = CarBody(False, total, cars[0].inertia, bogie_positions=bogie_x, wheelset_positions=None)
     return carbody, Train(tuple(cars), tuple(couplings))
-STANDARD_PROFILES = {"wheel": ("s1002",), "rail": ("60e1", "uic60")}
+
 
 
 def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, float]:
     """[profiles], checked: the files read, the wheelset stood on its rails; the shift at
     which a flange touches (the profiles' flangeway clearance, m) and with wheelset.conicity
     omitted, the profiles' equivalent conicity at 3 mm."""
-    from rail_mj import profiles as p  # numpy: only for layouts that need it
+    from rail_mj.contact import profiles as p# numpy: only for layouts that need it
 
     base = Path(t.source).parent if t.source != "<layout>" else Path(".")
     names = {}
@@ -1087,41 +1068,20 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, fl
             t.fail(key, str(e))
         except ValueError as e:
             t.fail(key, str(e))
-    from rail_mj.geometry import GeometryError
+    from rail_mj.contact.geometry import GeometryError
 
     try:
-        conicity, shift = _profiles_conicity(profiles, wheelset.rolling_radius, _stamp(profiles))
+        conicity, shift = _profiles_conicity(profiles, wheelset.rolling_radius, stamp(profiles))
     except GeometryError as e:
         t.fail(None, str(e))
     if wheelset.conicity is None and not (conicity is not None and 0.0 < conicity <= 0.5):
         t.fail(None, f"the profiles' equivalent conicity at 3 mm is {conicity:.4g}, outside (0, 0.5]: give "
                      f"wheelset.conicity for the dynamics")
     if shift is None:  # flangeless wheels (a test cone): held only where the table ends
-        from rail_mj.geometry import DEFAULT_YS
+        from rail_mj.contact.geometry import DEFAULT_YS
 
         shift = float(-DEFAULT_YS[0])
     return profiles, conicity, shift
-
-
-def read_profiles(profiles: Profiles):
-    """(wheel, rail): the Profile objects [profiles] names. Raises ProfileError."""
-    from rail_mj import profiles as p
-
-    out = []
-    for kind, name in (("wheel", profiles.wheel), ("rail", profiles.rail)):
-        if name in STANDARD_PROFILES[kind]:
-            out.append(p.standard(name))
-            continue
-        shape = p.read_profile(name, kind if Path(name).suffix.lower() == ".csv" else None)
-        if shape.kind != kind:
-            raise p.ProfileError(f"{name}: a {shape.kind} profile given as the {kind}")
-        out.append(shape)
-    return tuple(out)
-
-
-def _stamp(profiles: Profiles):
-    """The profile files' modification times: a changed file is read again."""
-    return tuple(Path(n).stat().st_mtime_ns if Path(n).is_file() else 0 for n in (profiles.wheel, profiles.rail))
 
 
 TREAD_ANGLE = 0.2  # rad
@@ -1132,8 +1092,8 @@ TREAD_HALF_WIDTH = 0.025  # m either side of the taping line
 def _profiles_conicity(profiles: Profiles, r0: float, _stamp) -> tuple[float, float | None]:
     """The profiles' equivalent conicity at 3 mm (EN 15302) from their contact geometry,
     and where a flange first touches. Once per profiles."""
-    from rail_mj import geometry
-    from rail_mj.conicity import QUOTED_AMPLITUDE, ConicityError
+    from rail_mj.contact import geometry
+    from rail_mj.contact.conicity import QUOTED_AMPLITUDE, ConicityError
 
     track = geometry.track_of_profiles(profiles, r0)
     centred = geometry.contact_table(track, ys=[0.0])
@@ -1182,7 +1142,7 @@ def _contact(t: _Table, wheelset: Wheelset, profiled: bool = False):
     t.done()
     if profiled:
         return contact, None
-    from rail_mj.contact import ContactError, contact_patch  # scipy: only for layouts that need it
+    from rail_mj.contact.hertz import ContactError, contact_patch  # scipy: only for layouts that need it
 
     try:
         patch = contact_patch(
@@ -1197,7 +1157,7 @@ def _contact(t: _Table, wheelset: Wheelset, profiled: bool = False):
 
 def contact_patch_of(layout: Layout):
     """The Hertz ellipse and Kalker coefficients of a layout with [contact]."""
-    from rail_mj.contact import contact_patch
+    from rail_mj.contact.hertz import contact_patch
 
     c = layout.contact
     return contact_patch(layout.wheelset.wheel_load, layout.wheelset.rolling_radius, c.rail_transverse_radius,

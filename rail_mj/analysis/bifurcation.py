@@ -10,7 +10,7 @@ up to the linear critical speed, where the motion jumps onto the limit cycle.
 Example (about a minute; the layout needs [flange] and a saturating creep law):
 
     from rail_mj import load_layout
-    from rail_mj.bifurcation import nonlinear_critical_speed
+    from rail_mj.analysis.bifurcation import nonlinear_critical_speed
     critical, branch = nonlinear_critical_speed(load_layout("models/bogie/bogie.toml"))
     critical.critical_speed, critical.linear_critical_speed   # about 63 and 80.8 m/s
 
@@ -27,8 +27,8 @@ import numpy as np
 
 from rail_mj.analysis import late_motion, oscillation
 from rail_mj.layout import Layout
-from rail_mj.runner import simulate
-from rail_mj.stability import CriticalSpeed, Stability
+from rail_mj.simulation.runner import simulate
+from rail_mj.analysis.stability import CriticalSpeed, Stability
 
 # One procedure and one step for every nonlinear critical speed rail-mj reports (the
 # critical-speed command, the bifurcation diagram, the README's tables): 2 % a step, so

@@ -13,7 +13,7 @@ M is about the rail level under the wheelset's centre (x axis, positive rolling 
 left); s = +1 left, -1 right, d the axleboxes' half spacing, h their height above the rail.
 Taking moments about the rail level leaves out the rails' lateral forces, which act there;
 the wheelset's own lateral inertia (m*y''*r0) is left out, as the wheels' loads are read
-quasi-statically from the suspension. `rail_mj.creep` turns (P, M) into Q_left and Q_right
+quasi-statically from the suspension. `rail_mj.contact.creep` turns (P, M) into Q_left and Q_right
 (`cone_wheel_loads` on cones, the contact table's equilibrium on profiles).
 
 The same numbers serve the native callback (its block carries each wheelset's tendons with
@@ -27,13 +27,8 @@ import dataclasses
 import mujoco
 import numpy as np
 
-# Wheelset weight (N), nominal wheel load (N), axlebox half spacing and height (m), the wheelset's
-# spin inertia I_y (kg m^2; 0: no gyroscopic terms), the cones' gravitational stiffness on (1) or off (0);
-# then, when the bogies' axleboxes differ ([bogies.N.axlebox]), each wheelset's axlebox half spacing and
-# height (2 per wheelset, wheelset 1 first), which take the place of the two above.
-NUMERIC_LOADS = "rail_mj/loads"
-# Present (one entry, 1): the preloads' shear couples are on (`ShearCouples`, `AxleLoads.shear`).
-NUMERIC_COUPLES = "rail_mj/couples"
+from rail_mj.numerics import NUMERIC_COUPLES, NUMERIC_LOADS  # noqa: E402,F401  (re-exported)
+
 SIDES = {"left": 1.0, "right": -1.0}
 
 
@@ -76,7 +71,7 @@ class ShearCouples:
     Example:
 
         >>> from rail_mj.layout import load_layout
-        >>> from rail_mj.model import Vehicle
+        >>> from rail_mj.vehicle.model import Vehicle
         >>> model = Vehicle(load_layout("tests/data/manchester-coach-spatial.toml")).model
         >>> ShearCouples.of(model).elements[0]
         ('bogie1_carbody_left_z', 'bogie1_carbody_left_y', 'bogie1_carbody_left_x', 'bogie1_roll', 'bogie1_pitch')
@@ -121,7 +116,7 @@ class AxleLoads:
     Example:
 
         >>> from rail_mj.layout import load_layout
-        >>> from rail_mj.model import Vehicle
+        >>> from rail_mj.vehicle.model import Vehicle
         >>> vehicle = Vehicle(load_layout("tests/data/manchester-coach-spatial.toml"))
         >>> loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
         >>> [name for name, _, _ in loads.tendons[0]][:2]
@@ -132,13 +127,13 @@ class AxleLoads:
     nominal: float  # N, the wheel load the contact's coefficients are given at
     tendons: tuple[tuple[tuple[str, float, float], ...], ...]  # per wheelset: (tendon, on P, on M)
     spin_inertia: float = 0.0  # kg m^2, I_y for the gyroscopic terms; 0: off
-    cone_gravity: bool = False  # the normal forces' lateral parts on coned wheels (rail_mj.creep)
+    cone_gravity: bool = False  # the normal forces' lateral parts on coned wheels (rail_mj.contact.creep)
     # Per wheelset: its axleboxes' (z, y) tendons whose shear couples -P*dy it carries (M); empty: off.
     shear: tuple[tuple[tuple[str, str], ...], ...] = ()
 
     @classmethod
     def of(cls, model: mujoco.MjModel, wheelset_names, prefix: str = "") -> "AxleLoads | None":
-        """Read from a model built by rail_mj.model (None: not a spatial vehicle with gravity,
+        """Read from a model built by rail_mj.vehicle.model (None: not a spatial vehicle with gravity,
         whose wheels carry the layout's static load)."""
         try:
             data = model.numeric(prefix + NUMERIC_LOADS).data
@@ -170,7 +165,7 @@ class AxleLoads:
         return cls(float(weight), float(nominal), tuple(tendons), float(spin), bool(gravity), shear)
 
     def contact(self) -> dict:
-        """The keywords `rail_mj.creep.contact_forces` takes besides the loads."""
+        """The keywords `rail_mj.contact.creep.contact_forces` takes besides the loads."""
         return {"nominal": self.nominal, "spin_inertia": self.spin_inertia, "cone_gravity": self.cone_gravity}
 
     def rows(self, model: mujoco.MjModel, wheelset: int, prefix: str = "") -> np.ndarray:

@@ -4,7 +4,7 @@ Example:
 
     >>> import tempfile, os
     >>> from rail_mj import load_layout
-    >>> from rail_mj.stability import Stability
+    >>> from rail_mj.analysis.stability import Stability
     >>> s = Stability(load_layout("models/wheelset/wheelset.toml"))
     >>> rows = root_locus(s, [20.0, 40.0, 60.0])
     >>> rows[0]["mode"], len(rows)
@@ -30,8 +30,8 @@ import numpy as np  # noqa: E402
 from rail_mj.files import atomic_write  # noqa: E402
 
 if TYPE_CHECKING:  # annotations only: `rail-mj profile` draws without loading MuJoCo
-    from rail_mj.profiles import Profile
-    from rail_mj.stability import CriticalSpeed, Stability
+    from rail_mj.contact.profiles import Profile
+    from rail_mj.analysis.stability import CriticalSpeed, Stability
 
 CSV_COLUMNS = ("speed_m_per_s", "mode", "frequency_hz", "damping_ratio", "real", "imag")
 
@@ -203,7 +203,7 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
 
 
 def profile_png(profile: Profile) -> bytes:
-    """A wheel or rail profile, to scale, in its own frame (rail_mj.profiles): the metal
+    """A wheel or rail profile, to scale, in its own frame (rail_mj.contact.profiles): the metal
     shaded on its side of the surface (above a wheel's, below a rail's)."""
     y, z = profile.y * 1e3, profile.z * 1e3
     fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
@@ -232,7 +232,7 @@ def _png(fig) -> bytes:
 
 
 def conicity_png(amplitudes, conicity, title: str, harmonic=None, quoted: tuple[float, float] | None = None) -> bytes:
-    """Equivalent conicity against amplitude (mm; rail_mj.conicity): the integration method,
+    """Equivalent conicity against amplitude (mm; rail_mj.contact.conicity): the integration method,
     the harmonic linearisation dashed when given, and the value at `quoted` = (ŷ, λe), the
     3 mm of acceptance work, marked."""
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
@@ -253,11 +253,11 @@ def conicity_png(amplitudes, conicity, title: str, harmonic=None, quoted: tuple[
 
 
 def contact_geometry_png(table, title: str, conicity: float | None = None) -> bytes:
-    """The picture of a contact table (rail_mj.geometry): Δr(y), with the cone 2λy of
+    """The picture of a contact table (rail_mj.contact.geometry): Δr(y), with the cone 2λy of
     `conicity` for comparison; the contact angles; and the left wheel over the left rail in
     the track frame at a few shifts, their contact points marked (two-point contacts as
     open circles)."""
-    from rail_mj.geometry import rail_points, wheel_points
+    from rail_mj.contact.geometry import rail_points, wheel_points
 
     y = table.y * 1e3
     fig = plt.figure(figsize=(13, 8.5), layout="constrained")

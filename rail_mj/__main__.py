@@ -1,0 +1,7 @@
+"""`python -m rail_mj`: the `rail-mj` command."""
+
+import sys
+
+from rail_mj.cli.main import main
+
+sys.exit(main())

@@ -1,0 +1,21 @@
+"""What the user wrote: a layout file (TOML) read and checked into a `Layout`.
+
+    reader.py      TOML -> `Layout`, one reader per table; every bad input one `LayoutError` line
+    practice.py    what is impossible (refused) and what is far from railway practice (warned), with sources
+
+Example:
+
+    >>> from rail_mj.layout import load_layout
+    >>> load_layout("models/bogie/bogie.toml").n_wheelsets
+    2
+"""
+
+from rail_mj import _lazy
+from rail_mj.layout.reader import Layout, LayoutError, layout_from_dict, load_layout
+
+__all__ = ["Layout", "LayoutError", "layout_from_dict", "load_layout"]
+__getattr__, _dir = _lazy.exports(__name__, {}, fallback="reader")
+
+
+def __dir__() -> list[str]:
+    return [*__all__, "practice", "reader"]

@@ -1,0 +1,122 @@
+"""The file format between a generated model and the compiled creep callback.
+
+A generated MJCF carries everything its creep forces need in MuJoCo custom numerics, so
+that the file alone is enough to run the vehicle (docs/README.md). This module is the one
+definition of that format: the numerics' names, the native block's layout and version,
+the rows of the contact parameters and the columns of a profiled wheelset's contact table.
+The one writer (rail_mj.vehicle) and the readers (the Python and native callbacks in
+rail_mj.simulation, the compiled law in rail_mj.contact) take their offsets from here.
+
+The numeric names ("rail_mj/native", "rail_mj/creep", ...) are identifiers in the shipped
+MJCF files, not module paths: they stay as they are whatever the package's modules are
+called. A change of the native block's layout raises MAGIC's version, so that an older
+file is refused rather than misread.
+
+Pure constants and numpy: the numba kernels read these as compile-time globals.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# --- the named numerics ------------------------------------------------------------------
+
+# Names of the custom numerics that carry the contact data for the creep forces,
+# so that a generated MJCF alone is enough to simulate the vehicle.
+# The first numeric: everything the native creep callback needs, per vehicle (its speed,
+# contact table, wheelset bodies and their joints), written by rail_mj.simulation.native.
+NUMERIC_NATIVE = "rail_mj/native"
+NUMERIC_WHEEL = "rail_mj/wheel"  # r0, b, conicity, flangeway clearance
+NUMERIC_CREEP = "rail_mj/creep"  # f11, f22, f23, f33
+NUMERIC_SATURATION = "rail_mj/saturation"  # creep law number (rail_mj.contact.creep.LAWS), mu*N per wheel,
+# and Polach's falling friction: mu_infinity/mu0 and its rate, s/m
+NUMERIC_GEOMETRY = "rail_mj/geometry"  # a profiled wheelset's contact table (rail_mj.contact.tables), row-major
+NUMERIC_FLANGE = "rail_mj/flange"  # on (1) or off (0), stiffness, damping, tan(flange angle)
+# The contact ellipse, for the fastsim law: semi-axes a (rolling) and b, m, wheel load N, shear
+# modulus G, GPa (rail_mj.units.PA_PER_GPA), and Kalker's C11, C22, C23; zeros for a layout without [contact].
+NUMERIC_ELLIPSE = "rail_mj/ellipse"
+
+# Wheelset weight (N), nominal wheel load (N), axlebox half spacing and height (m), the wheelset's
+# spin inertia I_y (kg m^2; 0: no gyroscopic terms), the cones' gravitational stiffness on (1) or off (0);
+# then, when the bogies' axleboxes differ ([bogies.N.axlebox]), each wheelset's axlebox half spacing and
+# height (2 per wheelset, wheelset 1 first), which take the place of the two above.
+NUMERIC_LOADS = "rail_mj/loads"
+# Present (one entry, 1): the preloads' shear couples are on (`ShearCouples`, `AxleLoads.shear`).
+NUMERIC_COUPLES = "rail_mj/couples"
+
+
+# --- the native block: the first numeric, "rail_mj/native" -------------------------------
+
+# The block's first number, "this is rail-mj's native block, version 4": six significant
+# figures, as MuJoCo's MJCF writer keeps them.
+MAGIC = 7043.04
+# Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
+# of rows of its profile contact table (0: coned wheels), then the contact parameters
+# (ContactParameters.table, row-major), the profile contact table (rail_mj.contact.tables,
+# row-major), then per wheelset its body and the joints from it to the world: count, then
+# (joint, dof, 1 for a hinge / 0 for a slide); then its weight (N), the nominal wheel load
+# (N), its spin inertia (gyroscopic terms; 0: off), the cones' gravitational stiffness (0/1)
+# and its axlebox tendons (rail_mj.vehicle.loads): count, then (tendon, on P, on M); count 0: the
+# wheels carry the static load; then its shear couples: count, then (z tendon, y tendon).
+# After the wheelsets, the frames' shear couples (rail_mj.vehicle.loads.ShearCouples): count, then
+# (z, y, x tendon, roll dof, pitch dof).
+LOADS_HEADER = 5
+COUPLE = 5
+VEHICLE_HEADER = 6
+SPEED = 0  # offset of the speed within a vehicle's entries
+
+
+def vehicle_starts(data: np.ndarray) -> list[int]:
+    """Where each vehicle's entries start in a native block (the numeric's data)."""
+    starts, k = [], 2
+    for _ in range(int(data[1])):
+        starts.append(k)
+        n, rows = int(data[k + 1]), int(data[k + 5])
+        k += VEHICLE_HEADER + ROWS * n + rows * COLUMNS
+        for _ in range(n):
+            k += 2 + 3 * int(data[k + 1])
+            k += LOADS_HEADER + 3 * int(data[k + LOADS_HEADER - 1])
+            k += 1 + 2 * int(data[k])
+        k += 1 + COUPLE * int(data[k])
+    return starts
+
+
+# --- the contact parameters of each wheelset (rail_mj.contact.creep.ContactParameters) ---
+
+# The rows of ContactParameters.table, in order. The native callback's numeric block carries
+# ROWS numbers per wheelset (rail_mj.simulation.native).
+_FASTSIM_ROWS = ("semi_axis_a", "semi_axis_b", "normal_force", "shear_modulus", "c11", "c22", "c23")
+_ROWS = ("r0", "b", "conicity", "f11", "f22", "f23", "f33", "friction_limit", "falling_friction_ratio",
+         "falling_friction_rate", "clearance", "flange_stiffness", "flange_damping", "flange_slope",
+         *_FASTSIM_ROWS)
+ROWS = len(_ROWS)
+(_R0, _B, _LAM, _F11, _F22, _F23, _F33, _LIMIT, _FALL_RATIO, _FALL_RATE, _CLEARANCE, _K_FLANGE,
+ _C_FLANGE, _SLOPE, _SEMI_A, _SEMI_B, _NORMAL, _SHEAR, _C11, _C22, _C23) = range(ROWS)
+
+
+# --- a profiled wheelset's contact table: the "rail_mj/geometry" numeric -----------------
+
+# The table is stored in mm, kN and GPa: MuJoCo's MJCF writer writes as 0 any entry of a
+# numeric smaller than 1e-12 of its largest, and in SI a shear modulus of 8e10 Pa beside
+# shifts of 5e-5 m would lose them (the native block also carries creep coefficients of 1e7 N).
+
+# Header entries (row 0): y0 and dy (mm), rows, axle load (kN), shear modulus (GPa),
+# friction coefficient, r0 (mm), gravitational stiffness and spin creep on (1) or off (0).
+HEADER_Y0, HEADER_DY, HEADER_ROWS, HEADER_AXLE_LOAD, HEADER_SHEAR_MODULUS, HEADER_FRICTION, \
+    HEADER_R0, HEADER_GRAVITY, HEADER_SPIN = range(9)
+# Per row: y (mm), roll (mrad, left side up), then per side (left, right) per slot POINT entries.
+Y, ROLL = range(2)
+FIRST_POINT = 2
+# Per point: load share, rolling radius less r0 (mm: MJCF's 6 significant figures keep it to
+# 1e-9 mm near the centre), contact angle (rad, leaning towards the track centre), lateral
+# lever (mm, the contact's y less the wheelset's), Hertz semi-axes per unit load
+# (mm/kN^(1/3), a along the rolling direction), Kalker's C11, C22, C23, C33.
+WEIGHT, RADIUS, ANGLE, LEVER, SEMI_A, SEMI_B, C11, C22, C23, C33 = range(10)
+POINT = 10
+SLOTS = 2  # each followed across the rows (_assign_slots): slot 0 starts at the centred outer point
+COLUMNS = FIRST_POINT + 2 * SLOTS * POINT
+
+
+def point_column(side: int, slot: int, field: int) -> int:
+    """The column of `field` for side 0 (left) / 1 (right) and slot 0 / 1."""
+    return FIRST_POINT + (side * SLOTS + slot) * POINT + field

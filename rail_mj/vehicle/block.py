@@ -1,0 +1,121 @@
+"""The native block: the one writer of what the compiled callback reads from a model.
+
+`Vehicle` fills the model's first numeric ("rail_mj/native", layout in rail_mj.numerics)
+with each vehicle's speed, contact parameters, contact table and the joint chains of its
+wheelsets; `set_speed` changes a compiled model's speed. `contact_parameters` reads a
+model's named numerics back into the ContactParameters the contact law takes, for the
+Python callback and the block alike.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from rail_mj import numerics
+from rail_mj.contact.creep import ContactParameters
+from rail_mj.numerics import (COLUMNS, COUPLE, LOADS_HEADER, MAGIC, NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE,
+                              NUMERIC_GEOMETRY, NUMERIC_NATIVE, NUMERIC_SATURATION, NUMERIC_WHEEL, SPEED)
+from rail_mj.units import PA_PER_GPA
+from rail_mj.vehicle.loads import AxleLoads, ShearCouples
+
+
+class NativeError(ValueError):
+    """The native callback cannot run on this MuJoCo, or on this model."""
+
+
+def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParameters:
+    r0, b, conicity, clearance = model.numeric(NUMERIC_WHEEL).data
+    f11, f22, f23, f33 = model.numeric(NUMERIC_CREEP).data
+    law, limit, falling_ratio, falling_rate = model.numeric(NUMERIC_SATURATION).data
+    flange, stiffness, damping, slope = model.numeric(NUMERIC_FLANGE).data
+    try:
+        a, semi_b, normal, shear, c11, c22, c23 = model.numeric(NUMERIC_ELLIPSE).data
+    except KeyError:  # an MJCF written before the ellipse was carried: no fastsim law
+        a = semi_b = normal = shear = c11 = c22 = c23 = 0.0
+    try:
+        geometry = model.numeric(NUMERIC_GEOMETRY).data.reshape(-1, COLUMNS).copy()
+    except KeyError:  # coned wheels
+        geometry = None
+    return ContactParameters.broadcast(
+        n_wheelsets, r0=r0, b=b, conicity=conicity, f11=f11, f22=f22, f23=f23, f33=f33,
+        friction_limit=limit, falling_friction_ratio=falling_ratio, falling_friction_rate=falling_rate,
+        law=int(law), clearance=clearance, flange_stiffness=stiffness,
+        flange_damping=damping, flange_slope=slope if flange else None, geometry=geometry,
+        semi_axis_a=a, semi_axis_b=semi_b, normal_force=normal, shear_modulus=shear * PA_PER_GPA, c11=c11, c22=c22,
+        c23=c23,
+    )
+
+
+_SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE)
+
+
+def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0, loads=None,
+                  prefix: str = "", couples=None) -> np.ndarray:
+    """One vehicle's entries of the block: see VEHICLE_HEADER. `loads`: its AxleLoads
+    (rail_mj.vehicle.loads), its tendons named in `model` under `prefix`; None: static loads.
+    `couples`: its frames' ShearCouples, or None."""
+    table, geometry = params.table, params.geometry
+    entries = [speed, len(wheelset_bodies), params.law, float(params.flange), float(params.falling),
+               float(geometry.shape[0])]
+    entries += list(table.reshape(-1)) + list(geometry.reshape(-1))
+    for i, body in enumerate(wheelset_bodies):
+        chain = []
+        b = int(body)
+        while b:
+            for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
+                kind = int(model.jnt_type[j])
+                if kind not in (_SLIDE, _HINGE):
+                    raise NativeError(f"joint {model.joint(j).name}: the native callback handles slide "
+                                      f"and hinge joints only")
+                chain += [j, model.jnt_dofadr[j], float(kind == _HINGE)]
+            b = model.body_parentid[b]
+        entries += [body, len(chain) // 3] + chain
+        if loads is None:
+            entries += [0.0] * LOADS_HEADER
+        else:
+            rows = loads.rows(model, i, prefix)
+            entries += [loads.weight, loads.nominal, loads.spin_inertia, float(loads.cone_gravity),
+                        float(len(rows))] + list(rows.reshape(-1))
+        pairs = loads.shear_rows(model, i, prefix) if loads is not None else np.zeros((0, 2))
+        entries += [float(len(pairs))] + list(pairs.reshape(-1))
+    rows = couples.rows(model, prefix) if couples is not None else np.zeros((0, COUPLE))
+    entries += [float(len(rows))] + list(rows.reshape(-1))
+    return np.asarray(entries, dtype=np.float64)
+
+
+def block(vehicles: list[np.ndarray]) -> np.ndarray:
+    """The whole numeric: MAGIC, the number of vehicles, then each vehicle's entries."""
+    return np.concatenate([[MAGIC, float(len(vehicles))], *vehicles])
+
+
+def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
+    """The block of a model built by rail_mj.vehicle.model: one vehicle, wheelset1..N, its contact
+    parameters read from the model's named numerics, no speed yet."""
+    names = [f"wheelset{i + 1}" for i in range(n_wheelsets)]
+    bodies = [model.body(name).id for name in names]
+    return block([vehicle_block(model, bodies, contact_parameters(model, n_wheelsets), loads=AxleLoads.of(model, names),
+                                couples=ShearCouples.of(model))])
+
+
+def _block_of(model: mujoco.MjModel) -> np.ndarray:
+    if model.nnumeric == 0 or model.numeric(0).name != NUMERIC_NATIVE or model.numeric_data[0] != MAGIC:
+        raise NativeError(f"model {model.names[:40]!r}...: its first numeric is not {NUMERIC_NATIVE}; "
+                          f"build it with rail_mj.vehicle.model.Vehicle")
+    return model.numeric_data
+
+
+def vehicle_starts(model: mujoco.MjModel) -> list[int]:
+    """Where each vehicle's entries start in the block."""
+    return numerics.vehicle_starts(_block_of(model))
+
+
+def set_speed(model: mujoco.MjModel, speed: float, vehicle: int | None = None) -> None:
+    """Set the forward speed (m/s) of one vehicle of `model` (all of them by default)."""
+    if not (math.isfinite(speed) and speed > 0):
+        raise ValueError(f"speed must be a positive number, got {speed}")
+    starts = vehicle_starts(model)
+    for k in starts if vehicle is None else [starts[vehicle]]:
+        model.numeric_data[k + SPEED] = speed
