@@ -60,19 +60,32 @@ _compat.install()
 # Where each public name lives, imported on first use.
 _EXPORTS = {
     # contact
-    "equivalent_conicity": "contact.conicity", "contact_patch": "contact.hertz",
-    "contact_forces": "contact.creep", "wheelset_forces": "contact.creep",
-    "ContactParameters": "contact.creep", "ContactForces": "contact.creep",
+    "equivalent_conicity": "contact.conicity",
+    "contact_patch": "contact.hertz",
+    "contact_forces": "contact.creep",
+    "wheelset_forces": "contact.creep",
+    "ContactParameters": "contact.creep",
+    "ContactForces": "contact.creep",
     # layout
-    "Layout": "layout", "LayoutError": "layout", "layout_from_dict": "layout", "load_layout": "layout",
+    "Layout": "layout",
+    "LayoutError": "layout",
+    "layout_from_dict": "layout",
+    "load_layout": "layout",
     # vehicle
-    "Vehicle": "vehicle.model", "generate": "vehicle.model",
+    "Vehicle": "vehicle.model",
+    "generate": "vehicle.model",
     # simulation
-    "Run": "simulation.runner", "SimulationError": "simulation.runner", "simulate": "simulation.runner",
-    "simulate_many": "simulation.runner", "Request": "simulation.runner",
+    "Run": "simulation.runner",
+    "SimulationError": "simulation.runner",
+    "simulate": "simulation.runner",
+    "simulate_many": "simulation.runner",
+    "Request": "simulation.runner",
     # analysis
-    "summary": "analysis.motion", "Stability": "analysis.stability", "CriticalSpeed": "analysis.stability",
-    "time_critical_speed": "analysis.stability", "nonlinear_critical_speed": "analysis.bifurcation",
+    "summary": "analysis.motion",
+    "Stability": "analysis.stability",
+    "CriticalSpeed": "analysis.stability",
+    "time_critical_speed": "analysis.stability",
+    "nonlinear_critical_speed": "analysis.bifurcation",
     "bifurcation": "analysis.bifurcation",
     # output
     "write_recording": "output.recording",
@@ -80,7 +93,7 @@ _EXPORTS = {
     "sweep": "studies.sweep",
 }
 __getattr__, _dir = _lazy.exports("rail_mj", _EXPORTS)
-__all__ = sorted(_EXPORTS)
+__all__ = list(_EXPORTS)
 
 
 def __dir__() -> list[str]:

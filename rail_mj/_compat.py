@@ -18,13 +18,26 @@ import types
 # Old module -> its new home. `rail_mj.layout`, `rail_mj.analysis`, `rail_mj.contact`,
 # `rail_mj.cli` and `rail_mj.files` are packages or modules of the same name today.
 MOVED = {
-    "profiles": "contact.profiles", "geometry": "contact.geometry", "conicity": "contact.conicity",
-    "tables": "contact.tables", "creep": "contact.creep", "practice": "layout.practice",
-    "model": "vehicle.model", "wheel": "vehicle.wheel", "loads": "vehicle.loads",
-    "forces": "simulation.callback", "native": "simulation.native", "linear": "simulation.linear",
-    "runner": "simulation.runner", "stability": "analysis.stability", "bifurcation": "analysis.bifurcation",
-    "trains": "analysis.train_modes", "spatial": "analysis.spatial_modes", "recording": "output.recording",
-    "plots": "output.plots", "sweep": "studies.sweep",
+    "profiles": "contact.profiles",
+    "geometry": "contact.geometry",
+    "conicity": "contact.conicity",
+    "tables": "contact.tables",
+    "creep": "contact.creep",
+    "practice": "layout.practice",
+    "model": "vehicle.model",
+    "wheel": "vehicle.wheel",
+    "loads": "vehicle.loads",
+    "forces": "simulation.callback",
+    "native": "simulation.native",
+    "linear": "simulation.linear",
+    "runner": "simulation.runner",
+    "stability": "analysis.stability",
+    "bifurcation": "analysis.bifurcation",
+    "trains": "analysis.train_modes",
+    "spatial": "analysis.spatial_modes",
+    "recording": "output.recording",
+    "plots": "output.plots",
+    "sweep": "studies.sweep",
 }
 
 

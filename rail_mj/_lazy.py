@@ -8,11 +8,13 @@ wait for MuJoCo, numba and scipy to load.
 from __future__ import annotations
 
 import importlib
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 
-def exports(package: str, names: dict[str, str],
-            fallback: str | None = None) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+def exports(
+    package: str, names: dict[str, str], fallback: str | None = None
+) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """`__getattr__` and `__dir__` for `package`: `names` maps each public name to the module
     (relative to the package) that defines it. `fallback`: a module whose every other
     attribute the package also forwards (a module's old path kept working)."""

@@ -86,12 +86,47 @@ def vehicle_starts(data: np.ndarray) -> list[int]:
 # The rows of ContactParameters.table, in order. The native callback's numeric block carries
 # ROWS numbers per wheelset (rail_mj.simulation.native).
 _FASTSIM_ROWS = ("semi_axis_a", "semi_axis_b", "normal_force", "shear_modulus", "c11", "c22", "c23")
-_ROWS = ("r0", "b", "conicity", "f11", "f22", "f23", "f33", "friction_limit", "falling_friction_ratio",
-         "falling_friction_rate", "clearance", "flange_stiffness", "flange_damping", "flange_slope",
-         *_FASTSIM_ROWS)
+_ROWS = (
+    "r0",
+    "b",
+    "conicity",
+    "f11",
+    "f22",
+    "f23",
+    "f33",
+    "friction_limit",
+    "falling_friction_ratio",
+    "falling_friction_rate",
+    "clearance",
+    "flange_stiffness",
+    "flange_damping",
+    "flange_slope",
+    *_FASTSIM_ROWS,
+)
 ROWS = len(_ROWS)
-(_R0, _B, _LAM, _F11, _F22, _F23, _F33, _LIMIT, _FALL_RATIO, _FALL_RATE, _CLEARANCE, _K_FLANGE,
- _C_FLANGE, _SLOPE, _SEMI_A, _SEMI_B, _NORMAL, _SHEAR, _C11, _C22, _C23) = range(ROWS)
+(
+    _R0,
+    _B,
+    _LAM,
+    _F11,
+    _F22,
+    _F23,
+    _F33,
+    _LIMIT,
+    _FALL_RATIO,
+    _FALL_RATE,
+    _CLEARANCE,
+    _K_FLANGE,
+    _C_FLANGE,
+    _SLOPE,
+    _SEMI_A,
+    _SEMI_B,
+    _NORMAL,
+    _SHEAR,
+    _C11,
+    _C22,
+    _C23,
+) = range(ROWS)
 
 
 # --- a profiled wheelset's contact table: the "rail_mj/geometry" numeric -----------------
@@ -102,8 +137,17 @@ ROWS = len(_ROWS)
 
 # Header entries (row 0): y0 and dy (mm), rows, axle load (kN), shear modulus (GPa),
 # friction coefficient, r0 (mm), gravitational stiffness and spin creep on (1) or off (0).
-HEADER_Y0, HEADER_DY, HEADER_ROWS, HEADER_AXLE_LOAD, HEADER_SHEAR_MODULUS, HEADER_FRICTION, \
-    HEADER_R0, HEADER_GRAVITY, HEADER_SPIN = range(9)
+(
+    HEADER_Y0,
+    HEADER_DY,
+    HEADER_ROWS,
+    HEADER_AXLE_LOAD,
+    HEADER_SHEAR_MODULUS,
+    HEADER_FRICTION,
+    HEADER_R0,
+    HEADER_GRAVITY,
+    HEADER_SPIN,
+) = range(9)
 # Per row: y (mm), roll (mrad, left side up), then per side (left, right) per slot POINT entries.
 Y, ROLL = range(2)
 FIRST_POINT = 2

@@ -17,8 +17,13 @@ SHIPPED = sorted(p for p in MODELS.glob("*/*.toml") if p.stem == p.parent.name)
 CONED = [p for p in SHIPPED if "[profiles]" not in p.read_text()]
 
 # Manchester benchmark wheelset (docs/manchester-coach.md).
-WHEELSET = {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0], "rolling_radius": 0.46,
-            "contact_half_spacing": 0.75, "conicity": 0.15}
+WHEELSET = {
+    "mass": 1813.0,
+    "inertia": [1120.0, 112.0, 1120.0],
+    "rolling_radius": 0.46,
+    "contact_half_spacing": 0.75,
+    "conicity": 0.15,
+}
 BOGIE_FRAME = {"mass": 2615.0, "inertia": [1722.0, 1476.0, 3067.0]}
 
 
@@ -42,26 +47,30 @@ def linear_text(name: str) -> str:
 
 def free_wheelset(r0: float, b: float, lam: float, f11=10e6, f22=9e6):
     """One wheelset with no suspension at all, under a body held over the centreline."""
-    return layout_from_dict({
-        "name": "free-wheelset",
-        "wheelset": {**WHEELSET, "rolling_radius": r0, "contact_half_spacing": b, "conicity": lam},
-        "creep": {"f11": f11, "f22": f22},
-        "primary": {"lateral_stiffness": 0.0, "yaw_stiffness": 0.0},
-        "carbody": {"fixed": True, "wheelset_positions": [0.0]},
-    })
+    return layout_from_dict(
+        {
+            "name": "free-wheelset",
+            "wheelset": {**WHEELSET, "rolling_radius": r0, "contact_half_spacing": b, "conicity": lam},
+            "creep": {"f11": f11, "f22": f22},
+            "primary": {"lateral_stiffness": 0.0, "yaw_stiffness": 0.0},
+            "carbody": {"fixed": True, "wheelset_positions": [0.0]},
+        }
+    )
 
 
 def free_truck(positions, lam=0.15, f11=10e6, f22=9e6, primary=1e9):
     """A bogie frame with (very stiff) primary suspension and no secondary stiffness."""
-    return layout_from_dict({
-        "name": "free-truck",
-        "wheelset": {**WHEELSET, "conicity": lam},
-        "creep": {"f11": f11, "f22": f22},
-        "primary": {"lateral_stiffness": primary, "yaw_stiffness": primary},
-        "bogie": {**BOGIE_FRAME, "wheelset_positions": list(positions)},
-        "secondary": {"lateral_stiffness": 0.0, "yaw_stiffness": 0.0},
-        "carbody": {"fixed": True, "bogie_positions": [0.0]},
-    })
+    return layout_from_dict(
+        {
+            "name": "free-truck",
+            "wheelset": {**WHEELSET, "conicity": lam},
+            "creep": {"f11": f11, "f22": f22},
+            "primary": {"lateral_stiffness": primary, "yaw_stiffness": primary},
+            "bogie": {**BOGIE_FRAME, "wheelset_positions": list(positions)},
+            "secondary": {"lateral_stiffness": 0.0, "yaw_stiffness": 0.0},
+            "carbody": {"fixed": True, "bogie_positions": [0.0]},
+        }
+    )
 
 
 def passive_forces(model, callback, qpos, qvel) -> np.ndarray:

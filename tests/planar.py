@@ -75,12 +75,10 @@ def _bodies(layout: Layout):
     mass None when it does not move. x is measured from the car-body centre.
     """
     cb = layout.carbody
-    bodies = [("carbody", 0.0, None if cb.fixed else cb.mass,
-               None if cb.fixed else cb.inertia[2], None, None)]
+    bodies = [("carbody", 0.0, None if cb.fixed else cb.mass, None if cb.fixed else cb.inertia[2], None, None)]
     if layout.bogie is not None:
         for i, xb in enumerate(cb.bogie_positions, start=1):
-            bodies.append((f"bogie{i}", xb, layout.bogie.mass, layout.bogie.inertia[2],
-                           "carbody", layout.secondary))
+            bodies.append((f"bogie{i}", xb, layout.bogie.mass, layout.bogie.inertia[2], "carbody", layout.secondary))
         n_per_bogie = len(layout.bogie.wheelset_positions)
         parents = [f"bogie{k // n_per_bogie + 1}" for k in range(layout.n_wheelsets)]
     else:
@@ -239,10 +237,14 @@ def planar_train_matrices(layout: Layout, speed: float):
         C[:] += cy * np.outer(g_d, g_d) + cpsi * np.outer(g_e, g_e)
 
     def hang(child, parent, s, share=1.0):
-        element({(child, 0): 1.0, (parent, 0): -1.0, (parent, 1): -(x_of[child] - x_of[parent])},
-                {(child, 1): 1.0, (parent, 1): -1.0},
-                share * s.lateral_stiffness, share * s.yaw_stiffness,
-                share * s.lateral_damping, share * s.yaw_damping)
+        element(
+            {(child, 0): 1.0, (parent, 0): -1.0, (parent, 1): -(x_of[child] - x_of[parent])},
+            {(child, 1): 1.0, (parent, 1): -1.0},
+            share * s.lateral_stiffness,
+            share * s.yaw_stiffness,
+            share * s.lateral_damping,
+            share * s.yaw_damping,
+        )
 
     per_bogie = len(bogie.wheelset_positions)
     for k in range(layout.n_wheelsets):
@@ -255,9 +257,14 @@ def planar_train_matrices(layout: Layout, speed: float):
         a, b = (train.cars[k - 1] for k in c.cars)
         x = ((a.position - a.length / 2) + (b.position + b.length / 2)) / 2
         A, B = (f"carbody{k}" for k in c.cars)
-        element({(B, 0): 1.0, (B, 1): x - b.position, (A, 0): -1.0, (A, 1): -(x - a.position)},
-                {(B, 1): 1.0, (A, 1): -1.0},
-                c.lateral_stiffness, c.yaw_stiffness, c.lateral_damping, c.yaw_damping)
+        element(
+            {(B, 0): 1.0, (B, 1): x - b.position, (A, 0): -1.0, (A, 1): -(x - a.position)},
+            {(B, 1): 1.0, (A, 1): -1.0},
+            c.lateral_stiffness,
+            c.yaw_stiffness,
+            c.lateral_damping,
+            c.yaw_damping,
+        )
 
     cr = layout.creep
     r0, b, lam = ws.rolling_radius, ws.contact_half_spacing, ws.conicity

@@ -15,11 +15,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
 from rail_mj.cli import main
 from rail_mj.layout.practice import RANGES, max_initial_yaw
-
-from conftest import MODELS
 
 WHEELSET = MODELS / "wheelset" / "wheelset.toml"
 BOGIE = MODELS / "bogie" / "bogie.toml"
@@ -50,7 +49,7 @@ def test_output_through_a_symlink_replaces_its_target_and_keeps_the_link(tmp_pat
     target.write_text("old\n")
     link = tmp_path / "latest.csv"
     link.symlink_to(target)
-    status, out, err = run(["run", WHEELSET, *SHORT_RUN, "--out", link], capsys)
+    status, _out, err = run(["run", WHEELSET, *SHORT_RUN, "--out", link], capsys)
     assert status == 0, err
     assert link.is_symlink() and link.resolve() == target
     assert target.read_text().startswith("t,x,y1,psi1")
@@ -60,7 +59,7 @@ def test_output_through_a_symlink_replaces_its_target_and_keeps_the_link(tmp_pat
 def test_output_through_a_dangling_symlink_creates_its_target(tmp_path, capsys):
     link = tmp_path / "run.rrd"
     link.symlink_to(tmp_path / "recording.rrd")
-    status, out, err = run(["run", WHEELSET, *SHORT_RUN, "--rrd", link], capsys)
+    status, _out, err = run(["run", WHEELSET, *SHORT_RUN, "--rrd", link], capsys)
     assert status == 0, err
     assert link.is_symlink() and (tmp_path / "recording.rrd").stat().st_size > 0
 
@@ -71,7 +70,7 @@ def test_output_into_a_fifo_is_written_through_and_the_fifo_stays(tmp_path, caps
     received = []
     reader = threading.Thread(target=lambda: received.append(fifo.read_bytes()))
     reader.start()
-    status, out, err = run(["run", WHEELSET, *SHORT_RUN, "--out", fifo], capsys)
+    status, _out, err = run(["run", WHEELSET, *SHORT_RUN, "--out", fifo], capsys)
     reader.join(timeout=60)
     assert status == 0, err
     assert fifo.is_fifo()
@@ -99,7 +98,7 @@ def test_all_or_nothing_still_holds_for_regular_files_beside_a_fifo(tmp_path, ca
     nothing is written into the FIFO before every regular file is ready."""
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
-    status, out, err = run(["run", WHEELSET, *SHORT_RUN, "--out", fifo, "--rrd", "/proc/run.rrd"], capsys)
+    status, _out, err = run(["run", WHEELSET, *SHORT_RUN, "--out", fifo, "--rrd", "/proc/run.rrd"], capsys)
     assert status == 2 and "/proc/run.rrd" in one_line(err)
     assert fifo.is_fifo() and sorted(p.name for p in tmp_path.iterdir()) == ["pipe"]
 
@@ -139,8 +138,16 @@ HOSTILE = [
     ["eigen", WHEELSET, "--speed", "30", "--amplitude", "3"],
     ["eigen", MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml", "--speed", "30", "--amplitude", "nan"],
     ["critical-speed", MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml", "--amplitude", "-1"],
-    ["root-locus", MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml", "--speeds", "20:80:3",
-     "-o", "l.png", "--amplitude", "1e9"],
+    [
+        "root-locus",
+        MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml",
+        "--speeds",
+        "20:80:3",
+        "-o",
+        "l.png",
+        "--amplitude",
+        "1e9",
+    ],
     # root locus and bifurcation
     ["root-locus", WHEELSET, "--speeds", "1:1e9:3", "-o", "locus.png"],
     ["root-locus", WHEELSET, "--speeds", "a:b:c", "-o", "locus.png"],
@@ -159,8 +166,18 @@ HOSTILE = [
     ["sweep", WHEELSET, "--speeds", "30:40:2", "-o", "s.xlsx"],
     ["sweep", WHEELSET, "--speeds", "5:150:1", "--method", "eigen", "-o", "s.csv"],
     ["map", WHEELSET, "--x", "wheelset.conicity=0.1:0.2:2", "--y", "wheelset.conicity=0.1:0.2:2", "-o", "m.png"],
-    ["map", WHEELSET, "--x", "wheelset.conicity=0.1:0.2:2", "--y", "primary.yaw_stiffness=1e6:2e6:2",
-     "--method", "nonlinear", "-o", "m.png"],
+    [
+        "map",
+        WHEELSET,
+        "--x",
+        "wheelset.conicity=0.1:0.2:2",
+        "--y",
+        "primary.yaw_stiffness=1e6:2e6:2",
+        "--method",
+        "nonlinear",
+        "-o",
+        "m.png",
+    ],
     ["map", WHEELSET, "--x", "conicity", "--y", "primary.yaw_stiffness=1e6:2e6:2", "-o", "m.png"],
     # profiles and conicity
     ["profile", "s1003", "-o", "p.csv"],
@@ -170,28 +187,224 @@ HOSTILE = [
     ["conicity", WHEELSET, "--amplitudes", "0:0:0"],
     ["conicity", "--delta-r", WHEELSET],
     # one contact patch's creep forces
-    ["creep", "--semi-axes", "-0.007", "0.005", "--normal-force", "1e5", "--creepages", "0.001", "0", "0",
-     "--friction", "0.3", "--shear-modulus", "8e10", "--poisson", "0.28", "--law", "fastsim"],
-    ["creep", "--semi-axes", "0.007", "0.0001", "--normal-force", "1e5", "--creepages", "0.001", "0", "0",
-     "--friction", "0.3", "--shear-modulus", "8e10", "--poisson", "0.28", "--law", "polach"],
-    ["creep", "--semi-axes", "nan", "0.005", "--normal-force", "1e5", "--creepages", "0.001", "0", "0",
-     "--friction", "0.3", "--shear-modulus", "8e10", "--poisson", "0.28", "--law", "fastsim"],
-    ["creep", "--semi-axes", "0.007", "0.005", "--normal-force", "1e5", "--creepages", "0.001", "0", "0",
-     "--friction", "0.3", "--shear-modulus", "8e10", "--poisson", "0.7", "--law", "linear"],
-    ["creep", "--semi-axes", "0.007", "0.005", "--normal-force", "1e5", "--creepages", "0.001", "0", "0",
-     "--friction", "-0.3", "--shear-modulus", "8e10", "--poisson", "0.28", "--law", "fastsim"],
-    ["creep", "--semi-axes", "0.007", "0.005", "--normal-force", "1e5", "--creepages", "0.001", "0", "0",
-     "--shear-modulus", "8e10", "--poisson", "0.28", "--law", "shen-hedrick-elkins"],
-    ["creep", "--semi-axes", "0.007", "0.005", "--normal-force", "inf", "--creepages", "1e308", "0", "-1e308",
-     "--friction", "0.3", "--shear-modulus", "1e300", "--poisson", "0.28", "--law", "fastsim"],
-    ["creep", "--semi-axes", "1e-6", "1e-6", "--normal-force", "1e15", "--creepages", "1", "-1", "1000",
-     "--friction", "2", "--shear-modulus", "1e15", "--poisson", "0.5", "--law", "fastsim"],
-    ["creep", "--semi-axes", "1", "1", "--normal-force", "1e-300", "--creepages", "1", "-1", "-1000",
-     "--friction", "0.01", "--shear-modulus", "1e-300", "--poisson", "0", "--law", "polach", "--json"],
-    ["creep", "--semi-axes", "0.007", "--normal-force", "1e5", "--creepages", "0.001", "0", "0",
-     "--friction", "0.3", "--shear-modulus", "8e10", "--poisson", "0.28", "--law", "fastsim"],
-    ["creep", "--semi-axes", "0.007", "0.005", "--normal-force", "1e5", "--creepages", "0.001", "0", "0",
-     "--friction", "0.3", "--shear-modulus", "8e10", "--poisson", "0.28", "--law", "coulomb"],
+    [
+        "creep",
+        "--semi-axes",
+        "-0.007",
+        "0.005",
+        "--normal-force",
+        "1e5",
+        "--creepages",
+        "0.001",
+        "0",
+        "0",
+        "--friction",
+        "0.3",
+        "--shear-modulus",
+        "8e10",
+        "--poisson",
+        "0.28",
+        "--law",
+        "fastsim",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "0.007",
+        "0.0001",
+        "--normal-force",
+        "1e5",
+        "--creepages",
+        "0.001",
+        "0",
+        "0",
+        "--friction",
+        "0.3",
+        "--shear-modulus",
+        "8e10",
+        "--poisson",
+        "0.28",
+        "--law",
+        "polach",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "nan",
+        "0.005",
+        "--normal-force",
+        "1e5",
+        "--creepages",
+        "0.001",
+        "0",
+        "0",
+        "--friction",
+        "0.3",
+        "--shear-modulus",
+        "8e10",
+        "--poisson",
+        "0.28",
+        "--law",
+        "fastsim",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "0.007",
+        "0.005",
+        "--normal-force",
+        "1e5",
+        "--creepages",
+        "0.001",
+        "0",
+        "0",
+        "--friction",
+        "0.3",
+        "--shear-modulus",
+        "8e10",
+        "--poisson",
+        "0.7",
+        "--law",
+        "linear",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "0.007",
+        "0.005",
+        "--normal-force",
+        "1e5",
+        "--creepages",
+        "0.001",
+        "0",
+        "0",
+        "--friction",
+        "-0.3",
+        "--shear-modulus",
+        "8e10",
+        "--poisson",
+        "0.28",
+        "--law",
+        "fastsim",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "0.007",
+        "0.005",
+        "--normal-force",
+        "1e5",
+        "--creepages",
+        "0.001",
+        "0",
+        "0",
+        "--shear-modulus",
+        "8e10",
+        "--poisson",
+        "0.28",
+        "--law",
+        "shen-hedrick-elkins",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "0.007",
+        "0.005",
+        "--normal-force",
+        "inf",
+        "--creepages",
+        "1e308",
+        "0",
+        "-1e308",
+        "--friction",
+        "0.3",
+        "--shear-modulus",
+        "1e300",
+        "--poisson",
+        "0.28",
+        "--law",
+        "fastsim",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "1e-6",
+        "1e-6",
+        "--normal-force",
+        "1e15",
+        "--creepages",
+        "1",
+        "-1",
+        "1000",
+        "--friction",
+        "2",
+        "--shear-modulus",
+        "1e15",
+        "--poisson",
+        "0.5",
+        "--law",
+        "fastsim",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "1",
+        "1",
+        "--normal-force",
+        "1e-300",
+        "--creepages",
+        "1",
+        "-1",
+        "-1000",
+        "--friction",
+        "0.01",
+        "--shear-modulus",
+        "1e-300",
+        "--poisson",
+        "0",
+        "--law",
+        "polach",
+        "--json",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "0.007",
+        "--normal-force",
+        "1e5",
+        "--creepages",
+        "0.001",
+        "0",
+        "0",
+        "--friction",
+        "0.3",
+        "--shear-modulus",
+        "8e10",
+        "--poisson",
+        "0.28",
+        "--law",
+        "fastsim",
+    ],
+    [
+        "creep",
+        "--semi-axes",
+        "0.007",
+        "0.005",
+        "--normal-force",
+        "1e5",
+        "--creepages",
+        "0.001",
+        "0",
+        "0",
+        "--friction",
+        "0.3",
+        "--shear-modulus",
+        "8e10",
+        "--poisson",
+        "0.28",
+        "--law",
+        "coulomb",
+    ],
     ["creep", "--semi-axes", "0.007", "0.005", "--law", "fastsim"],
     # the rest
     ["contact", WHEELSET],
@@ -215,7 +428,7 @@ def test_hostile_arguments_end_in_one_line_and_a_known_status(argv, tmp_path, mo
 
 
 def test_a_large_initial_yaw_is_refused_and_named(capsys):
-    status, out, err = run(["run", BOGIE, "--speed", "50", "--distance", "50", "--initial-yaw", "3"], capsys)
+    status, _out, err = run(["run", BOGIE, "--speed", "50", "--distance", "50", "--initial-yaw", "3"], capsys)
     line = one_line(err)
     assert status == 2 and "--initial-yaw" in line and "critical speed" not in line
 
@@ -226,7 +439,7 @@ def test_a_derailment_from_a_stable_speed_blames_the_start(tmp_path):
     from rail_mj import load_layout, simulate
     from rail_mj.simulation.runner import Derailed
 
-    with pytest.raises(Derailed, match="stable.*start") as e:
+    with pytest.raises(Derailed, match=r"stable.*start") as e:
         simulate(load_layout(BOGIE), speed=40.0, distance=50.0, initial_lateral=0.0, initial_yaw=3.0)
     assert "above this vehicle's critical speed" not in str(e.value)
 
@@ -254,15 +467,18 @@ def _layout_with(tmp_path, old: str, new: str) -> Path:
     return path
 
 
-@pytest.mark.parametrize("old, new, key", [
-    ("flangeway_clearance = 0.008", "flangeway_clearance = 0.5", "wheelset.flangeway_clearance"),
-    ("contact_half_spacing = 0.75", "contact_half_spacing = 50.0", "wheelset.contact_half_spacing"),
-    ("rolling_radius = 0.46", "rolling_radius = 0.001", "wheelset.rolling_radius"),
-    ("mass = 1813.0", "mass = 0.001", "wheelset.inertia"),
-])
+@pytest.mark.parametrize(
+    "old, new, key",
+    [
+        ("flangeway_clearance = 0.008", "flangeway_clearance = 0.5", "wheelset.flangeway_clearance"),
+        ("contact_half_spacing = 0.75", "contact_half_spacing = 50.0", "wheelset.contact_half_spacing"),
+        ("rolling_radius = 0.46", "rolling_radius = 0.001", "wheelset.rolling_radius"),
+        ("mass = 1813.0", "mass = 0.001", "wheelset.inertia"),
+    ],
+)
 def test_impossible_layout_values_are_refused_naming_key_and_range(old, new, key, tmp_path, capsys):
     path = _layout_with(tmp_path, old, new)
-    status, out, err = run(["generate", path, "-o", tmp_path / "gen"], capsys)
+    status, _out, err = run(["generate", path, "-o", tmp_path / "gen"], capsys)
     line = one_line(err)
     assert status == 2 and key in line
     assert "between" in line or "radius of gyration" in line
@@ -271,7 +487,7 @@ def test_impossible_layout_values_are_refused_naming_key_and_range(old, new, key
 
 def test_unusual_layout_values_are_warned_about_on_one_line(tmp_path, capsys):
     path = _layout_with(tmp_path, "rolling_radius = 0.46", "rolling_radius = 0.1")
-    status, out, err = run(["generate", path, "-o", tmp_path / "gen"], capsys)
+    status, _out, err = run(["generate", path, "-o", tmp_path / "gen"], capsys)
     line = one_line(err)
     assert status == 0
     assert line.startswith("rail-mj: warning: ") and "wheelset.rolling_radius" in line
@@ -280,24 +496,26 @@ def test_unusual_layout_values_are_warned_about_on_one_line(tmp_path, capsys):
 
 def test_initial_lateral_past_the_clearance_is_refused(tmp_path, capsys):
     path = _layout_with(tmp_path, "flangeway_clearance = 0.008", "flangeway_clearance = 0.007")
-    status, out, err = run(["run", path, "--speed", "30", "--distance", "10", "--initial-lateral", "0.071"],
-                           capsys)
+    status, _out, err = run(["run", path, "--speed", "30", "--distance", "10", "--initial-lateral", "0.071"], capsys)
     line = one_line(err)
     assert status == 2 and "--initial-lateral" in line and "0.007" in line
 
 
-@pytest.mark.parametrize("argv", [
-    ["run", WHEELSET, "--speed", "1000", "--distance", "10"],
-    ["eigen", WHEELSET, "--speed", "1e9"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", WHEELSET, "--speed", "1000", "--distance", "10"],
+        ["eigen", WHEELSET, "--speed", "1e9"],
+    ],
+)
 def test_speeds_beyond_any_railway_are_refused(argv, capsys):
-    status, out, err = run(argv, capsys)
+    status, _out, err = run(argv, capsys)
     line = one_line(err)
     assert status == 2 and "--speed" in line and "160 m/s" in line
 
 
 def test_speeds_past_the_record_are_warned_about(capsys):
-    status, out, err = run(["eigen", WHEELSET, "--speed", "200"], capsys)
+    status, _out, err = run(["eigen", WHEELSET, "--speed", "200"], capsys)
     assert status == 0
     assert one_line(err).startswith("rail-mj: warning: --speed: 200 m/s is outside railway practice")
 

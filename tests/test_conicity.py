@@ -9,36 +9,48 @@ import math
 
 import numpy as np
 import pytest
+from conftest import MODELS
 from scipy.special import ellipk
 
 from rail_mj.cli import main
-from rail_mj.contact.conicity import (DEFAULT_AMPLITUDES, ConicityError, DeltaR, equivalent_conicity,
-                              harmonic_conicity, klingel_ode, wavelength)
-
-from conftest import MODELS
+from rail_mj.contact.conicity import (
+    DEFAULT_AMPLITUDES,
+    ConicityError,
+    DeltaR,
+    equivalent_conicity,
+    harmonic_conicity,
+    klingel_ode,
+    wavelength,
+)
 
 AMPLITUDES = [0.5, 1.0, 3.0, 6.0, 9.5]
 
 
 def cubic(lam=0.1, kappa=0.002, reach=12.0):
     """Δr = 2λy + 2κy³, a hardening (Duffing) oscillator."""
-    return DeltaR.from_function(lambda y: 2 * lam * y + 2 * kappa * y ** 3, -reach, reach,
-                                integral=lambda y: lam * y ** 2 + kappa * y ** 4 / 2)
+    return DeltaR.from_function(
+        lambda y: 2 * lam * y + 2 * kappa * y**3, -reach, reach, integral=lambda y: lam * y**2 + kappa * y**4 / 2
+    )
 
 
 def duffing_conicity(amplitude, lam=0.1, kappa=0.002):
     """The exact period of y'' + (2λy + 2κy³)/(e r0) = 0 (e r0 = 1) from its turning point A:
     T = 4K(m)/sqrt(w² + βA²), m = βA²/(2(w² + βA²)), w² = 2λ, β = 2κ; λe = (2π/T)²/2."""
     w2, beta = 2 * lam, 2 * kappa
-    m = beta * amplitude ** 2 / (2 * (w2 + beta * amplitude ** 2))
-    period = 4 * ellipk(m) / math.sqrt(w2 + beta * amplitude ** 2)
+    m = beta * amplitude**2 / (2 * (w2 + beta * amplitude**2))
+    period = 4 * ellipk(m) / math.sqrt(w2 + beta * amplitude**2)
     return (2 * math.pi / period) ** 2 / 2
 
 
 def dead_band(lam=0.1, band=1.0):
     """Δr = 0 for |y| < band, a cone beyond: 2λ·sign(y)·(|y| − band)."""
-    return DeltaR.from_function(lambda y: 2 * lam * np.sign(y) * max(abs(y) - band, 0.0), -12.0, 12.0,
-                                integral=lambda y: lam * max(abs(y) - band, 0.0) ** 2, knots=[-band, band])
+    return DeltaR.from_function(
+        lambda y: 2 * lam * np.sign(y) * max(abs(y) - band, 0.0),
+        -12.0,
+        12.0,
+        integral=lambda y: lam * max(abs(y) - band, 0.0) ** 2,
+        knots=[-band, band],
+    )
 
 
 def write_csv(path, y, dr, header="y_mm,delta_r_mm"):
@@ -82,7 +94,8 @@ def test_the_result_does_not_depend_on_e_and_r0():
 def test_a_cone_wavelength_is_klingels():
     # L = 2π sqrt(e r0 / (2λ)) for Δr = 2λy, to 1e-9 relative
     assert wavelength(DeltaR.cone(0.1), 4.0, e=1500.0, r0=460.0) == pytest.approx(
-        2 * math.pi * math.sqrt(1500.0 * 460.0 / 0.2), rel=1e-9)
+        2 * math.pi * math.sqrt(1500.0 * 460.0 / 0.2), rel=1e-9
+    )
 
 
 def test_a_cubic_delta_r_has_the_duffing_period():
@@ -95,17 +108,19 @@ def test_a_cubic_delta_r_has_the_duffing_period():
 def test_the_cubic_from_csv_points_is_close_to_the_function():
     # PCHIP through points 0.1 mm apart: λe within 1e-5 of the function's
     y = np.arange(-12.0, 12.0001, 0.1)
-    delta_r = DeltaR.from_points(y, 0.2 * y + 0.004 * y ** 3)
-    np.testing.assert_allclose(equivalent_conicity(delta_r, AMPLITUDES),
-                               [duffing_conicity(a) for a in AMPLITUDES], rtol=1e-5)
+    delta_r = DeltaR.from_points(y, 0.2 * y + 0.004 * y**3)
+    np.testing.assert_allclose(
+        equivalent_conicity(delta_r, AMPLITUDES), [duffing_conicity(a) for a in AMPLITUDES], rtol=1e-5
+    )
 
 
 @pytest.mark.parametrize("release", [3.0, -4.0, 8.0])
 def test_the_quadrature_agrees_with_a_time_integration(release):
     # an asymmetric Δr = 2λy + μy²: amplitude (half the peak-to-peak) and wavelength from
     # DOP853 at rtol 1e-12 against the quadrature, to 1e-8 relative
-    delta_r = DeltaR.from_function(lambda y: 0.2 * y + 0.01 * y ** 2, -12.0, 12.0,
-                                   integral=lambda y: 0.1 * y ** 2 + 0.01 * y ** 3 / 3)
+    delta_r = DeltaR.from_function(
+        lambda y: 0.2 * y + 0.01 * y**2, -12.0, 12.0, integral=lambda y: 0.1 * y**2 + 0.01 * y**3 / 3
+    )
     amplitude, length = klingel_ode(delta_r, release)
     low, high, _ = delta_r.turning_points(amplitude)
     assert (high if release > 0 else low) == pytest.approx(release, rel=1e-8)
@@ -135,7 +150,7 @@ def test_a_dead_band_gives_no_conicity_inside_and_rising_beyond():
     assert got[0] == 0.0 and got[1] == 0.0
     for a, value in zip(amplitudes[2:], got[2:]):
         half = 2 * band / math.sqrt(2 * lam * (a - band) ** 2) + math.pi / math.sqrt(2 * lam)
-        assert value == pytest.approx(math.pi ** 2 / (2 * half ** 2), rel=1e-9)
+        assert value == pytest.approx(math.pi**2 / (2 * half**2), rel=1e-9)
     assert got[2] < 1e-3 * lam and np.all(np.diff(got[1:]) > 0) and got[-1] < lam
 
 
@@ -164,7 +179,7 @@ def test_harmonic_linearisation_is_exact_for_a_cone_and_shifted_cone():
 def test_harmonic_linearisation_is_the_describing_function():
     # cubic: λ + (3/4)κŷ²; dead band: λ(1 − (2/π)(asin(d/ŷ) + (d/ŷ)sqrt(1 − (d/ŷ)²))); to 1e-10
     for a in AMPLITUDES:
-        assert harmonic_conicity(cubic(), a) == pytest.approx(0.1 + 0.75 * 0.002 * a ** 2, rel=1e-10)
+        assert harmonic_conicity(cubic(), a) == pytest.approx(0.1 + 0.75 * 0.002 * a**2, rel=1e-10)
     for a in (1.5, 3.0, 6.0):
         r = 1.0 / a
         expected = 0.1 * (1 - 2 / math.pi * (math.asin(r) + r * math.sqrt(1 - r * r)))
@@ -183,21 +198,24 @@ def test_harmonic_linearisation_is_within_a_few_percent_of_the_integration():
 # --- refusals -------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("lines, where", [
-    ("y_mm,delta_r_mm\n-1,-1\n0,0\n", "needs at least 3 points"),
-    ("y_mm,delta_r_mm\n-1,-1\n0,0\n0,1\n", ":4: y = 0 mm does not increase"),
-    ("y_mm,delta_r_mm\n-1,-1\n0,nan\n1,1\n", ":3: not a finite number"),
-    ("y_mm,delta_r_mm\n-1,-1\n0,zero\n1,1\n", ":3: not a number"),
-    ("y_mm,delta_r_mm\n-1,-1\n0,0,0\n1,1\n", ":3: expected 2 fields"),
-    ("y,dr\n-1,-1\n0,0\n1,1\n", ":1: expected the header"),
-    ("", "empty"),
-    ("y_mm,delta_r_mm\n-1,1\n0,0\n1,-1\n", "must go from negative to positive once"),
-    ("y_mm,delta_r_mm\n-1,1\n0,2\n1,3\n", "never negative"),
-])
+@pytest.mark.parametrize(
+    "lines, where",
+    [
+        ("y_mm,delta_r_mm\n-1,-1\n0,0\n", "needs at least 3 points"),
+        ("y_mm,delta_r_mm\n-1,-1\n0,0\n0,1\n", ":4: y = 0 mm does not increase"),
+        ("y_mm,delta_r_mm\n-1,-1\n0,nan\n1,1\n", ":3: not a finite number"),
+        ("y_mm,delta_r_mm\n-1,-1\n0,zero\n1,1\n", ":3: not a number"),
+        ("y_mm,delta_r_mm\n-1,-1\n0,0,0\n1,1\n", ":3: expected 2 fields"),
+        ("y,dr\n-1,-1\n0,0\n1,1\n", ":1: expected the header"),
+        ("", "empty"),
+        ("y_mm,delta_r_mm\n-1,1\n0,0\n1,-1\n", "must go from negative to positive once"),
+        ("y_mm,delta_r_mm\n-1,1\n0,2\n1,3\n", "never negative"),
+    ],
+)
 def test_bad_csv_is_refused_naming_file_and_line(tmp_path, lines, where):
     path = tmp_path / "dr.csv"
     path.write_text(lines)
-    with pytest.raises(ConicityError, match="dr.csv") as caught:
+    with pytest.raises(ConicityError, match=r"dr\.csv") as caught:
         DeltaR.read_csv(path)
     assert where in str(caught.value) and "\n" not in str(caught.value)
 
@@ -255,35 +273,42 @@ def test_cli_layout_with_profiles_gives_theirs(tmp_path, capsys):
     """A layout with [profiles]: the Δr of their contact geometry (tests/test_geometry.py),
     not the cone of its wheelset.conicity."""
     layout = tmp_path / "profiled.toml"
-    layout.write_text((MODELS / "wheelset" / "wheelset.toml").read_text()
-                      + '\n[profiles]\nwheel = "S1002"\nrail = "UIC60"\n')
+    layout.write_text(
+        (MODELS / "wheelset" / "wheelset.toml").read_text() + '\n[profiles]\nwheel = "S1002"\nrail = "UIC60"\n'
+    )
     status, out, err = run(["conicity", layout, "--amplitudes", "3:3:1", "--json"], capsys)
     assert status == 0, err
     value = json.loads(out)["equivalent_conicity"][0]
     assert value != pytest.approx(0.1, abs=1e-3) and 0.05 < value < 0.5
 
 
-@pytest.mark.parametrize("extra, message", [
-    (["--amplitudes", "1:x:3"], "must be A:B:N"),
-    (["--amplitudes", "5:1:3"], "needs 0 < A <= B"),
-    (["--amplitudes", "0:1:3"], "needs 0 < A <= B"),
-    (["--amplitudes", "1:2:1"], "needs 0 < A <= B"),
-    (["--amplitudes", "1:12:3"], "12 mm is beyond"),
-    (["--amplitudes", "nan:1:3"], "needs 0 < A <= B"),
-])
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--amplitudes", "1:x:3"], "must be A:B:N"),
+        (["--amplitudes", "5:1:3"], "needs 0 < A <= B"),
+        (["--amplitudes", "0:1:3"], "needs 0 < A <= B"),
+        (["--amplitudes", "1:2:1"], "needs 0 < A <= B"),
+        (["--amplitudes", "1:12:3"], "12 mm is beyond"),
+        (["--amplitudes", "nan:1:3"], "needs 0 < A <= B"),
+    ],
+)
 def test_cli_bad_amplitudes_exit_2_in_one_line(cone_csv, capsys, extra, message):
     status, out, err = run(["conicity", "--delta-r", cone_csv, *extra], capsys)
     assert status == 2 and out == ""
     assert len(err.strip().splitlines()) == 1 and message in err, err
 
 
-@pytest.mark.parametrize("text, message", [
-    ("y_mm,delta_r_mm\n-1,-1\n1,1\n", "needs at least 3 points"),
-    ("y_mm,delta_r_mm\n-1,-1\n1,1\n0,2\n", "bad.csv:4: y = 0 mm does not increase"),
-    ("y_mm,delta_r_mm\n-1,-1\n0,inf\n1,1\n", "bad.csv:3: not a finite number"),
-    ("nonsense", "bad.csv:1: expected the header"),
-    ("y_mm,delta_r_mm\n-0.1,-0.01\n0,0\n0.1,0.01\n", "give --amplitudes"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("y_mm,delta_r_mm\n-1,-1\n1,1\n", "needs at least 3 points"),
+        ("y_mm,delta_r_mm\n-1,-1\n1,1\n0,2\n", "bad.csv:4: y = 0 mm does not increase"),
+        ("y_mm,delta_r_mm\n-1,-1\n0,inf\n1,1\n", "bad.csv:3: not a finite number"),
+        ("nonsense", "bad.csv:1: expected the header"),
+        ("y_mm,delta_r_mm\n-0.1,-0.01\n0,0\n0.1,0.01\n", "give --amplitudes"),
+    ],
+)
 def test_cli_bad_csv_exits_2_in_one_line(tmp_path, capsys, text, message):
     bad = tmp_path / "bad.csv"
     bad.write_text(text)
@@ -292,17 +317,20 @@ def test_cli_bad_csv_exits_2_in_one_line(tmp_path, capsys, text, message):
     assert len(err.strip().splitlines()) == 1 and message in err and "Traceback" not in err, err
 
 
-@pytest.mark.parametrize("argv, message", [
-    ([], "give LAYOUT or --delta-r"),
-    ([MODELS / "wheelset" / "wheelset.toml", "--delta-r", "x.csv"], "not both"),
-    (["--delta-r", "missing.csv"], "cannot read"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        ([], "give LAYOUT or --delta-r"),
+        ([MODELS / "wheelset" / "wheelset.toml", "--delta-r", "x.csv"], "not both"),
+        (["--delta-r", "missing.csv"], "cannot read"),
+    ],
+)
 def test_cli_wrong_inputs_exit_2_in_one_line(capsys, argv, message):
-    status, out, err = run(["conicity", *argv], capsys)
+    status, _out, err = run(["conicity", *argv], capsys)
     assert status == 2 and len(err.strip().splitlines()) == 1 and message in err, err
 
 
 def test_cli_png_never_overwrites_the_input(cone_csv, capsys):
     before = cone_csv.read_bytes()
-    status, out, err = run(["conicity", "--delta-r", cone_csv, "--png", cone_csv], capsys)
+    status, _out, err = run(["conicity", "--delta-r", cone_csv, "--png", cone_csv], capsys)
     assert status == 2 and "would overwrite" in err and cone_csv.read_bytes() == before

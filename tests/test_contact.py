@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import MODELS, linear_text
+
 from rail_mj.cli import main
 from rail_mj.contact.hertz import KALKER, KALKER_S, contact_patch, hertz_ellipse, kalker_coefficients
 from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
@@ -85,11 +85,13 @@ f11 = 10.0e6
 f22 = 9.0e6
 f23 = 0.0
 f33 = 0.0
-""", """[contact]
+""",
+    """[contact]
 young_modulus = 210e9
 poisson_ratio = 0.28
 rail_transverse_radius = 0.30
-""")
+""",
+)
 
 
 def test_layout_takes_creep_from_contact_and_static_weight(tmp_path):
@@ -117,13 +119,18 @@ def test_cli_contact_json(tmp_path, capsys):
     assert out["a_m"] > out["b_m"] > 0 and math.isfinite(out["f33"])
 
 
-@pytest.mark.parametrize("change, fragment", [
-    (lambda t: t + "\n[creep]\nf11 = 1e7\nf22 = 1e7\n", "creep.f11: given with [contact]"),
-    (lambda t: t.replace("poisson_ratio = 0.28", "poisson_ratio = 0.7"), "contact.poisson_ratio"),
-    (lambda t: t.replace("rail_transverse_radius = 0.30\n", ""), "contact.rail_transverse_radius"),
-    (lambda t: t.replace("fixed = false", "fixed = true").replace("mass = 32000.0\n", ""),
-     "wheelset.wheel_load: missing"),
-])
+@pytest.mark.parametrize(
+    "change, fragment",
+    [
+        (lambda t: t + "\n[creep]\nf11 = 1e7\nf22 = 1e7\n", "creep.f11: given with [contact]"),
+        (lambda t: t.replace("poisson_ratio = 0.28", "poisson_ratio = 0.7"), "contact.poisson_ratio"),
+        (lambda t: t.replace("rail_transverse_radius = 0.30\n", ""), "contact.rail_transverse_radius"),
+        (
+            lambda t: t.replace("fixed = false", "fixed = true").replace("mass = 32000.0\n", ""),
+            "wheelset.wheel_load: missing",
+        ),
+    ],
+)
 def test_bad_contact_tables(change, fragment, tmp_path, capsys):
     path = tmp_path / "bad.toml"
     path.write_text(change(CONTACT_LAYOUT))
@@ -139,12 +146,20 @@ def test_contact_command_needs_a_contact_table(capsys):
 
 
 def test_layout_from_dict_with_contact_and_explicit_load():
-    layout = layout_from_dict({
-        "name": "w", "wheelset": {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0],
-                                  "rolling_radius": 0.46, "contact_half_spacing": 0.75, "conicity": 0.15,
-                                  "wheel_load": 98.1e3},
-        "contact": {"young_modulus": E, "poisson_ratio": NU, "rail_transverse_radius": 0.3},
-        "primary": {"lateral_stiffness": 0.0, "yaw_stiffness": 2e6},
-        "carbody": {"fixed": True, "wheelset_positions": [0.0]},
-    })
+    layout = layout_from_dict(
+        {
+            "name": "w",
+            "wheelset": {
+                "mass": 1813.0,
+                "inertia": [1120.0, 112.0, 1120.0],
+                "rolling_radius": 0.46,
+                "contact_half_spacing": 0.75,
+                "conicity": 0.15,
+                "wheel_load": 98.1e3,
+            },
+            "contact": {"young_modulus": E, "poisson_ratio": NU, "rail_transverse_radius": 0.3},
+            "primary": {"lateral_stiffness": 0.0, "yaw_stiffness": 2e6},
+            "carbody": {"fixed": True, "wheelset_positions": [0.0]},
+        }
+    )
     assert layout.creep.f11 == pytest.approx(14.3e6, rel=3e-2)  # the reference case again

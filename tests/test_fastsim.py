@@ -9,43 +9,68 @@ import tomllib
 
 import numpy as np
 import pytest
-
 from conftest import linear_text, passive_forces
-from rail_mj.simulation import native
-from rail_mj.cli import main
-from rail_mj.contact.hertz import contact_patch, ellipse_patch
-from rail_mj.contact.creep import (FASTSIM, FASTSIM_ELEMENTS, FASTSIM_STRIPS, LINEAR, ContactParameters, _fastsim,
-                           contact_forces, fastsim, patch_forces)
-from rail_mj.simulation.callback import CreepForces
-from rail_mj.layout import LayoutError, layout_from_dict
-from rail_mj.vehicle.model import NUMERIC_ELLIPSE, Vehicle
-from rail_mj.simulation.runner import simulate
+
 from rail_mj.analysis.stability import Stability
+from rail_mj.cli import main
+from rail_mj.contact.creep import (
+    FASTSIM,
+    FASTSIM_ELEMENTS,
+    FASTSIM_STRIPS,
+    LINEAR,
+    ContactParameters,
+    _fastsim,
+    contact_forces,
+    fastsim,
+    patch_forces,
+)
+from rail_mj.contact.hertz import contact_patch, ellipse_patch
+from rail_mj.layout import LayoutError, layout_from_dict
+from rail_mj.simulation import native
+from rail_mj.simulation.callback import CreepForces
+from rail_mj.simulation.runner import simulate
+from rail_mj.vehicle.model import NUMERIC_ELLIPSE, Vehicle
 
 # The reference case of docs/contact.md: a 10 t wheel, r0 0.46 m, rail crown 0.30 m, steel.
 PATCH = contact_patch(98.1e3, 0.46, 0.30, young_modulus=210e9, poisson_ratio=0.28)
 MU = 0.3
 LIMIT = MU * PATCH.normal_load  # mu*N
 F = PATCH.creep_coefficients
-ELLIPSE = (PATCH.a, PATCH.b, PATCH.normal_load, MU, PATCH.shear_modulus, PATCH.C["C11"], PATCH.C["C22"],
-           PATCH.C["C23"])
+ELLIPSE = (PATCH.a, PATCH.b, PATCH.normal_load, MU, PATCH.shear_modulus, PATCH.C["C11"], PATCH.C["C22"], PATCH.C["C23"])
 TINY = 1e-10  # a creepage far inside the stick range: FASTSIM is exactly linear there
 
 
 def slopes(n: int, patch=PATCH) -> dict:
     """FASTSIM's force per unit creepage on an n x n grid, over Kalker's linear coefficient."""
-    args = (patch.a, patch.b, patch.normal_load, MU, patch.shear_modulus, patch.C["C11"], patch.C["C22"],
-            patch.C["C23"])
+    args = (
+        patch.a,
+        patch.b,
+        patch.normal_load,
+        MU,
+        patch.shear_modulus,
+        patch.C["C11"],
+        patch.C["C22"],
+        patch.C["C23"],
+    )
     f = patch.creep_coefficients
     fx = _fastsim(*args, TINY, 0.0, 0.0, n, n)
     fy = _fastsim(*args, 0.0, TINY, 0.0, n, n)
     fs = _fastsim(*args, 0.0, 0.0, TINY, n, n)
-    return {"C11": -fx[0] / TINY / f["f11"], "C22": -fy[1] / TINY / f["f22"], "C23": -fs[1] / TINY / f["f23"],
-            "Mz_eta": fy[2] / TINY, "Mz_phi": fs[2] / TINY, "cross": (fx[1], fx[2], fy[0], fs[0])}
+    return {
+        "C11": -fx[0] / TINY / f["f11"],
+        "C22": -fy[1] / TINY / f["f22"],
+        "C23": -fs[1] / TINY / f["f23"],
+        "Mz_eta": fy[2] / TINY,
+        "Mz_phi": fs[2] / TINY,
+        "cross": (fx[1], fx[2], fy[0], fs[0]),
+    }
 
 
-@pytest.mark.parametrize("patch", [PATCH, ellipse_patch(50e3, 3e-3, 7.5e-3, shear_modulus=80e9, poisson_ratio=0.25)],
-                         ids=["a/b 1.33", "a/b 0.4"])
+@pytest.mark.parametrize(
+    "patch",
+    [PATCH, ellipse_patch(50e3, 3e-3, 7.5e-3, shear_modulus=80e9, poisson_ratio=0.25)],
+    ids=["a/b 1.33", "a/b 0.4"],
+)
 def test_small_creepage_slopes_converge_to_kalkers(patch):
     """The flexibilities L1, L2, L3 are chosen so that the simplified theory has Kalker's C11,
     C22 and C23. On the grid (tractions at element centres, exact along each strip) the
@@ -96,7 +121,7 @@ def test_never_above_the_friction_limit_and_reaching_it():
     (xi = 32*mu*N/(3*pi*G*a*b*C11) = 0.70 % here, eta the same with C22, 0.77 %; on the
     20 x 20 grid 3 % sooner)."""
     xi, eta, phi = _creepages(np.random.default_rng(3), 400)
-    fx, fy, mz = fastsim(*ELLIPSE, xi, eta, phi)
+    fx, fy, _mz = fastsim(*ELLIPSE, xi, eta, phi)
     assert np.all(np.hypot(fx, fy) <= LIMIT * (1 + 1e-12))
     full_slide = 32 * LIMIT / (3 * math.pi * PATCH.shear_modulus * PATCH.a * PATCH.b * PATCH.C["C22"])
     assert full_slide == pytest.approx(0.0077, abs=1e-4)
@@ -149,13 +174,13 @@ def test_bad_arguments_are_refused():
     with pytest.raises(ValueError, match="fastsim law needs friction_limit finite and > 0"):
         ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, f11=1e7, f22=1e7, law=FASTSIM)
     with pytest.raises(ValueError, match="fastsim law needs semi_axis_a finite and > 0"):
-        ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, f11=1e7, f22=1e7, law=FASTSIM,
-                                    friction_limit=LIMIT)
+        ContactParameters.broadcast(
+            1, r0=0.46, b=0.75, conicity=0.15, f11=1e7, f22=1e7, law=FASTSIM, friction_limit=LIMIT
+        )
 
 
 def _wheelset(law: int, **ellipse) -> ContactParameters:
-    return ContactParameters.broadcast(
-        1, r0=0.46, b=0.75, conicity=0.15, law=law, friction_limit=LIMIT, **F, **ellipse)
+    return ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, law=law, friction_limit=LIMIT, **F, **ellipse)
 
 
 def test_the_wheelset_law_is_linear_at_small_creepage():
@@ -163,8 +188,16 @@ def test_the_wheelset_law_is_linear_at_small_creepage():
     FASTSIM forces at its own creepages. At small states the lateral force and the creep
     couple are the linear law's to 0.15 % (the grid's slopes above); the spin moment is
     FASTSIM's own."""
-    fast = _wheelset(FASTSIM, semi_axis_a=PATCH.a, semi_axis_b=PATCH.b, normal_force=PATCH.normal_load,
-                     shear_modulus=PATCH.shear_modulus, c11=PATCH.C["C11"], c22=PATCH.C["C22"], c23=PATCH.C["C23"])
+    fast = _wheelset(
+        FASTSIM,
+        semi_axis_a=PATCH.a,
+        semi_axis_b=PATCH.b,
+        normal_force=PATCH.normal_load,
+        shear_modulus=PATCH.shear_modulus,
+        c11=PATCH.C["C11"],
+        c22=PATCH.C["C22"],
+        c23=PATCH.C["C23"],
+    )
     linear = _wheelset(LINEAR)
     rng = np.random.default_rng(5)
     for _ in range(10):
@@ -181,7 +214,8 @@ def fastsim_layout(law: str = "fastsim"):
     """The Manchester coach on the reference rail and wheel ([contact]), with `law`."""
     text = linear_text("manchester-coach").replace(
         "[creep]\nf11 = 10.0e6\nf22 = 9.0e6\nf23 = 0.0\nf33 = 0.0\n",
-        "[contact]\nyoung_modulus = 210e9\npoisson_ratio = 0.28\nrail_transverse_radius = 0.30\n")
+        "[contact]\nyoung_modulus = 210e9\npoisson_ratio = 0.28\nrail_transverse_radius = 0.30\n",
+    )
     if law != "linear":
         text += f'\n[creep]\nlaw = "{law}"\nfriction = {MU}\n'
     return layout_from_dict(tomllib.loads(text))
@@ -201,9 +235,19 @@ def test_the_model_carries_the_ellipse_and_both_callbacks_agree():
     layout = fastsim_layout()
     model = Vehicle(layout).model
     patch = contact_patch(layout.wheelset.wheel_load, 0.46, 0.30, young_modulus=210e9, poisson_ratio=0.28)
-    np.testing.assert_allclose(model.numeric(NUMERIC_ELLIPSE).data,
-                               [patch.a, patch.b, patch.normal_load, patch.shear_modulus / 1e9, patch.C["C11"],
-                                patch.C["C22"], patch.C["C23"]], rtol=5e-6)
+    np.testing.assert_allclose(
+        model.numeric(NUMERIC_ELLIPSE).data,
+        [
+            patch.a,
+            patch.b,
+            patch.normal_load,
+            patch.shear_modulus / 1e9,
+            patch.C["C11"],
+            patch.C["C22"],
+            patch.C["C23"],
+        ],
+        rtol=5e-6,
+    )
     native.set_speed(model, 47.0)
     python = CreepForces(model, [f"wheelset{i + 1}" for i in range(4)], 47.0)
     rng = np.random.default_rng(2)
@@ -217,8 +261,10 @@ def test_a_fastsim_run_is_near_the_linear_law_at_small_amplitude():
     """The coach from 0.5 mm at 40 m/s (below its critical speed): FASTSIM's run follows the
     linear law's to 1 % of the amplitude (0.2 % measured; the spin moments differ, above),
     and its eigenvalue critical speed is the linear law's to 0.5 % (78.66 against 78.62 m/s)."""
-    runs = {law: simulate(fastsim_layout(law), speed=40.0, distance=40.0, initial_lateral=0.0005)
-            for law in ("linear", "fastsim")}
+    runs = {
+        law: simulate(fastsim_layout(law), speed=40.0, distance=40.0, initial_lateral=0.0005)
+        for law in ("linear", "fastsim")
+    }
     amplitude = np.max(np.abs(runs["linear"].y))
     assert np.max(np.abs(runs["fastsim"].y - runs["linear"].y)) < 0.01 * amplitude
     speeds = [Stability(fastsim_layout(law)).critical_speed().critical_speed for law in ("linear", "fastsim")]
@@ -227,8 +273,20 @@ def test_a_fastsim_run_is_near_the_linear_law_at_small_amplitude():
 
 # --- rail-mj creep ---------------------------------------------------------------------
 
-CLI = ["creep", "--semi-axes", PATCH.a, PATCH.b, "--normal-force", PATCH.normal_load,
-       "--shear-modulus", PATCH.shear_modulus, "--poisson", 0.28, "--friction", MU]
+CLI = [
+    "creep",
+    "--semi-axes",
+    PATCH.a,
+    PATCH.b,
+    "--normal-force",
+    PATCH.normal_load,
+    "--shear-modulus",
+    PATCH.shear_modulus,
+    "--poisson",
+    0.28,
+    "--friction",
+    MU,
+]
 
 
 def creep_cli(capsys, *extra):
@@ -243,9 +301,25 @@ def test_cli_json_agrees_with_the_api(law, capsys):
     status, out, err = creep_cli(capsys, "--creepages", *creepages, "--law", law, "--json")
     assert status == 0, err
     result = json.loads(out)
-    assert {"fx_n", "fy_n", "mz_nm", "C11", "C22", "C23", "C33", "law", "semi_axis_a_m", "semi_axis_b_m",
-            "normal_force_n", "friction", "shear_modulus_pa", "poisson_ratio", "xi", "eta",
-            "phi_rad_per_m"} <= set(result)
+    assert {
+        "fx_n",
+        "fy_n",
+        "mz_nm",
+        "C11",
+        "C22",
+        "C23",
+        "C33",
+        "law",
+        "semi_axis_a_m",
+        "semi_axis_b_m",
+        "normal_force_n",
+        "friction",
+        "shear_modulus_pa",
+        "poisson_ratio",
+        "xi",
+        "eta",
+        "phi_rad_per_m",
+    } <= set(result)
     assert result["C11"] == PATCH.C["C11"] and result["f11"] == F["f11"]
     expected = patch_forces(PATCH, law, *creepages, MU)
     assert (result["fx_n"], result["fy_n"], result["mz_nm"]) == expected
@@ -263,19 +337,22 @@ def test_cli_prints_a_readable_result(capsys):
     assert "Fx = -12" in out and "kN" in out and "mu*N" in out and "C11 4.549" in out
 
 
-@pytest.mark.parametrize("change, fragment", [
-    (["--semi-axes", -0.007, 0.005], "--semi-axes must be between"),
-    (["--semi-axes", 7.0, 5.0], "check the units"),
-    (["--semi-axes", 0.007, 0.0005], "outside Kalker's table"),
-    (["--semi-axes", "nan", 0.005], "--semi-axes must be finite"),
-    (["--poisson", 0.6], "--poisson must be between 0 and 0.5"),
-    (["--friction", 0], "--friction must be a positive number"),
-    (["--friction", "inf"], "--friction must be a positive number"),
-    (["--friction", 3], "--friction must be between 0 and 2"),
-    (["--normal-force", -1], "--normal-force must be positive"),
-    (["--creepages", 0, "nan", 0], "--creepages must be finite"),
-    (["--creepages", 2, 0, 0], "within +/-1"),
-])
+@pytest.mark.parametrize(
+    "change, fragment",
+    [
+        (["--semi-axes", -0.007, 0.005], "--semi-axes must be between"),
+        (["--semi-axes", 7.0, 5.0], "check the units"),
+        (["--semi-axes", 0.007, 0.0005], "outside Kalker's table"),
+        (["--semi-axes", "nan", 0.005], "--semi-axes must be finite"),
+        (["--poisson", 0.6], "--poisson must be between 0 and 0.5"),
+        (["--friction", 0], "--friction must be a positive number"),
+        (["--friction", "inf"], "--friction must be a positive number"),
+        (["--friction", 3], "--friction must be between 0 and 2"),
+        (["--normal-force", -1], "--normal-force must be positive"),
+        (["--creepages", 0, "nan", 0], "--creepages must be finite"),
+        (["--creepages", 2, 0, 0], "within +/-1"),
+    ],
+)
 def test_cli_bad_input_fails_in_one_line(change, fragment, capsys):
     argv = CLI + ["--creepages", 0.001, 0, 0, "--law", "fastsim"] + change  # the last value given wins
     status = main([str(a) for a in argv])

@@ -111,134 +111,211 @@ HUGE_INT = "1" + "0" * 400  # a valid TOML integer too large for a float
 
 BAD_LAYOUTS = [
     # --- TOML syntax
-    case("toml-syntax-double-equals",
-         broken(BOGIE, "mass = 1813.0", "mass = = 1813.0"), "line 4", "not valid TOML"),
-    case("toml-syntax-unclosed-table",
-         broken(BOGIE, "[creep]", "[creep"), "not valid TOML", "Expected ']'"),
-    case("toml-duplicate-key",
-         broken(BOGIE, "f22 = 9.0e6", "f22 = 9.0e6\nf22 = 8.0e6"), "not valid TOML", "overwrite"),
+    case("toml-syntax-double-equals", broken(BOGIE, "mass = 1813.0", "mass = = 1813.0"), "line 4", "not valid TOML"),
+    case("toml-syntax-unclosed-table", broken(BOGIE, "[creep]", "[creep"), "not valid TOML", "Expected ']'"),
+    case("toml-duplicate-key", broken(BOGIE, "f22 = 9.0e6", "f22 = 9.0e6\nf22 = 8.0e6"), "not valid TOML", "overwrite"),
     case("invalid-utf8", b'name = "bogie\xff\xfe"\n', "cannot read", ("utf-8", "decode")),
     case("empty-file", "", "name", "missing"),
     # --- unknown keys
-    case("unknown-top-level-key",
-         broken(BOGIE, 'name = "bogie"', 'name = "bogie"\ncolour = "red"'), "colour", "unknown key"),
-    case("unknown-top-level-table",
-         BOGIE + "\n[track]\ngauge = 1.435\n", "track", "unknown key"),
-    case("typo-in-table-required-key",
-         broken(BOGIE, "mass = 1813.0", "mas = 1813.0"), "wheelset.mas", ("missing", "unknown key")),
-    case("typo-in-table-optional-key",
-         broken(BOGIE, "lateral_damping = 4.0e3", "lateral_dampin = 4.0e3"),
-         "primary.lateral_dampin", "unknown key"),
-    case("unknown-key-in-creep",
-         broken(BOGIE, "f22 = 9.0e6", "f22 = 9.0e6\nf12 = 1.0e6"), "creep.f12", "unknown key"),
+    case(
+        "unknown-top-level-key",
+        broken(BOGIE, 'name = "bogie"', 'name = "bogie"\ncolour = "red"'),
+        "colour",
+        "unknown key",
+    ),
+    case("unknown-top-level-table", BOGIE + "\n[track]\ngauge = 1.435\n", "track", "unknown key"),
+    case(
+        "typo-in-table-required-key",
+        broken(BOGIE, "mass = 1813.0", "mas = 1813.0"),
+        "wheelset.mas",
+        ("missing", "unknown key"),
+    ),
+    case(
+        "typo-in-table-optional-key",
+        broken(BOGIE, "lateral_damping = 4.0e3", "lateral_dampin = 4.0e3"),
+        "primary.lateral_dampin",
+        "unknown key",
+    ),
+    case("unknown-key-in-creep", broken(BOGIE, "f22 = 9.0e6", "f22 = 9.0e6\nf12 = 1.0e6"), "creep.f12", "unknown key"),
     # --- missing keys and tables
-    case("missing-wheelset-mass",
-         broken(BOGIE, "mass = 1813.0\n", ""), "wheelset.mass", "missing"),
+    case("missing-wheelset-mass", broken(BOGIE, "mass = 1813.0\n", ""), "wheelset.mass", "missing"),
     case("missing-name", broken(BOGIE, 'name = "bogie"\n', ""), "name", "missing"),
-    case("missing-creep-table",
-         broken(BOGIE, "[creep]\nf11 = 10.0e6\nf22 = 9.0e6\n", ""), "creep", "missing"),
-    case("missing-primary-yaw-stiffness",
-         broken(WAGON, "yaw_stiffness = 4.0e6\n", ""), "primary.yaw_stiffness", "missing"),
-    case("missing-carbody-positions",
-         broken(WAGON, "wheelset_positions = [3.0, -3.0]\n", ""),
-         "carbody.wheelset_positions", "missing"),
+    case("missing-creep-table", broken(BOGIE, "[creep]\nf11 = 10.0e6\nf22 = 9.0e6\n", ""), "creep", "missing"),
+    case(
+        "missing-primary-yaw-stiffness",
+        broken(WAGON, "yaw_stiffness = 4.0e6\n", ""),
+        "primary.yaw_stiffness",
+        "missing",
+    ),
+    case(
+        "missing-carbody-positions",
+        broken(WAGON, "wheelset_positions = [3.0, -3.0]\n", ""),
+        "carbody.wheelset_positions",
+        "missing",
+    ),
     # --- wrong types
-    case("string-for-number",
-         broken(BOGIE, "conicity = 0.15", 'conicity = "0.15"'), "wheelset.conicity", "must be a number"),
-    case("boolean-for-number",
-         broken(BOGIE, "rolling_radius = 0.46", "rolling_radius = true"),
-         "wheelset.rolling_radius", "must be a number"),
-    case("inertia-two-entries",
-         broken(BOGIE, "inertia = [1120.0, 112.0, 1120.0]", "inertia = [1120.0, 112.0]"),
-         "wheelset.inertia", "3 numbers"),
-    case("inertia-negative-entry",
-         broken(BOGIE, "inertia = [1722.0, 1476.0, 3067.0]", "inertia = [1722.0, -1476.0, 3067.0]"),
-         "bogie.inertia", "positive"),
-    case("table-is-a-number",
-         broken(broken(BOGIE, "[creep]\nf11 = 10.0e6\nf22 = 9.0e6\n", ""),
-                'name = "bogie"', 'name = "bogie"\ncreep = 5'),
-         "creep", "must be a table"),
-    case("fixed-not-boolean",
-         broken(BOGIE, "fixed = true", 'fixed = "yes"'), "carbody.fixed", "true or false"),
-    case("positions-not-a-list",
-         broken(BOGIE, "wheelset_positions = [1.28, -1.28]", "wheelset_positions = 1.28"),
-         "bogie.wheelset_positions", "list"),
-    case("nan-conicity",
-         broken(BOGIE, "conicity = 0.15", "conicity = nan"), "wheelset.conicity", "finite"),
-    case("huge-integer-mass",
-         broken(BOGIE, "mass = 1813.0", f"mass = {HUGE_INT}"),
-         "wheelset.mass", ("finite", "too large")),
-    case("huge-integer-inertia",
-         broken(BOGIE, "inertia = [1120.0, 112.0, 1120.0]", f"inertia = [{HUGE_INT}, 112.0, 1120.0]"),
-         "wheelset.inertia", ("finite", "too large", "positive number")),
-    case("integer-beyond-python-digit-limit",
-         broken(BOGIE, "mass = 1813.0", "mass = 1" + "0" * 5000), "not valid TOML", "digits"),
+    case(
+        "string-for-number",
+        broken(BOGIE, "conicity = 0.15", 'conicity = "0.15"'),
+        "wheelset.conicity",
+        "must be a number",
+    ),
+    case(
+        "boolean-for-number",
+        broken(BOGIE, "rolling_radius = 0.46", "rolling_radius = true"),
+        "wheelset.rolling_radius",
+        "must be a number",
+    ),
+    case(
+        "inertia-two-entries",
+        broken(BOGIE, "inertia = [1120.0, 112.0, 1120.0]", "inertia = [1120.0, 112.0]"),
+        "wheelset.inertia",
+        "3 numbers",
+    ),
+    case(
+        "inertia-negative-entry",
+        broken(BOGIE, "inertia = [1722.0, 1476.0, 3067.0]", "inertia = [1722.0, -1476.0, 3067.0]"),
+        "bogie.inertia",
+        "positive",
+    ),
+    case(
+        "table-is-a-number",
+        broken(
+            broken(BOGIE, "[creep]\nf11 = 10.0e6\nf22 = 9.0e6\n", ""), 'name = "bogie"', 'name = "bogie"\ncreep = 5'
+        ),
+        "creep",
+        "must be a table",
+    ),
+    case("fixed-not-boolean", broken(BOGIE, "fixed = true", 'fixed = "yes"'), "carbody.fixed", "true or false"),
+    case(
+        "positions-not-a-list",
+        broken(BOGIE, "wheelset_positions = [1.28, -1.28]", "wheelset_positions = 1.28"),
+        "bogie.wheelset_positions",
+        "list",
+    ),
+    case("nan-conicity", broken(BOGIE, "conicity = 0.15", "conicity = nan"), "wheelset.conicity", "finite"),
+    case(
+        "huge-integer-mass",
+        broken(BOGIE, "mass = 1813.0", f"mass = {HUGE_INT}"),
+        "wheelset.mass",
+        ("finite", "too large"),
+    ),
+    case(
+        "huge-integer-inertia",
+        broken(BOGIE, "inertia = [1120.0, 112.0, 1120.0]", f"inertia = [{HUGE_INT}, 112.0, 1120.0]"),
+        "wheelset.inertia",
+        ("finite", "too large", "positive number"),
+    ),
+    case(
+        "integer-beyond-python-digit-limit",
+        broken(BOGIE, "mass = 1813.0", "mass = 1" + "0" * 5000),
+        "not valid TOML",
+        "digits",
+    ),
     # --- out-of-range numbers
-    case("wheelset-mass-zero",
-         broken(BOGIE, "mass = 1813.0", "mass = 0.0"), "wheelset.mass", "> 0"),
-    case("bogie-mass-negative",
-         broken(BOGIE, "mass = 2615.0", "mass = -2615.0"), "bogie.mass", "> 0"),
-    case("carbody-mass-zero",
-         broken(WAGON, "mass = 20000.0", "mass = 0"), "carbody.mass", "> 0"),
-    case("negative-primary-stiffness",
-         broken(BOGIE, "lateral_stiffness = 7.768e6", "lateral_stiffness = -7.768e6"),
-         "primary.lateral_stiffness", ">= 0"),
-    case("negative-secondary-yaw-stiffness",
-         broken(BOGIE, "yaw_stiffness = 320.0e3", "yaw_stiffness = -1.0"),
-         "secondary.yaw_stiffness", ">= 0"),
-    case("negative-damping",
-         broken(WAGON, "lateral_damping = 20.0e3", "lateral_damping = -1.0"),
-         "primary.lateral_damping", ">= 0"),
-    case("conicity-zero",
-         broken(BOGIE, "conicity = 0.15", "conicity = 0.0"), "wheelset.conicity", "> 0"),
-    case("conicity-0.6",
-         broken(BOGIE, "conicity = 0.15", "conicity = 0.6"), "wheelset.conicity", "<= 0.5"),
-    case("creep-f22-zero",
-         broken(BOGIE, "f22 = 9.0e6", "f22 = 0.0"), "creep.f22", "> 0"),
-    case("rolling-radius-in-mm",
-         broken(BOGIE, "rolling_radius = 0.46", "rolling_radius = 460.0"),
-         "wheelset.rolling_radius", "units"),
+    case("wheelset-mass-zero", broken(BOGIE, "mass = 1813.0", "mass = 0.0"), "wheelset.mass", "> 0"),
+    case("bogie-mass-negative", broken(BOGIE, "mass = 2615.0", "mass = -2615.0"), "bogie.mass", "> 0"),
+    case("carbody-mass-zero", broken(WAGON, "mass = 20000.0", "mass = 0"), "carbody.mass", "> 0"),
+    case(
+        "negative-primary-stiffness",
+        broken(BOGIE, "lateral_stiffness = 7.768e6", "lateral_stiffness = -7.768e6"),
+        "primary.lateral_stiffness",
+        ">= 0",
+    ),
+    case(
+        "negative-secondary-yaw-stiffness",
+        broken(BOGIE, "yaw_stiffness = 320.0e3", "yaw_stiffness = -1.0"),
+        "secondary.yaw_stiffness",
+        ">= 0",
+    ),
+    case(
+        "negative-damping",
+        broken(WAGON, "lateral_damping = 20.0e3", "lateral_damping = -1.0"),
+        "primary.lateral_damping",
+        ">= 0",
+    ),
+    case("conicity-zero", broken(BOGIE, "conicity = 0.15", "conicity = 0.0"), "wheelset.conicity", "> 0"),
+    case("conicity-0.6", broken(BOGIE, "conicity = 0.15", "conicity = 0.6"), "wheelset.conicity", "<= 0.5"),
+    case("creep-f22-zero", broken(BOGIE, "f22 = 9.0e6", "f22 = 0.0"), "creep.f22", "> 0"),
+    case(
+        "rolling-radius-in-mm",
+        broken(BOGIE, "rolling_radius = 0.46", "rolling_radius = 460.0"),
+        "wheelset.rolling_radius",
+        "units",
+    ),
     # --- positions
-    case("bogie-wheelsets-overlap",
-         broken(BOGIE, "wheelset_positions = [1.28, -1.28]", "wheelset_positions = [0.4, -0.4]"),
-         "bogie.wheelset_positions", "overlap"),
-    case("wagon-wheelsets-overlap",
-         broken(WAGON, "wheelset_positions = [3.0, -3.0]", "wheelset_positions = [0.3, -0.3]"),
-         "carbody.wheelset_positions", "overlap"),
-    case("bogies-overlap",
-         broken(BOGIE, "bogie_positions = [0.0]", "bogie_positions = [1.5, -1.5]"),
-         "carbody.bogie_positions", "overlap"),
-    case("positions-trailing-first",
-         broken(BOGIE, "wheelset_positions = [1.28, -1.28]", "wheelset_positions = [-1.28, 1.28]"),
-         "bogie.wheelset_positions", "leading"),
-    case("positions-empty",
-         broken(WAGON, "wheelset_positions = [3.0, -3.0]", "wheelset_positions = []"),
-         "carbody.wheelset_positions", "non-empty"),
-    case("positions-hold-a-string",
-         broken(WAGON, "wheelset_positions = [3.0, -3.0]", 'wheelset_positions = [3.0, "-3.0"]'),
-         "carbody.wheelset_positions", "numbers only"),
+    case(
+        "bogie-wheelsets-overlap",
+        broken(BOGIE, "wheelset_positions = [1.28, -1.28]", "wheelset_positions = [0.4, -0.4]"),
+        "bogie.wheelset_positions",
+        "overlap",
+    ),
+    case(
+        "wagon-wheelsets-overlap",
+        broken(WAGON, "wheelset_positions = [3.0, -3.0]", "wheelset_positions = [0.3, -0.3]"),
+        "carbody.wheelset_positions",
+        "overlap",
+    ),
+    case(
+        "bogies-overlap",
+        broken(BOGIE, "bogie_positions = [0.0]", "bogie_positions = [1.5, -1.5]"),
+        "carbody.bogie_positions",
+        "overlap",
+    ),
+    case(
+        "positions-trailing-first",
+        broken(BOGIE, "wheelset_positions = [1.28, -1.28]", "wheelset_positions = [-1.28, 1.28]"),
+        "bogie.wheelset_positions",
+        "leading",
+    ),
+    case(
+        "positions-empty",
+        broken(WAGON, "wheelset_positions = [3.0, -3.0]", "wheelset_positions = []"),
+        "carbody.wheelset_positions",
+        "non-empty",
+    ),
+    case(
+        "positions-hold-a-string",
+        broken(WAGON, "wheelset_positions = [3.0, -3.0]", 'wheelset_positions = [3.0, "-3.0"]'),
+        "carbody.wheelset_positions",
+        "numbers only",
+    ),
     # --- structure
-    case("bogie-without-secondary",
-         broken(BOGIE, SECONDARY_BLOCK, ""), "secondary", "needs [secondary]"),
-    case("secondary-without-bogie",
-         broken(WAGON, "[carbody]", SECONDARY_BLOCK + "\n[carbody]"), "secondary", "without [bogie]"),
-    case("bogie-positions-without-bogie",
-         broken(WAGON, "wheelset_positions = [3.0, -3.0]",
-                "wheelset_positions = [3.0, -3.0]\nbogie_positions = [0.0]"),
-         "carbody.bogie_positions", "without a [bogie]"),
-    case("carbody-wheelset-positions-with-bogie",
-         broken(BOGIE, "bogie_positions = [0.0]", "bogie_positions = [0.0]\nwheelset_positions = [0.0]"),
-         "carbody.wheelset_positions", "not allowed with [bogie]"),
-    case("carbody-free-without-mass",
-         broken(BOGIE, "fixed = true", "fixed = false\ninertia = [1.0e4, 1.0e5, 1.0e5]"),
-         "carbody.mass", "missing"),
-    case("carbody-free-without-inertia",
-         broken(WAGON, "inertia = [20.0e3, 1.8e5, 1.8e5]\n", ""), "carbody.inertia", "missing"),
+    case("bogie-without-secondary", broken(BOGIE, SECONDARY_BLOCK, ""), "secondary", "needs [secondary]"),
+    case(
+        "secondary-without-bogie",
+        broken(WAGON, "[carbody]", SECONDARY_BLOCK + "\n[carbody]"),
+        "secondary",
+        "without [bogie]",
+    ),
+    case(
+        "bogie-positions-without-bogie",
+        broken(WAGON, "wheelset_positions = [3.0, -3.0]", "wheelset_positions = [3.0, -3.0]\nbogie_positions = [0.0]"),
+        "carbody.bogie_positions",
+        "without a [bogie]",
+    ),
+    case(
+        "carbody-wheelset-positions-with-bogie",
+        broken(BOGIE, "bogie_positions = [0.0]", "bogie_positions = [0.0]\nwheelset_positions = [0.0]"),
+        "carbody.wheelset_positions",
+        "not allowed with [bogie]",
+    ),
+    case(
+        "carbody-free-without-mass",
+        broken(BOGIE, "fixed = true", "fixed = false\ninertia = [1.0e4, 1.0e5, 1.0e5]"),
+        "carbody.mass",
+        "missing",
+    ),
+    case(
+        "carbody-free-without-inertia",
+        broken(WAGON, "inertia = [20.0e3, 1.8e5, 1.8e5]\n", ""),
+        "carbody.inertia",
+        "missing",
+    ),
     # --- names (the name becomes a file name in `generate`)
     case("name-with-space", broken(BOGIE, 'name = "bogie"', 'name = "my bogie"'), "name", "letters"),
     case("name-with-slash", broken(BOGIE, 'name = "bogie"', 'name = "../bogie"'), "name", "letters"),
-    case("name-with-trailing-newline",
-         broken(BOGIE, 'name = "bogie"', 'name = "bogie\\n"'), "name", "letters"),
+    case("name-with-trailing-newline", broken(BOGIE, 'name = "bogie"', 'name = "bogie\\n"'), "name", "letters"),
     case("name-empty", broken(BOGIE, 'name = "bogie"', 'name = ""'), "name", "letters"),
     case("name-not-a-string", broken(BOGIE, 'name = "bogie"', "name = 7"), "name", "letters"),
 ]
@@ -248,10 +325,9 @@ def call(argv: list[str], capsys) -> tuple[int, str, str]:
     """Run the CLI in-process; an exception escaping `main` is a traceback, a failure."""
     try:
         status = main(argv)
-    except BaseException as e:  # noqa: BLE001 -- SystemExit included: main must return
+    except BaseException as e:
         pytest.fail(
-            f"rail-mj {' '.join(argv)} raised instead of exiting cleanly:\n"
-            + "".join(traceback.format_exception(e))
+            f"rail-mj {' '.join(argv)} raised instead of exiting cleanly:\n" + "".join(traceback.format_exception(e))
         )
     out, err = capsys.readouterr()
     return status, out, err
@@ -375,7 +451,7 @@ def test_missing_required_option(missing, valid_layout, tmp_path, capsys):
     for k, v in args.items():
         argv += [k, v]
 
-    status, out, err = call(argv, capsys)
+    status, _out, err = call(argv, capsys)
 
     line = one_line(err)
     assert status == 2
@@ -385,7 +461,7 @@ def test_missing_required_option(missing, valid_layout, tmp_path, capsys):
 
 def test_unknown_option(valid_layout, tmp_path, capsys):
     argv = run_argv(valid_layout, tmp_path) + ["--sped", "30"]
-    status, out, err = call(argv, capsys)
+    status, _out, err = call(argv, capsys)
     line = one_line(err)
     assert status == 2
     assert "--sped" in line
@@ -410,7 +486,7 @@ def test_output_is_an_existing_folder(option, valid_layout, tmp_path, capsys):
 def test_layout_is_a_folder(tmp_path, capsys):
     folder = tmp_path / "layout.toml"
     folder.mkdir()
-    status, out, err = call(run_argv(folder, tmp_path), capsys)
+    status, _out, err = call(run_argv(folder, tmp_path), capsys)
     line = one_line(err)
     assert status == 2
     assert str(folder) in line
@@ -419,11 +495,11 @@ def test_layout_is_a_folder(tmp_path, capsys):
 
 def test_valid_layout_runs_and_generates(valid_layout, tmp_path, capsys):
     """The harness itself: the unbroken layout passes both commands and writes its output."""
-    status, out, err = call(run_argv(valid_layout, tmp_path), capsys)
+    status, _out, err = call(run_argv(valid_layout, tmp_path), capsys)
     assert status == 0, err
     assert (tmp_path / "out.csv").read_text().startswith("t")
 
-    status, out, err = call(generate_argv(valid_layout, tmp_path), capsys)
+    status, _out, err = call(generate_argv(valid_layout, tmp_path), capsys)
     assert status == 0, err
     gen = tmp_path / "gen"
     assert {p.name for p in gen.iterdir()} >= {"bogie.xml", "scene.xml", "assets"}

@@ -14,15 +14,15 @@ import mujoco
 import numpy as np
 import pytest
 from click.testing import CliRunner
-
 from conftest import MODELS, assert_callbacks_agree
+from test_spatial import SPATIAL, G
+
 from rail_mj.cli import cli
 from rail_mj.contact.creep import contact_forces
-from rail_mj.simulation.callback import contact_parameters
 from rail_mj.layout import layout_from_dict
+from rail_mj.simulation.callback import contact_parameters
 from rail_mj.vehicle.loads import AxleLoads
 from rail_mj.vehicle.model import Vehicle
-from test_spatial import G, SPATIAL
 
 # The static loads come from spring lengths kept to 6 significant figures (docs/spatial.md).
 ROUNDING = 5e-6
@@ -107,9 +107,11 @@ def test_frame_roll_moves_load_between_the_wheels():
     assert q[0, 0] < q[0, 1]  # left side up: the left wheel unloaded
 
 
-@pytest.mark.parametrize("data, law", [(SPATIAL, "linear"), (SPATIAL, "polach"),
-                                       (spatial_on_profiles(), "polach"), (spatial_on_profiles(), "fastsim")],
-                         ids=["cones-linear", "cones-polach", "profiles-polach", "profiles-fastsim"])
+@pytest.mark.parametrize(
+    "data, law",
+    [(SPATIAL, "linear"), (SPATIAL, "polach"), (spatial_on_profiles(), "polach"), (spatial_on_profiles(), "fastsim")],
+    ids=["cones-linear", "cones-polach", "profiles-polach", "profiles-fastsim"],
+)
 def test_native_and_python_callbacks_agree_with_the_loads_in(data, law):
     """The native callback sums the axlebox tendons' forces in its block; the Python one reads
     them through rail_mj.vehicle.loads: at random states (the frames rolled, pitched and bouncing) both
@@ -146,8 +148,9 @@ def test_run_reports_wheel_loads_and_derailment_quotients(tmp_path):
     Y/Q; per wheelset the wheels' Y add up to its Sigma Y and the quotient is Y/Q, outward."""
     layout = Path(__file__).parent / "data" / "manchester-coach-spatial.toml"
     out = tmp_path / "coach.csv"
-    result = CliRunner().invoke(cli, ["run", str(layout), "--speed", "40", "--distance", "200", "--json",
-                                      "--out", str(out)])
+    result = CliRunner().invoke(
+        cli, ["run", str(layout), "--speed", "40", "--distance", "200", "--json", "--out", str(out)]
+    )
     assert result.exit_code == 0, result.output
     summary = json.loads(result.output)
     names = out.read_text().splitlines()[0].split(",")
@@ -155,15 +158,20 @@ def test_run_reports_wheel_loads_and_derailment_quotients(tmp_path):
     column = lambda name: table[:, names.index(name)]  # noqa: E731
     quotients, loads = [], []
     for i in range(1, 5):
-        np.testing.assert_allclose(column(f"ylat_left{i}") + column(f"ylat_right{i}"), column(f"sum_y{i}"),
-                                   rtol=0, atol=1e-6 * np.max(np.abs(column(f"sum_y{i}"))))
+        np.testing.assert_allclose(
+            column(f"ylat_left{i}") + column(f"ylat_right{i}"),
+            column(f"sum_y{i}"),
+            rtol=0,
+            atol=1e-6 * np.max(np.abs(column(f"sum_y{i}"))),
+        )
         for side, outward in (("left", -1.0), ("right", 1.0)):
             q, y = column(f"q_{side}{i}"), column(f"ylat_{side}{i}")
             np.testing.assert_allclose(column(f"y_over_q_{side}{i}"), outward * y / q, rtol=1e-8)
             quotients.append(outward * y / q)
             loads.append(q)
         assert summary["wheelsets"][i - 1]["largest_y_over_q_peak"] == pytest.approx(
-            max(np.max(v) for v in quotients[-2:]), rel=1e-8)
+            max(np.max(v) for v in quotients[-2:]), rel=1e-8
+        )
     assert summary["largest_y_over_q_peak"] == pytest.approx(max(np.max(v) for v in quotients), rel=1e-8)
     # EN 14363's quantity, the 2 m sliding mean: never above the peak.
     assert summary["y_over_q_window_m"] == 2.0
@@ -188,8 +196,10 @@ def wheelset_entries(stability, speed: float):
     from rail_mj.vehicle.model import LATERAL, YAW
 
     model = stability.model
-    dofs = [(int(model.joint(f"{w}_{LATERAL}").dofadr[0]), int(model.joint(f"{w}_{YAW}").dofadr[0]))
-            for w in (f"wheelset{i + 1}" for i in range(4))]
+    dofs = [
+        (int(model.joint(f"{w}_{LATERAL}").dofadr[0]), int(model.joint(f"{w}_{YAW}").dofadr[0]))
+        for w in (f"wheelset{i + 1}" for i in range(4))
+    ]
     return stability.state_matrix_at(speed), dofs, model.nv
 
 
@@ -207,8 +217,9 @@ def test_gyroscopic_yaw_moment_in_the_linearisation():
         (a_on, dofs, nv), (a_off, _, _) = wheelset_entries(on, speed), wheelset_entries(off, speed)
         expected = np.zeros_like(a_on)
         for lateral, yaw in dofs:
-            expected[nv + yaw, nv + lateral] = (-w.inertia[1] * speed / w.rolling_radius * w.conicity
-                                                / w.contact_half_spacing / w.inertia[2])
+            expected[nv + yaw, nv + lateral] = (
+                -w.inertia[1] * speed / w.rolling_radius * w.conicity / w.contact_half_spacing / w.inertia[2]
+            )
         # Finite differences of MuJoCo's step (rail_mj.simulation.linear): 1e-6 of the term.
         scale = np.abs(expected).max()
         assert np.abs((a_on - a_off) - expected).max() <= 1e-6 * scale
@@ -237,8 +248,18 @@ def test_cone_gravitational_stiffness_in_the_linearisation():
         assert (a_on - a_off)[nv + lateral, lateral] * w.mass == pytest.approx(expected, rel=1e-5)
     # With no suspension moment, the rails' levers alone move load: -2*Q*(lam/b)*(2 + lam^2).
     q = np.full(1, w.wheel_load)
-    f = contact_forces(contact_parameters(on.model, 1), np.array([1e-6]), np.zeros(1), np.zeros(1), np.zeros(1),
-                       30.0, 2 * q, np.zeros(1), w.wheel_load, cone_gravity=True)
+    f = contact_forces(
+        contact_parameters(on.model, 1),
+        np.array([1e-6]),
+        np.zeros(1),
+        np.zeros(1),
+        np.zeros(1),
+        30.0,
+        2 * q,
+        np.zeros(1),
+        w.wheel_load,
+        cone_gravity=True,
+    )
     assert f.flange_lateral[0] / 1e-6 == pytest.approx(-2 * w.wheel_load * lam / b * (2 + lam**2), rel=1e-5)
 
 
@@ -283,7 +304,7 @@ def test_motor_bogie_roll_moves_load_by_its_own_axleboxes():
     assert len(model.numeric("rail_mj/loads").data) == 6 + 2 * layout.n_wheelsets
     qpos = np.zeros(model.nq)
     qpos[model.joint("bogie2_roll").qposadr[0]] = phi
-    q0, load0, _ = static_wheel_loads(vehicle)
+    _q0, load0, _ = static_wheel_loads(vehicle)
     q, load, moment = static_wheel_loads(vehicle, qpos)
     hb = layout.spatial.bogie_height
 
@@ -347,7 +368,7 @@ def test_a_climbing_flange_meets_nadal():
     p = contact_parameters(model, 1)
     geo, mu = p.geometry, layout.creep.friction
     y = 0.0063  # the left wheel on its flange alone (slot 1, weight 1), the right on its tread
-    rows = geo[1:int(geo[0, T.HEADER_ROWS]) + 1]
+    rows = geo[1 : int(geo[0, T.HEADER_ROWS]) + 1]
     column = lambda k: np.interp(y / M_PER_MM, rows[:, T.Y], rows[:, k])  # noqa: E731
     flange = T.FIRST_POINT + 1 * T.POINT
     assert column(flange + T.WEIGHT) == pytest.approx(1.0)
@@ -356,8 +377,17 @@ def test_a_climbing_flange_meets_nadal():
     speed, psi = 30.0, 0.05  # nose-left: the left wheel's front into the left rail
     psi_dot = -rise * speed / (layout.wheelset.rolling_radius * lever)  # xi_x = -rise/r0 - l*psi'/V = 0
     axle = 2 * layout.wheelset.wheel_load
-    f = contact_forces(p, np.array([y]), np.array([psi]), np.zeros(1), np.array([psi_dot]), speed,
-                       np.array([axle]), np.zeros(1), layout.wheelset.wheel_load)
+    f = contact_forces(
+        p,
+        np.array([y]),
+        np.array([psi]),
+        np.zeros(1),
+        np.array([psi_dot]),
+        speed,
+        np.array([axle]),
+        np.zeros(1),
+        layout.wheelset.wheel_load,
+    )
     outward = -f.lateral_left[0] / f.load_left[0]
     nadal = (np.tan(g) - mu) / (1 + mu * np.tan(g))
     assert outward == pytest.approx(nadal, rel=1e-9)
@@ -484,8 +514,14 @@ def test_nadal_balance_meets_the_axle_load():
     n = 4000
     axle = 2 * layout.wheelset.wheel_load * rng.uniform(0.7, 1.5, n)
     states = [rng.uniform(-0.01, 0.01, n), rng.normal(0, 0.005, n), rng.normal(0, 0.3, n), rng.normal(0, 0.3, n)]
-    f = contact_forces(p, *(v[:, None] for v in states), 40.0, axle[:, None], rng.normal(0, 1e4, n)[:, None],
-                       layout.wheelset.wheel_load)
+    f = contact_forces(
+        p,
+        *(v[:, None] for v in states),
+        40.0,
+        axle[:, None],
+        rng.normal(0, 1e4, n)[:, None],
+        layout.wheelset.wheel_load,
+    )
     error = np.abs(f.load_left[:, 0] + f.load_right[:, 0] - axle) / axle
     assert np.max(error) < 1e-3 and np.mean(error < 1e-6) > 0.95
     assert np.all(f.load_left >= 0.0) and np.all(f.load_right >= 0.0)

@@ -8,14 +8,14 @@ import sys
 import mujoco
 import numpy as np
 import pytest
-
 from conftest import MODELS, ROOT, SHIPPED, free_truck
-from rail_mj.simulation.callback import CreepForces, installed
+
 from rail_mj.layout import layout_from_dict, load_layout
+from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.vehicle.model import Vehicle, generate, generated_files
 
 sys.path.insert(0, str(ROOT / "tools"))
-import regenerate_models  # noqa: E402
+import regenerate_models
 
 
 def step_without_warnings(model: mujoco.MjModel, n_wheelsets: int, speed=30.0, steps=2000):
@@ -31,9 +31,17 @@ def step_without_warnings(model: mujoco.MjModel, n_wheelsets: int, speed=30.0, s
 
 
 def test_the_shipped_layouts_are_there():
-    assert {p.stem for p in SHIPPED} == {"wheelset", "bogie", "wagon", "manchester-coach",
-                                         "manchester-coach-s1002", "manchester-coach-worn", "manchester-coach-spatial",
-                                         "articulated-set", "two-coaches"}
+    assert {p.stem for p in SHIPPED} == {
+        "wheelset",
+        "bogie",
+        "wagon",
+        "manchester-coach",
+        "manchester-coach-s1002",
+        "manchester-coach-worn",
+        "manchester-coach-spatial",
+        "articulated-set",
+        "two-coaches",
+    }
 
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
@@ -56,20 +64,32 @@ def test_generation_is_deterministic_and_matches_the_in_memory_model(layout_path
     generate(layout, tmp_path / "a")
     generate(layout, tmp_path / "b")
     files = sorted(p.relative_to(tmp_path / "a") for p in (tmp_path / "a").rglob("*") if p.is_file())
-    assert files and all((tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
-                         for f in files)
+    assert files and all((tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes() for f in files)
     # The written MJCF is the same model the runner compiles in memory.
     written = mujoco.MjModel.from_xml_path(str(tmp_path / "a" / f"{layout.name}.xml"))
     memory = Vehicle(layout).model
-    for field in ("body_mass", "body_inertia", "body_pos", "body_ipos", "jnt_stiffness",
-                  "dof_damping", "jnt_type", "jnt_axis", "numeric_data"):
+    for field in (
+        "body_mass",
+        "body_inertia",
+        "body_pos",
+        "body_ipos",
+        "jnt_stiffness",
+        "dof_damping",
+        "jnt_type",
+        "jnt_axis",
+        "numeric_data",
+    ):
         np.testing.assert_array_equal(getattr(written, field), getattr(memory, field), err_msg=field)
 
 
 def test_every_element_is_named():
     model = Vehicle(load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")).model
-    for kind, count in ((mujoco.mjtObj.mjOBJ_BODY, model.nbody), (mujoco.mjtObj.mjOBJ_JOINT, model.njnt),
-                        (mujoco.mjtObj.mjOBJ_GEOM, model.ngeom), (mujoco.mjtObj.mjOBJ_MESH, model.nmesh)):
+    for kind, count in (
+        (mujoco.mjtObj.mjOBJ_BODY, model.nbody),
+        (mujoco.mjtObj.mjOBJ_JOINT, model.njnt),
+        (mujoco.mjtObj.mjOBJ_GEOM, model.ngeom),
+        (mujoco.mjtObj.mjOBJ_MESH, model.nmesh),
+    ):
         start = 1 if kind == mujoco.mjtObj.mjOBJ_BODY else 0  # the world body is unnamed
         assert all(mujoco.mj_id2name(model, kind, i) for i in range(start, count)), kind
 
@@ -96,16 +116,23 @@ def test_three_axle_bogie_generates_and_steps(tmp_path):
 
 
 def test_wheelset_bodies_sit_where_the_layout_puts_them():
-    layout = layout_from_dict({
-        "name": "two-bogies",
-        "wheelset": {"mass": 1500.0, "inertia": [900.0, 100.0, 900.0], "rolling_radius": 0.45,
-                     "contact_half_spacing": 0.75, "conicity": 0.1},
-        "creep": {"f11": 8e6, "f22": 7e6},
-        "primary": {"lateral_stiffness": 5e6, "yaw_stiffness": 20e6},
-        "bogie": {"mass": 2000.0, "inertia": [1500.0, 1400.0, 2500.0], "wheelset_positions": [1.2, 0.0, -1.2]},
-        "secondary": {"lateral_stiffness": 3e5, "yaw_stiffness": 3e5},
-        "carbody": {"mass": 40000.0, "inertia": [6e4, 2e6, 2e6], "bogie_positions": [8.0, -8.0]},
-    })
+    layout = layout_from_dict(
+        {
+            "name": "two-bogies",
+            "wheelset": {
+                "mass": 1500.0,
+                "inertia": [900.0, 100.0, 900.0],
+                "rolling_radius": 0.45,
+                "contact_half_spacing": 0.75,
+                "conicity": 0.1,
+            },
+            "creep": {"f11": 8e6, "f22": 7e6},
+            "primary": {"lateral_stiffness": 5e6, "yaw_stiffness": 20e6},
+            "bogie": {"mass": 2000.0, "inertia": [1500.0, 1400.0, 2500.0], "wheelset_positions": [1.2, 0.0, -1.2]},
+            "secondary": {"lateral_stiffness": 3e5, "yaw_stiffness": 3e5},
+            "carbody": {"mass": 40000.0, "inertia": [6e4, 2e6, 2e6], "bogie_positions": [8.0, -8.0]},
+        }
+    )
     vehicle = Vehicle(layout)
     data = mujoco.MjData(vehicle.model)
     mujoco.mj_kinematics(vehicle.model, data)
@@ -129,7 +156,7 @@ def test_the_coach_is_drawn_as_a_coach_on_outside_frame_bogies():
     model = Vehicle(layout).model
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    wheel_low, wheel_high = _world_box(model, data, "wheelset1_left_wheel")
+    _wheel_low, wheel_high = _world_box(model, data, "wheelset1_left_wheel")
     frame_low, frame_high = _world_box(model, data, "bogie1_side_left")
     assert frame_low[1] > wheel_high[1]  # the frame's inner face clears the wheel
     # ... and reaches over both wheelsets, end to end.
@@ -139,14 +166,14 @@ def test_the_coach_is_drawn_as_a_coach_on_outside_frame_bogies():
     boxes = {model.geom(g).name: _world_box(model, data, model.geom(g).name) for g in range(model.ngeom)}
     body = [boxes[model.geom(g).name] for g in range(model.ngeom) if model.geom_bodyid[g] == carbody]
     low, high = np.min([lo for lo, _ in body], axis=0), np.max([hi for _, hi in body], axis=0)
-    under = max(boxes[model.geom(g).name][1][2] for g in range(model.ngeom)
-                if model.geom_bodyid[g] != carbody)
+    under = max(boxes[model.geom(g).name][1][2] for g in range(model.ngeom) if model.geom_bodyid[g] != carbody)
     assert low[2] == pytest.approx(under)  # the secondary springs reach up to the underframe
     np.testing.assert_allclose(high - low, [19.0 + 2 * 2.75 + 0.04, 2.8 + 0.04, 3.9 - low[2]])
     assert 1.0 < low[2] < 1.3 and high[2] == pytest.approx(3.9)
     assert not model.geom_contype.any() and not model.geom_conaffinity.any()
-    np.testing.assert_array_equal(model.body_mass[1:], [layout.carbody.mass] + (
-        [layout.bogie.mass] + [layout.wheelset.mass] * 2) * 2)
+    np.testing.assert_array_equal(
+        model.body_mass[1:], [layout.carbody.mass] + ([layout.bogie.mass] + [layout.wheelset.mass] * 2) * 2
+    )
 
 
 def test_a_layout_with_contact_writes_an_mjcf_that_reads_back(tmp_path):

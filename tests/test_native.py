@@ -7,14 +7,13 @@ import ctypes
 import mujoco
 import numpy as np
 import pytest
+from conftest import SHIPPED, assert_callbacks_agree
 from mujoco import rollout
 
-from rail_mj.simulation import native
 from rail_mj.layout import load_layout
-from rail_mj.vehicle.model import Vehicle, generate
+from rail_mj.simulation import native
 from rail_mj.simulation.runner import simulate
-
-from conftest import SHIPPED, assert_callbacks_agree
+from rail_mj.vehicle.model import Vehicle, generate
 
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
@@ -51,8 +50,7 @@ def test_threads_give_bit_identical_results():
     mujoco.mj_getState(models[0], data, start, spec)
     with native.installed():
         one, _ = rollout.rollout(models, [mujoco.MjData(models[0])], np.tile(start, (6, 1)), nstep=2000)
-        two, _ = rollout.rollout(models, [mujoco.MjData(m) for m in models[:2]], np.tile(start, (6, 1)),
-                                 nstep=2000)
+        two, _ = rollout.rollout(models, [mujoco.MjData(m) for m in models[:2]], np.tile(start, (6, 1)), nstep=2000)
     assert np.array_equal(one, two)
     lateral = one[:, -1, 1 + vehicle.root_lateral_dofs[0]]
     assert len(set(lateral.tolist())) == 6  # the speeds really differ
@@ -92,5 +90,5 @@ def test_struct_offsets_are_checked_against_the_live_arrays(monkeypatch):
     real = native._struct("mjData", structs.STRUCTS)
     shifted = type("mjData", (ctypes.Structure,), {"_fields_": [("extra", ctypes.c_double)] + real._fields_})
     monkeypatch.setitem(native._LAYOUTS, "mjData", shifted)
-    with pytest.raises(native.NativeError, match="mjData.qvel is not where"):
+    with pytest.raises(native.NativeError, match=r"mjData\.qvel is not where"):
         native._offsets()

@@ -7,20 +7,27 @@ import math
 
 import numpy as np
 import pytest
+from conftest import MODELS
 from rerun.chunk import RrdReader
 from scipy.optimize import minimize_scalar
 
-from conftest import MODELS
-from rail_mj.analysis import (band_pass, dominant_frequency, flange_strikes, hunting_limit, late_motion,
-                              oscillation, sliding_rms)
+from rail_mj.analysis import (
+    band_pass,
+    dominant_frequency,
+    flange_strikes,
+    hunting_limit,
+    late_motion,
+    oscillation,
+    sliding_rms,
+)
 from rail_mj.analysis.bifurcation import bifurcation
+from rail_mj.analysis.stability import Stability
 from rail_mj.cli import main
 from rail_mj.contact.creep import POLACH, ContactParameters, contact_forces, flange_force, flange_lead, radius_rise
 from rail_mj.layout import LayoutError, load_layout
 from rail_mj.output.plots import bifurcation_csv, bifurcation_png
 from rail_mj.output.recording import FLANGE_EVENTS, flange_path, write_recording
 from rail_mj.simulation.runner import simulate
-from rail_mj.analysis.stability import Stability
 
 FLANGED = """
 wheel_load = 60e3
@@ -40,10 +47,20 @@ def flanged_wheelset(tmp_path):
     return path
 
 
-P = ContactParameters.broadcast(3, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=10e6,
-                                friction_limit=MU * LOAD, law=POLACH, clearance=0.008,
-                                flange_stiffness=K_FLANGE, flange_damping=1e4,
-                                flange_slope=math.tan(math.radians(70)))
+P = ContactParameters.broadcast(
+    3,
+    r0=0.46,
+    b=0.75,
+    conicity=0.1,
+    f11=10e6,
+    f22=10e6,
+    friction_limit=MU * LOAD,
+    law=POLACH,
+    clearance=0.008,
+    flange_stiffness=K_FLANGE,
+    flange_damping=1e4,
+    flange_slope=math.tan(math.radians(70)),
+)
 
 
 def test_flange_force_is_a_one_sided_elastic_rail():
@@ -67,8 +84,9 @@ def test_rolling_radius_rises_up_the_flange():
     np.testing.assert_allclose(left[:2], 0.1 * y[:2])
     assert left[2] == pytest.approx(0.1 * 0.008 + slope * 0.002)
     # With the linear law the creep couple is -f11*b*(r_left - r_right)/r0 (docs/creep.md, section 2).
-    linear = ContactParameters.broadcast(3, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=10e6,
-                                         clearance=0.008, flange_slope=slope)
+    linear = ContactParameters.broadcast(
+        3, r0=0.46, b=0.75, conicity=0.1, f11=10e6, f22=10e6, clearance=0.008, flange_slope=slope
+    )
     zero = np.zeros(3)
     couple = contact_forces(linear, y, zero, zero, zero, 30.0).creep_couple
     np.testing.assert_allclose(couple, -10e6 * 0.75 * (left - right) / 0.46, rtol=1e-12)
@@ -135,8 +153,9 @@ def test_flange_contact_lead_is_where_the_yawed_flange_meets_the_rail(degrees, p
     def point(theta):  # on the wheel's circle of the contact radius, theta ahead of the bottom
         return side * 0.75 * axle + radius * (math.sin(theta) * forward - math.cos(theta) * np.array([0, 0, 1.0]))
 
-    best = minimize_scalar(lambda th: -into_rail @ point(th), bounds=(-0.5, 0.5), method="bounded",
-                           options={"xatol": 1e-12}).x
+    best = minimize_scalar(
+        lambda th: -into_rail @ point(th), bounds=(-0.5, 0.5), method="bounded", options={"xatol": 1e-12}
+    ).x
     lead = flange_lead(y, psi, radius, math.tan(gamma), 0.75)
     assert abs(lead - point(best)[0]) <= radius * abs(psi * math.tan(gamma)) ** 3
 
@@ -153,7 +172,7 @@ def test_flange_strikes_begin_yawed_into_the_rail_and_turn_away(hunting_run):
     run = hunting_run
     y, psi = run.y[:, 0], run.psi[:, 0]
     forces = run.contact_forces()
-    strikes = [strike for strike in flange_strikes(run) if 0 < strike.start and strike.end < len(y)]
+    strikes = [strike for strike in flange_strikes(run) if strike.start > 0 and strike.end < len(y)]
     assert len(strikes) >= 20
     for _, s, e, towards in strikes:  # positive yaw moments and angles turn the wheelset into the struck rail
         assert towards == np.sign(y[s]) and np.all(np.abs(y[s:e]) > 0.008) and abs(y[e]) <= 0.008
@@ -200,7 +219,9 @@ def test_nonlinear_critical_speed_is_below_the_linear_one(tmp_path):
 def test_cli_nonlinear_needs_flange_contact(capsys):
     assert main(["critical-speed", str(MODELS / "wagon" / "wagon.toml"), "--method", "nonlinear"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "needs flange contact ([flange] or [profiles]) and a saturating creep law" in err
+    assert (
+        len(err.splitlines()) == 1 and "needs flange contact ([flange] or [profiles]) and a saturating creep law" in err
+    )
 
 
 def test_sliding_rms_matches_a_direct_sum():
@@ -283,8 +304,9 @@ def test_a_limit_cycle_dying_above_the_linear_critical_speed_gives_no_nonlinear_
 
     def dies_early(layout, speeds, **kwargs):
         alive = [v > 60.0 for v in speeds[:3]]  # the linear critical speed is 57.50 m/s
-        return bifurcation_module.Branch("down", list(speeds[:3]), [0.01 if a else 0.0 for a in alive],
-                                         [5.0] * 3, alive)
+        return bifurcation_module.Branch(
+            "down", list(speeds[:3]), [0.01 if a else 0.0 for a in alive], [5.0] * 3, alive
+        )
 
     monkeypatch.setattr(bifurcation_module, "follow", dies_early)
     critical, branch = bifurcation_module.nonlinear_critical_speed(layout, step=0.04)

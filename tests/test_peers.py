@@ -8,15 +8,15 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "tools"))
 
-import peer_numba  # noqa: E402
-import peer_solve_ivp  # noqa: E402
-import peers  # noqa: E402
-from rail_mj.contact.creep import ContactParameters, wheelset_forces  # noqa: E402
+import peer_numba
+import peer_solve_ivp
+import peers
+
+from rail_mj.contact.creep import ContactParameters, wheelset_forces
 
 
 @pytest.fixture(scope="module")
@@ -42,8 +42,9 @@ def test_numpy_law_is_rail_mj_law(coach):
     for speed in (20.0, 60.0, 140.0):
         y, psi = rng.normal(0.0, 0.01, 4), rng.normal(0.0, 0.005, 4)
         y_dot, psi_dot = rng.normal(0.0, 0.2, 4), rng.normal(0.0, 0.2, 4)
-        ours = peer_solve_ivp.creep_forces(coach.contact, coach.law, coach.flange, coach.falling, y, psi, y_dot,
-                                           psi_dot, speed)
+        ours = peer_solve_ivp.creep_forces(
+            coach.contact, coach.law, coach.flange, coach.falling, y, psi, y_dot, psi_dot, speed
+        )
         np.testing.assert_allclose(ours, wheelset_forces(params, y, psi, y_dot, psi_dot, speed), rtol=1e-13)
 
 
@@ -53,7 +54,6 @@ def test_peers_share_equations(coach):
     rng = np.random.default_rng(3)
     q, v = rng.normal(0.0, 0.01, coach.dofs), rng.normal(0.0, 0.1, coach.dofs)
     numba_qacc = np.zeros(coach.dofs)
-    peer_numba._accelerations(peer_numba._arrays(coach), 60.0, q, v, peer_numba._workspace(coach.parent),
-                              numba_qacc)
-    numpy_qacc = peer_solve_ivp.Equations(coach, 60.0)(0.0, np.concatenate([q, v]))[coach.dofs:]
+    peer_numba._accelerations(peer_numba._arrays(coach), 60.0, q, v, peer_numba._workspace(coach.parent), numba_qacc)
+    numpy_qacc = peer_solve_ivp.Equations(coach, 60.0)(0.0, np.concatenate([q, v]))[coach.dofs :]
     np.testing.assert_allclose(numpy_qacc, numba_qacc, rtol=0, atol=1e-12 * np.abs(numba_qacc).max())

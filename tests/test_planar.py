@@ -10,79 +10,118 @@ import math
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
-
 from planar import (
     closed_form_critical_speed,
     planar_eigenvalues,
     planar_matrices,
     planar_state_matrix,
 )
-from rail_mj.layout import layout_from_dict
+from scipy.optimize import brentq
 
+from rail_mj.layout import layout_from_dict
 
 # --- layouts -----------------------------------------------------------------
 
 
 def single_wheelset(m, Iz, ky, kpsi, f11, f22, lam, r0, b, cy=0.0, cpsi=0.0, f23=0.0, f33=0.0):
     """One wheelset sprung to a fixed body (the section-2/4 setting)."""
-    return layout_from_dict({
-        "name": "w",
-        "wheelset": {"mass": m, "inertia": [Iz, 0.1 * Iz, Iz], "rolling_radius": r0,
-                     "contact_half_spacing": b, "conicity": lam},
-        "creep": {"f11": f11, "f22": f22, "f23": f23, "f33": f33},
-        "primary": {"lateral_stiffness": ky, "yaw_stiffness": kpsi,
-                    "lateral_damping": cy, "yaw_damping": cpsi},
-        "carbody": {"fixed": True, "wheelset_positions": [0.0]},
-    })
+    return layout_from_dict(
+        {
+            "name": "w",
+            "wheelset": {
+                "mass": m,
+                "inertia": [Iz, 0.1 * Iz, Iz],
+                "rolling_radius": r0,
+                "contact_half_spacing": b,
+                "conicity": lam,
+            },
+            "creep": {"f11": f11, "f22": f22, "f23": f23, "f33": f33},
+            "primary": {"lateral_stiffness": ky, "yaw_stiffness": kpsi, "lateral_damping": cy, "yaw_damping": cpsi},
+            "carbody": {"fixed": True, "wheelset_positions": [0.0]},
+        }
+    )
 
 
 def rigid_truck(a, f11, f22, lam, r0, b, m=1813.0, Iz=1120.0, k=1e10):
     """A two-axle bogie frame (semi-wheelbase a), primary stiffness k, under a fixed body
     with zero secondary stiffness."""
-    return layout_from_dict({
-        "name": "truck",
-        "wheelset": {"mass": m, "inertia": [Iz, 0.1 * Iz, Iz], "rolling_radius": r0,
-                     "contact_half_spacing": b, "conicity": lam},
-        "creep": {"f11": f11, "f22": f22},
-        "primary": {"lateral_stiffness": k, "yaw_stiffness": k},
-        "bogie": {"mass": 2615.0, "inertia": [1722.0, 1476.0, 3067.0],
-                  "wheelset_positions": [a, -a]},
-        "secondary": {"lateral_stiffness": 0.0, "yaw_stiffness": 0.0},
-        "carbody": {"fixed": True, "bogie_positions": [0.0]},
-    })
+    return layout_from_dict(
+        {
+            "name": "truck",
+            "wheelset": {
+                "mass": m,
+                "inertia": [Iz, 0.1 * Iz, Iz],
+                "rolling_radius": r0,
+                "contact_half_spacing": b,
+                "conicity": lam,
+            },
+            "creep": {"f11": f11, "f22": f22},
+            "primary": {"lateral_stiffness": k, "yaw_stiffness": k},
+            "bogie": {"mass": 2615.0, "inertia": [1722.0, 1476.0, 3067.0], "wheelset_positions": [a, -a]},
+            "secondary": {"lateral_stiffness": 0.0, "yaw_stiffness": 0.0},
+            "carbody": {"fixed": True, "bogie_positions": [0.0]},
+        }
+    )
 
 
 def coach(f11=10e6, f22=9e6, lam=0.15):
     """Manchester coach numbers (docs/manchester-coach.md), free car body and two bogies."""
-    return layout_from_dict({
-        "name": "coach",
-        "wheelset": {"mass": 1813.0, "inertia": [1120.0, 112.0, 1120.0], "rolling_radius": 0.46,
-                     "contact_half_spacing": 0.75, "conicity": lam},
-        "creep": {"f11": f11, "f22": f22},
-        "primary": {"lateral_stiffness": 7.768e6, "yaw_stiffness": 62.78e6,
-                    "lateral_damping": 4.0e3, "yaw_damping": 1.0e3},
-        "bogie": {"mass": 2615.0, "inertia": [1722.0, 1476.0, 3067.0],
-                  "wheelset_positions": [1.28, -1.28]},
-        "secondary": {"lateral_stiffness": 320e3, "yaw_stiffness": 320e3,
-                      "lateral_damping": 64e3, "yaw_damping": 2.0e3},
-        "carbody": {"fixed": False, "mass": 32000.0, "inertia": [56800.0, 1.97e6, 1.97e6],
-                    "bogie_positions": [9.5, -9.5]},
-    })
+    return layout_from_dict(
+        {
+            "name": "coach",
+            "wheelset": {
+                "mass": 1813.0,
+                "inertia": [1120.0, 112.0, 1120.0],
+                "rolling_radius": 0.46,
+                "contact_half_spacing": 0.75,
+                "conicity": lam,
+            },
+            "creep": {"f11": f11, "f22": f22},
+            "primary": {
+                "lateral_stiffness": 7.768e6,
+                "yaw_stiffness": 62.78e6,
+                "lateral_damping": 4.0e3,
+                "yaw_damping": 1.0e3,
+            },
+            "bogie": {"mass": 2615.0, "inertia": [1722.0, 1476.0, 3067.0], "wheelset_positions": [1.28, -1.28]},
+            "secondary": {
+                "lateral_stiffness": 320e3,
+                "yaw_stiffness": 320e3,
+                "lateral_damping": 64e3,
+                "yaw_damping": 2.0e3,
+            },
+            "carbody": {
+                "fixed": False,
+                "mass": 32000.0,
+                "inertia": [56800.0, 1.97e6, 1.97e6],
+                "bogie_positions": [9.5, -9.5],
+            },
+        }
+    )
 
 
 def wagon(f11=10e6, f22=9e6):
     """Two wheelsets straight under a free car body (no bogies)."""
-    return layout_from_dict({
-        "name": "wagon",
-        "wheelset": {"mass": 1250.0, "inertia": [700.0, 80.0, 700.0], "rolling_radius": 0.45,
-                     "contact_half_spacing": 0.75, "conicity": 0.2},
-        "creep": {"f11": f11, "f22": f22},
-        "primary": {"lateral_stiffness": 2e6, "yaw_stiffness": 7e6,
-                    "lateral_damping": 3e3, "yaw_damping": 5e2},
-        "carbody": {"fixed": False, "mass": 20000.0, "inertia": [6e4, 2e5, 2.5e5],
-                    "wheelset_positions": [4.5, -4.5]},
-    })
+    return layout_from_dict(
+        {
+            "name": "wagon",
+            "wheelset": {
+                "mass": 1250.0,
+                "inertia": [700.0, 80.0, 700.0],
+                "rolling_radius": 0.45,
+                "contact_half_spacing": 0.75,
+                "conicity": 0.2,
+            },
+            "creep": {"f11": f11, "f22": f22},
+            "primary": {"lateral_stiffness": 2e6, "yaw_stiffness": 7e6, "lateral_damping": 3e3, "yaw_damping": 5e2},
+            "carbody": {
+                "fixed": False,
+                "mass": 20000.0,
+                "inertia": [6e4, 2e5, 2.5e5],
+                "wheelset_positions": [4.5, -4.5],
+            },
+        }
+    )
 
 
 # --- helpers -----------------------------------------------------------------
@@ -131,8 +170,7 @@ def test_spin_creep_terms():
     f11, f22, f23, f33, b, V = 10e6, 9e6, 36.5e3, 121.0, 0.75, 25.0
     base = planar_matrices(single_wheelset(1813, 1120, 0, 2e6, f11, f22, 0.1, 0.46, b), V)
     spin = planar_matrices(single_wheelset(1813, 1120, 0, 2e6, f11, f22, 0.1, 0.46, b, f23=f23, f33=f33), V)
-    np.testing.assert_allclose(spin[1] - base[1], [[0, 2 * f23 / V], [-2 * f23 / V, 2 * f33 / V]],
-                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(spin[1] - base[1], [[0, 2 * f23 / V], [-2 * f23 / V, 2 * f33 / V]], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(spin[2] - base[2], [[0, 0], [0, 2 * f23]], rtol=1e-9, atol=1e-9)
 
 
@@ -188,15 +226,17 @@ def test_klingel_worked_numbers():
     """Section 3 worked numbers: L_w = 17.21 m, 9.53 m and L_b = 18.85 m (to 4 s.f.)."""
     assert 2 * math.pi * math.sqrt(0.5 * 0.75 / 0.05) == pytest.approx(17.21, abs=0.005)
     assert 2 * math.pi * math.sqrt(0.46 * 0.75 / 0.15) == pytest.approx(9.53, abs=0.005)
-    assert 2 * math.pi * math.sqrt(0.46 * 0.75 / 0.15 * (1 + 1.28**2 / 0.75**2)) == pytest.approx(
-        18.85, abs=0.005)
+    assert 2 * math.pi * math.sqrt(0.46 * 0.75 / 0.15 * (1 + 1.28**2 / 0.75**2)) == pytest.approx(18.85, abs=0.005)
 
 
-@pytest.mark.parametrize("r0, b, lam, f11, f22", [
-    (0.5, 0.75, 0.05, 10e6, 10e6),
-    (0.46, 0.75, 0.15, 10e6, 9e6),
-    (0.45, 0.75, 0.2, 8e6, 6e6),
-])
+@pytest.mark.parametrize(
+    "r0, b, lam, f11, f22",
+    [
+        (0.5, 0.75, 0.05, 10e6, 10e6),
+        (0.46, 0.75, 0.15, 10e6, 9e6),
+        (0.45, 0.75, 0.2, 8e6, 6e6),
+    ],
+)
 def test_free_wheelset_klingel_wavelength(r0, b, lam, f11, f22):
     V = 2.0
     layout = single_wheelset(1813.0, 1120.0, 0.0, 0.0, f11, f22, lam, r0, b)
@@ -208,11 +248,14 @@ def test_free_wheelset_klingel_wavelength(r0, b, lam, f11, f22):
     assert 0.0 < s.real < 0.05 * s.imag
 
 
-@pytest.mark.parametrize("a, r0, b, lam, f11, f22", [
-    (1.28, 0.46, 0.75, 0.15, 10e6, 10e6),
-    (1.28, 0.46, 0.75, 0.15, 10e6, 9e6),
-    (1.0, 0.5, 0.75, 0.05, 8e6, 12e6),
-])
+@pytest.mark.parametrize(
+    "a, r0, b, lam, f11, f22",
+    [
+        (1.28, 0.46, 0.75, 0.15, 10e6, 10e6),
+        (1.28, 0.46, 0.75, 0.15, 10e6, 9e6),
+        (1.0, 0.5, 0.75, 0.05, 8e6, 12e6),
+    ],
+)
 def test_rigid_truck_klingel_wavelength(a, r0, b, lam, f11, f22):
     V = 2.0
     s = slowest_oscillation(rigid_truck(a, f11, f22, lam, r0, b), V)
@@ -235,9 +278,9 @@ def test_coach_size_names_and_symmetry():
     """
     layout = coach(f11=1e-9, f22=1e-9)
     M, C, K, names = planar_matrices(layout, 30.0)
-    expected = ["carbody_lateral", "carbody_yaw", "bogie1_lateral", "bogie1_yaw",
-                "bogie2_lateral", "bogie2_yaw"] + [
-        f"wheelset{i}_{c}" for i in range(1, 5) for c in ("lateral", "yaw")]
+    expected = ["carbody_lateral", "carbody_yaw", "bogie1_lateral", "bogie1_yaw", "bogie2_lateral", "bogie2_yaw"] + [
+        f"wheelset{i}_{c}" for i in range(1, 5) for c in ("lateral", "yaw")
+    ]
     assert names == expected
     assert planar_state_matrix(layout, 30.0).shape == (28, 28)
     assert planar_eigenvalues(layout, 30.0).shape == (28,)
@@ -246,8 +289,15 @@ def test_coach_size_names_and_symmetry():
     np.testing.assert_allclose(K, K.T, rtol=0, atol=1e-15 * scale)
     np.testing.assert_allclose(C, C.T, rtol=0, atol=1e-15 * np.abs(C).max())
 
-    x = {"carbody": 0.0, "bogie1": 9.5, "bogie2": -9.5,
-         "wheelset1": 10.78, "wheelset2": 8.22, "wheelset3": -8.22, "wheelset4": -10.78}
+    x = {
+        "carbody": 0.0,
+        "bogie1": 9.5,
+        "bogie2": -9.5,
+        "wheelset1": 10.78,
+        "wheelset2": 8.22,
+        "wheelset3": -8.22,
+        "wheelset4": -10.78,
+    }
     translation = np.array([1.0 if n.endswith("_lateral") else 0.0 for n in names])
     rotation = np.array([x[n.split("_")[0]] if n.endswith("_lateral") else 1.0 for n in names])
     for mode in (translation, rotation):
@@ -266,7 +316,7 @@ def test_suspension_forces_match_the_written_out_forces(make):
     child yaw -kpsi e (and the same with c and the rates).
     """
     layout = make(f11=1e-9, f22=1e-9)
-    M, C, K, names = planar_matrices(layout, 30.0)
+    _M, C, K, names = planar_matrices(layout, 30.0)
     idx = {n: i for i, n in enumerate(names)}
     rng = np.random.default_rng(1)
     q, qd = rng.normal(size=len(names)), rng.normal(size=len(names))
@@ -286,13 +336,14 @@ def test_suspension_forces_match_the_written_out_forces(make):
         for k, xw in enumerate(layout.wheelset_x, start=1):
             links.append((f"wheelset{k}", xw, "carbody", 0.0, layout.primary))
 
-    for vec, matrix, ky_attr, kpsi_attr in ((q, K, "lateral_stiffness", "yaw_stiffness"),
-                                             (qd, C, "lateral_damping", "yaw_damping")):
+    for vec, matrix, ky_attr, kpsi_attr in (
+        (q, K, "lateral_stiffness", "yaw_stiffness"),
+        (qd, C, "lateral_damping", "yaw_damping"),
+    ):
         force = np.zeros(len(names))
         for child, x_c, parent, x_p, s in links:
             ky, kpsi = getattr(s, ky_attr), getattr(s, kpsi_attr)
-            d = coord(vec, child, "lateral") - (coord(vec, parent, "lateral")
-                                                + (x_c - x_p) * coord(vec, parent, "yaw"))
+            d = coord(vec, child, "lateral") - (coord(vec, parent, "lateral") + (x_c - x_p) * coord(vec, parent, "yaw"))
             e = coord(vec, child, "yaw") - coord(vec, parent, "yaw")
             force[idx[f"{child}_lateral"]] += -ky * d
             force[idx[f"{child}_yaw"]] += -kpsi * e
@@ -306,15 +357,26 @@ def test_suspension_forces_match_the_written_out_forces(make):
 def test_stiff_wagon_primary_behaves_as_rigid_truck():
     """A car body on two wheelsets with very stiff primary is a rigid truck of semi-wheelbase
     a = 4.5 m (section 3 formula with f11 != f22), to 0.5 %."""
-    layout = layout_from_dict({
-        "name": "stiff-wagon",
-        "wheelset": {"mass": 1250.0, "inertia": [700.0, 80.0, 700.0], "rolling_radius": 0.45,
-                     "contact_half_spacing": 0.75, "conicity": 0.2},
-        "creep": {"f11": 8e6, "f22": 6e6},
-        "primary": {"lateral_stiffness": 1e10, "yaw_stiffness": 1e10},
-        "carbody": {"fixed": False, "mass": 20000.0, "inertia": [6e4, 2e5, 2.5e5],
-                    "wheelset_positions": [4.5, -4.5]},
-    })
+    layout = layout_from_dict(
+        {
+            "name": "stiff-wagon",
+            "wheelset": {
+                "mass": 1250.0,
+                "inertia": [700.0, 80.0, 700.0],
+                "rolling_radius": 0.45,
+                "contact_half_spacing": 0.75,
+                "conicity": 0.2,
+            },
+            "creep": {"f11": 8e6, "f22": 6e6},
+            "primary": {"lateral_stiffness": 1e10, "yaw_stiffness": 1e10},
+            "carbody": {
+                "fixed": False,
+                "mass": 20000.0,
+                "inertia": [6e4, 2e5, 2.5e5],
+                "wheelset_positions": [4.5, -4.5],
+            },
+        }
+    )
     V = 2.0
     s = slowest_oscillation(layout, V)
     wavelength = V / (s.imag / (2 * math.pi))

@@ -10,23 +10,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import PROFILES_TOML, assert_callbacks_agree
 
-from rail_mj.contact import geometry, tables
+from rail_mj.analysis.stability import Stability
 from rail_mj.cli import main
+from rail_mj.contact import geometry, tables
 from rail_mj.contact.creep import ContactParameters, contact_forces
 from rail_mj.layout import LayoutError, load_layout
+from rail_mj.simulation.runner import simulate
 from rail_mj.units import M_PER_MM, N_PER_KN
 from rail_mj.vehicle.model import Vehicle
-from rail_mj.simulation.runner import simulate
-from rail_mj.analysis.stability import Stability
-
-from conftest import PROFILES_TOML, assert_callbacks_agree
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 PROFILES = PROFILES_TOML
-COACH = ((MODELS / "manchester-coach" / "manchester-coach.toml").read_text()
-         .replace("conicity = 0.15", "").replace("flangeway_clearance = 0.008", "")
-         .replace("[flange]", "") + PROFILES)
+COACH = (MODELS / "manchester-coach" / "manchester-coach.toml").read_text().replace("conicity = 0.15", "").replace(
+    "flangeway_clearance = 0.008", ""
+).replace("[flange]", "") + PROFILES
 for key in ("f11", "f22", "f23", "f33"):
     COACH = "\n".join(line for line in COACH.splitlines() if not line.startswith(key))
 
@@ -39,8 +38,9 @@ def coach(tmp_path_factory):
 
 
 def forces_at(table, y, psi=0.0, y_dot=0.0, psi_dot=0.0, speed=30.0, law=0):
-    p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.1, f11=1.0, f22=1.0, law=law,
-                                    friction_limit=1.0, geometry=table)
+    p = ContactParameters.broadcast(
+        1, r0=0.46, b=0.75, conicity=0.1, f11=1.0, f22=1.0, law=law, friction_limit=1.0, geometry=table
+    )
     return contact_forces(p, np.array([y]), np.array([psi]), np.array([y_dot]), np.array([psi_dot]), speed)
 
 
@@ -66,7 +66,7 @@ def test_normal_forces_do_the_virtual_work_of_the_axle_load(coach, y_mm):
     table = tables.dynamics_table(coach)
     geo = geometry.contact_table(coach)
     y = y_mm * 1e-3
-    i = int(round((y - geo.y[0]) / (geo.y[1] - geo.y[0])))
+    i = round((y - geo.y[0]) / (geo.y[1] - geo.y[0]))
     dz_dy = (geo.z[i + 1] - geo.z[i - 1]) / (geo.y[i + 1] - geo.y[i - 1])
     w = table[0, tables.HEADER_AXLE_LOAD] * N_PER_KN
     got = float(forces_at(table, geo.y[i]).flange_lateral[0])
@@ -95,13 +95,19 @@ def cone_on_knives(tmp_path, lam):
     to 0.2 MN m/rad: on knife edges the ellipse is small and f11, f22 are ~1.4 MN) on a
     straight-tread cone of conicity lam and knife-edge rails, gravitational stiffness and
     spin creep off."""
-    (tmp_path / "cone.csv").write_text("y_mm,z_mm\n-60,%r\n60,%r\n" % (-60 * lam, 60 * lam))
+    (tmp_path / "cone.csv").write_text(f"y_mm,z_mm\n-60,{-60 * lam!r}\n60,{60 * lam!r}\n")
     (tmp_path / "knife.csv").write_text("y_mm,z_mm\n-20,-20\n0,0\n20,-20\n")
-    text = ((MODELS / "wheelset" / "wheelset.toml").read_text().replace("conicity = 0.1", "wheel_load = 50.0e3")
-            .replace("yaw_stiffness = 2.0e6", "yaw_stiffness = 2.0e5"))
+    text = (
+        (MODELS / "wheelset" / "wheelset.toml")
+        .read_text()
+        .replace("conicity = 0.1", "wheel_load = 50.0e3")
+        .replace("yaw_stiffness = 2.0e6", "yaw_stiffness = 2.0e5")
+    )
     text = "\n".join(line for line in text.splitlines() if not line.startswith(("f11", "f22")))
-    text += ('\n[profiles]\nwheel = "cone.csv"\nrail = "knife.csv"\nrail_inclination = 0.0\n'
-             'gravitational_stiffness = false\nspin_creep = false\n')
+    text += (
+        '\n[profiles]\nwheel = "cone.csv"\nrail = "knife.csv"\nrail_inclination = 0.0\n'
+        "gravitational_stiffness = false\nspin_creep = false\n"
+    )
     path = tmp_path / "cone.toml"
     path.write_text(text)
     return load_layout(path)
@@ -158,7 +164,7 @@ def test_the_profiled_coach_decays_below_and_hunts_on_its_flanges_above(coach):
     slow = simulate(coach, 0.6 * vc, 400.0, 0.002)
     assert np.max(np.abs(slow.y[-100:])) < 1e-4
     fast = simulate(coach, 1.15 * vc, 1200.0, 0.002)
-    late = np.max(np.abs(fast.y[len(fast.y) // 2:]))
+    late = np.max(np.abs(fast.y[len(fast.y) // 2 :]))
     clearance = coach.wheelset.flangeway_clearance
     assert 0.8 * clearance < late < clearance + 0.5e-3
 
@@ -180,7 +186,8 @@ def test_cli_states_the_linearisation_amplitude(coach, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["amplitude_mm"] == 2.0
     assert out["equivalent_conicity"] == pytest.approx(
-        geometry.equivalent_conicity(geometry.contact_table(coach), 2.0), rel=1e-12)
+        geometry.equivalent_conicity(geometry.contact_table(coach), 2.0), rel=1e-12
+    )
     status = main(["critical-speed", str(MODELS / "wheelset" / "wheelset.toml"), "--amplitude", "2"])
     err = capsys.readouterr().err
     assert status == 2 and len(err.strip().splitlines()) == 1 and "cones" in err

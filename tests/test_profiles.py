@@ -12,8 +12,16 @@ import pytest
 
 from rail_mj.cli import main
 from rail_mj.contact.profiles import (
-    S1002_SECTIONS, ProfileError, Profile, rail_60e1, rail_60e1_head, read_profile, s1002,
-    s1002_radius, s1002_radius_slope, write_csv,
+    S1002_SECTIONS,
+    Profile,
+    ProfileError,
+    rail_60e1,
+    rail_60e1_head,
+    read_profile,
+    s1002,
+    s1002_radius,
+    s1002_radius_slope,
+    write_csv,
 )
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -23,8 +31,7 @@ ROUNDED = 1e-3  # mm: the published check values have three decimals
 # --- S1002 ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("s, f", [(0.0, 0.0), (60.0, -2.636), (-55.0, 28.0), (-70.0, 9.519),
-                                  (-35.0, 6.867)])
+@pytest.mark.parametrize("s, f", [(0.0, 0.0), (60.0, -2.636), (-55.0, 28.0), (-70.0, 9.519), (-35.0, 6.867)])
 def test_s1002_published_values(s, f):
     assert s1002_radius(s) == pytest.approx(f, abs=ROUNDED)
 
@@ -151,8 +158,12 @@ def simpack_text(kind: str, points_mm, flags: dict, header: bool = True) -> str:
     y, z = y - flags.get("shift.y", 0.0), z - flags.get("shift.z", 0.0)
     lines = ["! a profile written by tests/test_profiles.py"]
     if header:
-        lines += ["header.begin", "  version = 1", f"  type = {1 if kind == 'wheel' else 0}  ! 0 rail, 1 wheel",
-                  "header.end"]
+        lines += [
+            "header.begin",
+            "  version = 1",
+            f"  type = {1 if kind == 'wheel' else 0}  ! 0 rail, 1 wheel",
+            "header.end",
+        ]
     lines += ["spline.begin", "  approx.smooth = 0"]
     lines += [f"  {key} = {value!r}" for key, value in flags.items()]
     lines += ["  point.begin", "    ! y z"]
@@ -174,8 +185,15 @@ FLAG_CASES = [
     {"shift.y": 0.004, "shift.z": -0.0015},
     {"rotate": 0.05},
     {"rotate": 2.5, "units.ang.f": 180 / math.pi},  # degrees
-    {"units.len.f": 1000.0, "mirror.y": 1, "mirror.z": 1, "inversion": 1, "shift.y": 3.0, "shift.z": 1.0,
-     "rotate": -0.02},
+    {
+        "units.len.f": 1000.0,
+        "mirror.y": 1,
+        "mirror.z": 1,
+        "inversion": 1,
+        "shift.y": 3.0,
+        "shift.z": 1.0,
+        "rotate": -0.02,
+    },
 ]
 
 
@@ -194,15 +212,22 @@ def test_simpack_flags_are_honoured(kind, flags, tmp_path):
     assert got.y[0] == pytest.approx(exact.y[0], abs=1e-12) and got.y[-1] == pytest.approx(exact.y[-1], abs=1e-12)
     # Inversion alone only reorders the points; the 60E1 head is symmetric, mirror.y leaves it so.
     if flags and set(flags) != {"inversion"} and not (kind == "rail" and set(flags) == {"mirror.y"}):
-        path.write_text(simpack_text(kind, points, flags).replace("  rotate", "  ! rotate")
-                        .replace("  shift", "  ! shift").replace("  mirror", "  ! mirror")
-                        .replace("  units.len.f", "  ! units.len.f"))
+        path.write_text(
+            simpack_text(kind, points, flags)
+            .replace("  rotate", "  ! rotate")
+            .replace("  shift", "  ! shift")
+            .replace("  mirror", "  ! mirror")
+            .replace("  units.len.f", "  ! units.len.f")
+        )
         try:
             ignored = read_profile(path)
         except ProfileError:
             return  # without its flags the file is no profile at all (wrong units)
-        assert (len(ignored.y) != len(got.y) or np.max(np.abs(ignored.y - got.y)) > 1e-6
-                or np.max(np.abs(ignored.z - got.z)) > 1e-6)
+        assert (
+            len(ignored.y) != len(got.y)
+            or np.max(np.abs(ignored.y - got.y)) > 1e-6
+            or np.max(np.abs(ignored.z - got.z)) > 1e-6
+        )
 
 
 def test_shipped_example_files_read_to_the_standard_profiles():
@@ -260,6 +285,7 @@ def test_bad_simpack_files_are_refused_on_one_line_naming_file_and_line(tmp_path
         k = next(i for i, line in enumerate(lines) if "point.begin" in line) + 5
         lines[k] = "    -12.5 abc"
         return "\n".join(lines)
+
     path = wheel_file(tmp_path, garble)
     refused(path, rf"line {line_of(path, 'abc')}: expected two numbers y z .* got '-12.5 abc'")
 
@@ -267,6 +293,7 @@ def test_bad_simpack_files_are_refused_on_one_line_naming_file_and_line(tmp_path
         head, rest = text.split("! y z\n")
         points, tail = rest.split("  point.end")
         return head + "! y z\n" + points.splitlines()[0] + "\n  point.end" + tail
+
     path = wheel_file(tmp_path, one_point)
     refused(path, rf"line {line_of(path, 'point.begin')}: 1 point\(s\) between point.begin .* at least 2")
 
@@ -275,6 +302,7 @@ def test_bad_simpack_files_are_refused_on_one_line_naming_file_and_line(tmp_path
         k = next(i for i, line in enumerate(lines) if "point.begin" in line) + 4
         lines.insert(k + 1, lines[k])
         return "\n".join(lines)
+
     path = wheel_file(tmp_path, duplicate)
     first = line_of(path, "point.begin") + 4  # the line copied: the third point
     refused(path, rf"line {first + 1}: y = .* the same y as the point on line {first}")
@@ -332,23 +360,26 @@ def test_cli_writes_the_standard_profiles(name, kind, tmp_path, capsys):
 
 def test_cli_converts_a_simpack_file(tmp_path, capsys):
     csv = tmp_path / "wheel.csv"
-    status, out, err = run(["profile", DATA / "s1002.prw", "-o", csv], capsys)
+    status, _out, err = run(["profile", DATA / "s1002.prw", "-o", csv], capsys)
     assert status == 0, err
     assert read_profile(csv).kind == "wheel" and not (tmp_path / "wheel.png").exists()
 
 
-@pytest.mark.parametrize("argv, pattern", [
-    (["profile", "s1003", "-o", "{tmp}/p.csv"], r"s1003: not s1002, 60e1 or a profile file"),
-    (["profile", "{tmp}/missing.prr", "-o", "{tmp}/p.csv"], r"missing.prr: cannot read it"),
-    (["profile", "{tmp}/bad.prw", "-o", "{tmp}/p.csv", "--png", "{tmp}/p.png"], r"bad.prw: no point.begin line"),
-    (["profile", "{tmp}/bad.prw", "-o", "{tmp}/bad.prw"], r"-o .*bad.prw: would overwrite the profile file"),
-    (["profile", "s1002", "-o", "{tmp}"], r"is a directory"),
-    (["profile", "s1002", "-o", "-", "--png", "-"], r"standard output already takes -o"),
-    (["profile", "s1002", "-o", "{tmp}/p.csv", "--kind", "rail"], r"--kind rail, but it is a wheel profile"),
-])
+@pytest.mark.parametrize(
+    "argv, pattern",
+    [
+        (["profile", "s1003", "-o", "{tmp}/p.csv"], r"s1003: not s1002, 60e1 or a profile file"),
+        (["profile", "{tmp}/missing.prr", "-o", "{tmp}/p.csv"], r"missing.prr: cannot read it"),
+        (["profile", "{tmp}/bad.prw", "-o", "{tmp}/p.csv", "--png", "{tmp}/p.png"], r"bad.prw: no point.begin line"),
+        (["profile", "{tmp}/bad.prw", "-o", "{tmp}/bad.prw"], r"-o .*bad.prw: would overwrite the profile file"),
+        (["profile", "s1002", "-o", "{tmp}"], r"is a directory"),
+        (["profile", "s1002", "-o", "-", "--png", "-"], r"standard output already takes -o"),
+        (["profile", "s1002", "-o", "{tmp}/p.csv", "--kind", "rail"], r"--kind rail, but it is a wheel profile"),
+    ],
+)
 def test_cli_refuses_bad_input_with_one_line_and_exit_2(argv, pattern, tmp_path, capsys):
     (tmp_path / "bad.prw").write_text("header.begin\nheader.end\n")
-    status, out, err = run([a.replace("{tmp}", str(tmp_path)) for a in argv], capsys)
+    status, _out, err = run([a.replace("{tmp}", str(tmp_path)) for a in argv], capsys)
     assert status == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("rail-mj: error: ")

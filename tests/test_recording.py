@@ -7,17 +7,32 @@ import math
 import numpy as np
 import pyarrow as pa
 import pytest
+from conftest import BOGIE_FRAME, MODELS, WHEELSET
 from rerun.chunk import RrdReader
 
-from conftest import BOGIE_FRAME, MODELS, WHEELSET
 from rail_mj.analysis import flange_strikes, late_motion, oscillation
 from rail_mj.cli import main
 from rail_mj.layout import layout_from_dict, load_layout
-from rail_mj.vehicle.model import Vehicle
-from rail_mj.output.recording import (DISTANCE, FLANGE_EVENTS, FLOOR_RATE, SAMPLES_PER_CYCLE, TIME, axis_range,
-                               flange_path, frame_lateral_path, frame_yaw_path, guiding_path, lateral_path,
-                               plots, recorded_samples, recording_rate, write_recording, yaw_path)
+from rail_mj.output.recording import (
+    DISTANCE,
+    FLANGE_EVENTS,
+    FLOOR_RATE,
+    SAMPLES_PER_CYCLE,
+    TIME,
+    axis_range,
+    flange_path,
+    frame_lateral_path,
+    frame_yaw_path,
+    guiding_path,
+    lateral_path,
+    plots,
+    recorded_samples,
+    recording_rate,
+    write_recording,
+    yaw_path,
+)
 from rail_mj.simulation.runner import Run, simulate
+from rail_mj.vehicle.model import Vehicle
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
 
@@ -67,25 +82,40 @@ def co_co() -> dict:
         "primary": {"lateral_stiffness": 7.768e6, "yaw_stiffness": 62.78e6, "lateral_damping": 4e3},
         "bogie": {**BOGIE_FRAME, "wheelset_positions": [2.0, 0.0, -2.0]},
         "secondary": {"lateral_stiffness": 320e3, "yaw_stiffness": 320e3, "lateral_damping": 64e3},
-        "carbody": {"fixed": False, "mass": 32000.0, "inertia": [56800.0, 1.97e6, 1.97e6],
-                    "bogie_positions": [5.0, -5.0]},
+        "carbody": {
+            "fixed": False,
+            "mass": 32000.0,
+            "inertia": [56800.0, 1.97e6, 1.97e6],
+            "bogie_positions": [5.0, -5.0],
+        },
     }
 
 
 def test_recording_holds_the_run_in_mm_mrad_and_kn(tmp_path):
-    run = simulate(load_layout(MODELS / "bogie" / "bogie.toml"), speed=25.0, distance=30.0,
-                   initial_lateral=0.002, initial_yaw=0.0005)
+    run = simulate(
+        load_layout(MODELS / "bogie" / "bogie.toml"),
+        speed=25.0,
+        distance=30.0,
+        initial_lateral=0.002,
+        initial_yaw=0.0005,
+    )
     path = write_recording(run, tmp_path / "bogie.rrd", rate=math.inf)  # every sample
     series = read_series(path)
     # The shipped bogie has flange contact; its car body is fixed: only the bogie frame moves.
     assert run.frame_names == ("bogie1",)
-    assert set(series) == ({lateral_path(i) for i in range(2)} | {yaw_path(i) for i in range(2)}
-                           | {guiding_path(i) for i in range(2)} | {flange_path(i) for i in range(2)}
-                           | {"/lateral/bogie1", "/yaw/bogie1"})
+    assert set(series) == (
+        {lateral_path(i) for i in range(2)}
+        | {yaw_path(i) for i in range(2)}
+        | {guiding_path(i) for i in range(2)}
+        | {flange_path(i) for i in range(2)}
+        | {"/lateral/bogie1", "/yaw/bogie1"}
+    )
     forces = run.contact_forces()
     assert np.max(np.abs(forces.lateral)) > 0
-    expected = {frame_lateral_path("bogie1"): run.frame_y[:, 0] * 1000,
-                frame_yaw_path("bogie1"): run.frame_psi[:, 0] * 1000}
+    expected = {
+        frame_lateral_path("bogie1"): run.frame_y[:, 0] * 1000,
+        frame_yaw_path("bogie1"): run.frame_psi[:, 0] * 1000,
+    }
     for i in range(run.n_wheelsets):
         expected[lateral_path(i)] = run.y[:, i] * 1000  # mm
         expected[yaw_path(i)] = run.psi[:, i] * 1000  # mrad
@@ -171,7 +201,7 @@ def test_decimated_recording_keeps_the_flange_strikes(tmp_path):
     path = write_recording(run, tmp_path / "coach.rrd")
     keep = recorded_samples(run)
     assert len(keep) < len(run.t) / 2
-    t, dist, values = read_series(path)[lateral_path(0)]
+    t, _dist, values = read_series(path)[lateral_path(0)]
     np.testing.assert_array_equal(values, run.y[keep, 0] * 1000)
     np.testing.assert_allclose(t, run.t[keep], atol=1e-9)
     np.testing.assert_allclose(np.diff(t[:-1]), 1.0 / rate, rtol=1e-6)
@@ -223,9 +253,11 @@ def test_table_columns(tmp_path):
     run = simulate(load_layout(COACH), speed=40.0, distance=10.0, initial_lateral=0.002)
     names, values = run.table()
     n = run.n_wheelsets
-    assert names[:2 + 2 * n] == ["t", "x"] + [f"{q}{i + 1}" for i in range(n) for q in ("y", "psi")]
-    assert names[2 + 2 * n:] == ([f"{q}{i + 1}" for i in range(n) for q in ("sum_y", "flange")]
-                                 + ["y_bogie1", "psi_bogie1", "y_bogie2", "psi_bogie2", "y_carbody", "psi_carbody"])
+    assert names[: 2 + 2 * n] == ["t", "x"] + [f"{q}{i + 1}" for i in range(n) for q in ("y", "psi")]
+    assert names[2 + 2 * n :] == (
+        [f"{q}{i + 1}" for i in range(n) for q in ("sum_y", "flange")]
+        + ["y_bogie1", "psi_bogie1", "y_bogie2", "psi_bogie2", "y_carbody", "psi_carbody"]
+    )
     column = dict(zip(names, values.T))
     forces = run.contact_forces()
     np.testing.assert_array_equal(column["y3"], run.y[:, 2])
@@ -265,8 +297,12 @@ def test_recording_moves_the_vehicle_along_the_track(tmp_path):
             t = batch.column(TIME).cast(pa.int64()).to_numpy() / 1e9
             xyz = np.array([v[0] for v in batch.column("Transform3D:translation").to_pylist()])
             poses[chunk.entity_path] = xyz[np.argsort(t, kind="stable")]
-    assert set(poses) == {"/world/vehicle/carbody", "/world/vehicle/bogie1",
-                          "/world/vehicle/wheelset1", "/world/vehicle/wheelset2"}
+    assert set(poses) == {
+        "/world/vehicle/carbody",
+        "/world/vehicle/bogie1",
+        "/world/vehicle/wheelset1",
+        "/world/vehicle/wheelset2",
+    }
     # Rerun stores translations as float32: relative resolution 2^-24 = 6e-8.
     f32 = 2.0**-23
     for i, x_w in enumerate(layout.wheelset_x):
@@ -285,11 +321,19 @@ def test_spatial_recording_plots_roll_bounce_and_wheel_loads(tmp_path):
     narrower than 0.1 mm (its round-off, 6e-4 mm, would fill a tighter one)."""
     from rail_mj.output.recording import frame_bounce_path, frame_roll_path, quotient_path, wheel_load_path
 
-    run = simulate(load_layout(MODELS.parent / "tests" / "data" / "manchester-coach-spatial.toml"), speed=40.0,
-                   distance=30.0, initial_lateral=0.002)
+    run = simulate(
+        load_layout(MODELS.parent / "tests" / "data" / "manchester-coach-spatial.toml"),
+        speed=40.0,
+        distance=30.0,
+        initial_lateral=0.002,
+    )
     shown = {p.title: p for p in plots(run)}
-    assert {"Bogies, car body: roll φ (mrad)", "Bogies, car body: bounce z (mm)", "Wheels: vertical load Q (kN)",
-            "Wheels: derailment quotient Y/Q (limit 0.8)"} <= set(shown)
+    assert {
+        "Bogies, car body: roll φ (mrad)",
+        "Bogies, car body: bounce z (mm)",
+        "Wheels: vertical load Q (kN)",
+        "Wheels: derailment quotient Y/Q (limit 0.8)",
+    } <= set(shown)
     q_plot = shown["Wheels: vertical load Q (kN)"]
     assert axis_range([s.values for s in q_plot.series], q_plot.floor, q_plot.positive)[0] == 0.0
     bounce = shown["Bogies, car body: bounce z (mm)"]

@@ -6,15 +6,23 @@ import json
 
 import numpy as np
 import pytest
-
 from conftest import MODELS, SHIPPED, free_truck
-from rail_mj.simulation import native
+
 from rail_mj.cli import main
-from rail_mj.simulation.callback import CreepForces
 from rail_mj.layout import load_layout
+from rail_mj.simulation import native
+from rail_mj.simulation.callback import CreepForces
+from rail_mj.simulation.runner import (
+    MAX_TIMESTEP,
+    STEP_FRACTION,
+    Request,
+    RunRefused,
+    SimulationError,
+    simulate,
+    simulate_many,
+    stable_timestep,
+)
 from rail_mj.vehicle.model import Vehicle
-from rail_mj.simulation.runner import (MAX_TIMESTEP, STEP_FRACTION, Request, RunRefused, SimulationError,
-                            simulate, simulate_many, stable_timestep)
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
 WHEELSET = MODELS / "wheelset" / "wheelset.toml"
@@ -37,8 +45,11 @@ def test_timestep_is_chosen_from_layout_and_speed(speed):
     vehicle = Vehicle(layout)
     dt = stable_timestep(vehicle, CreepForces(vehicle.model, vehicle.wheelset_names, speed))
     w, c, p = layout.wheelset, layout.creep, layout.primary
-    rates = [2 * c.f22 / (w.mass * speed), 2 * c.f11 * w.contact_half_spacing**2 / (w.inertia[2] * speed),
-             (p.yaw_stiffness / w.inertia[2]) ** 0.5]
+    rates = [
+        2 * c.f22 / (w.mass * speed),
+        2 * c.f11 * w.contact_half_spacing**2 / (w.inertia[2] * speed),
+        (p.yaw_stiffness / w.inertia[2]) ** 0.5,
+    ]
     # These diagonal rates are the fastest eigenvalues to within the coupling between
     # lateral, yaw and the frame (a few %): the step fits them, and is not needlessly small.
     assert dt <= MAX_TIMESTEP
@@ -105,29 +116,41 @@ def test_hunting_without_flange_contact_stops_with_a_reason():
 
 
 def test_three_axle_bogie_runs():
-    run = simulate(free_truck([1.8, 0.0, -1.8], primary=5e6), speed=20.0, distance=20.0,
-                   initial_lateral=0.002)
+    run = simulate(free_truck([1.8, 0.0, -1.8], primary=5e6), speed=20.0, distance=20.0, initial_lateral=0.002)
     assert run.y.shape[1] == 3 and np.all(np.isfinite(run.y))
 
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
 def test_cli_run_writes_csv_and_json_summary(layout_path, tmp_path, capsys):
     out = tmp_path / "run.csv"
-    status = main(["run", str(layout_path), "--speed", "30", "--distance", "25",
-                   "--initial-lateral", "0.003", "--out", str(out), "--json"])
+    status = main(
+        [
+            "run",
+            str(layout_path),
+            "--speed",
+            "30",
+            "--distance",
+            "25",
+            "--initial-lateral",
+            "0.003",
+            "--out",
+            str(out),
+            "--json",
+        ]
+    )
     assert status == 0
     result = json.loads(capsys.readouterr().out)
     layout = load_layout(layout_path)
     n = layout.n_wheelsets
     header = out.read_text().splitlines()[0].split(",")
     # t, x, y1, psi1, ... first; the forces and the frames' motion after them (test_recording).
-    assert header[:2 + 2 * n] == ["t", "x"] + [f"{k}{i}" for i in range(1, n + 1) for k in ("y", "psi")]
+    assert header[: 2 + 2 * n] == ["t", "x"] + [f"{k}{i}" for i in range(1, n + 1) for k in ("y", "psi")]
     data = np.loadtxt(out, delimiter=",", skiprows=1)
     run = simulate(layout, speed=30.0, distance=25.0, initial_lateral=0.003)
     # %.10g in the CSV: 10 significant figures.
     np.testing.assert_allclose(data[:, 0], run.t, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(data[:, 2:2 + 2 * n:2], run.y, rtol=1e-9, atol=1e-15)
-    np.testing.assert_allclose(data[:, 3:3 + 2 * n:2], run.psi, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(data[:, 2 : 2 + 2 * n : 2], run.y, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(data[:, 3 : 3 + 2 * n : 2], run.psi, rtol=1e-9, atol=1e-15)
     assert data[0, 2] == 0.003
     assert len(result["wheelsets"]) == n
     for w in result["wheelsets"]:
@@ -138,8 +161,7 @@ def test_cli_run_writes_csv_and_json_summary(layout_path, tmp_path, capsys):
 
 def test_cli_reports_divergence_in_one_line_and_writes_nothing(tmp_path, capsys):
     out, rrd = tmp_path / "run.csv", tmp_path / "run.rrd"
-    status = main(["run", str(WHEELSET), "--speed", "75", "--distance", "3000",
-                   "--out", str(out), "--rrd", str(rrd)])
+    status = main(["run", str(WHEELSET), "--speed", "75", "--distance", "3000", "--out", str(out), "--rrd", str(rrd)])
     err = capsys.readouterr().err
     assert status == 3
     assert len(err.strip().splitlines()) == 1 and "left the rails" in err
@@ -158,8 +180,9 @@ def test_a_failed_output_takes_the_other_with_it(tmp_path, capsys):
     """Both outputs or neither: --rrd into a place no file can be made (/proc) fails
     after the CSV was staged, and the CSV must not appear."""
     out = tmp_path / "run.csv"
-    status = main(["run", str(WHEELSET), "--speed", "30", "--distance", "5", "--out", str(out),
-                   "--rrd", "/proc/run.rrd"])
+    status = main(
+        ["run", str(WHEELSET), "--speed", "30", "--distance", "5", "--out", str(out), "--rrd", "/proc/run.rrd"]
+    )
     err = capsys.readouterr().err.strip()
     assert status == 2 and len(err.splitlines()) == 1
     assert "/proc/run.rrd" in err and ".tmp" not in err
@@ -179,14 +202,20 @@ def _same_outcome(a, b) -> bool:
     """Two results of a run alike bit for bit: Runs (every array, the final state), or
     exceptions of one type and message with the same partial run."""
     if isinstance(a, Exception) or isinstance(b, Exception):
-        return (type(a) is type(b) and str(a) == str(b)
-                and (getattr(a, "run", None) is None) == (getattr(b, "run", None) is None)
-                and (getattr(a, "run", None) is None or _same_outcome(a.run, b.run)))
+        return (
+            type(a) is type(b)
+            and str(a) == str(b)
+            and (getattr(a, "run", None) is None) == (getattr(b, "run", None) is None)
+            and (getattr(a, "run", None) is None or _same_outcome(a.run, b.run))
+        )
     arrays = ("t", "body_pos", "body_quat", "wheelset_rates")
-    return (a.speed == b.speed and a.timestep == b.timestep
-            and all(np.array_equal(getattr(a, name), getattr(b, name)) for name in arrays)
-            and (a.final_state is None) == (b.final_state is None)
-            and (a.final_state is None or all(np.array_equal(x, y) for x, y in zip(a.final_state, b.final_state))))
+    return (
+        a.speed == b.speed
+        and a.timestep == b.timestep
+        and all(np.array_equal(getattr(a, name), getattr(b, name)) for name in arrays)
+        and (a.final_state is None) == (b.final_state is None)
+        and (a.final_state is None or all(np.array_equal(x, y) for x, y in zip(a.final_state, b.final_state)))
+    )
 
 
 def test_many_runs_together_are_each_the_run_alone():
@@ -197,18 +226,27 @@ def test_many_runs_together_are_each_the_run_alone():
     coach, wheelset = load_layout(COACH), load_layout(WHEELSET)
     blown_up = np.zeros(14)
     blown_up[1] = 1e150  # a car-body yaw rate that overflows: diverged, in a pack, then alone
-    requests = ([Request(coach, speed, 60.0, 0.002) for speed in np.linspace(20.0, 100.0, 21)]
-                + [Request(wheelset, 75.0, 200.0, 0.002), Request(wheelset, 40.0, 30.0, 0.001, 0.0005),
-                   Request(coach, 50.0, 20.0, state=(np.zeros(14), blown_up)), Request(coach, -1.0, 10.0),
-                   Request(free_truck([1.8, 0.0, -1.8], primary=5e6), 20.0, 20.0, 0.002)])
+    requests = [Request(coach, speed, 60.0, 0.002) for speed in np.linspace(20.0, 100.0, 21)] + [
+        Request(wheelset, 75.0, 200.0, 0.002),
+        Request(wheelset, 40.0, 30.0, 0.001, 0.0005),
+        Request(coach, 50.0, 20.0, state=(np.zeros(14), blown_up)),
+        Request(coach, -1.0, 10.0),
+        Request(free_truck([1.8, 0.0, -1.8], primary=5e6), 20.0, 20.0, 0.002),
+    ]
     told = {}
     many = simulate_many(requests, threads=2, finished=lambda k, result, seconds: told.setdefault(k, result))
     assert sorted(told) == list(range(len(requests))) and all(told[k] is many[k] for k in told)
     kinds = set()
     for request, result in zip(requests, many):
         try:
-            alone = simulate(request.layout, request.speed, request.distance, request.initial_lateral,
-                             request.initial_yaw, state=request.state)
+            alone = simulate(
+                request.layout,
+                request.speed,
+                request.distance,
+                request.initial_lateral,
+                request.initial_yaw,
+                state=request.state,
+            )
         except (ValueError, SimulationError) as e:
             alone = e
         assert _same_outcome(result, alone), request

@@ -3,16 +3,24 @@ above mu*N, continuous; and a saturating vehicle keeps every linear result."""
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
-
 import tomllib
 
+import numpy as np
+import pytest
 from conftest import linear_text
-from rail_mj.contact.creep import (LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactParameters, contact_forces,
-                           falling_friction, saturation, wheelset_forces)
-from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
+
 from rail_mj.analysis.stability import Stability
+from rail_mj.contact.creep import (
+    LINEAR,
+    POLACH,
+    SHEN_HEDRICK_ELKINS,
+    ContactParameters,
+    contact_forces,
+    falling_friction,
+    saturation,
+    wheelset_forces,
+)
+from rail_mj.layout import GRAVITY, LayoutError, layout_from_dict, load_layout
 
 LIMIT = 0.3 * 50e3  # mu*N, N
 
@@ -49,18 +57,16 @@ def test_the_linear_law_is_unchanged():
 
 @pytest.mark.parametrize("law", [SHEN_HEDRICK_ELKINS, POLACH])
 def test_wheelset_forces_are_bounded_by_two_wheels_of_friction(law):
-    p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, f11=10e6, f22=9e6,
-                                    friction_limit=LIMIT, law=law)
+    p = ContactParameters.broadcast(1, r0=0.46, b=0.75, conicity=0.15, f11=10e6, f22=9e6, friction_limit=LIMIT, law=law)
     for y_dot in (0.1, 1.0, 10.0):  # lateral slip of 0.3 % to 30 % at 30 m/s
-        fy, mz = wheelset_forces(p, np.zeros(1), np.zeros(1), np.array([y_dot]), np.zeros(1), 30.0)
+        fy, _mz = wheelset_forces(p, np.zeros(1), np.zeros(1), np.array([y_dot]), np.zeros(1), 30.0)
         assert abs(fy[0]) <= 2 * LIMIT * (1 + 1e-12)
     # Creepage far past saturation: the lateral force has reached 2*mu*N, pointing against the slip.
     assert fy[0] == pytest.approx(-2 * LIMIT, rel=0.05 if law == SHEN_HEDRICK_ELKINS else 0.1)
 
 
 def saturating(tmp_path, law: str):
-    text = linear_text("manchester-coach").replace(
-        "f33 = 0.0\n", f'f33 = 0.0\nlaw = "{law}"\nfriction = 0.3\n')
+    text = linear_text("manchester-coach").replace("f33 = 0.0\n", f'f33 = 0.0\nlaw = "{law}"\nfriction = 0.3\n')
     path = tmp_path / f"{law}.toml"
     path.write_text(text)
     return load_layout(path)
@@ -79,19 +85,28 @@ def test_saturation_keeps_the_linear_critical_speed(law, tmp_path):
     assert saturated.mode == linear.mode
 
 
-@pytest.mark.parametrize("change, fragment", [
-    ('law = "coulomb"', "creep.law: must be one of linear, shen-hedrick-elkins, polach"),
-    ('law = "polach"', "creep.friction: missing"),
-    ('law = "polach"\nfriction = 0.0', "creep.friction: must be > 0"),
-    ('law = "shen-hedrick-elkins"\nfriction = 0.3\nfalling_friction_ratio = 0.4',
-     "creep.falling_friction_ratio: falling friction belongs to the polach law"),
-    ('law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 0.4', "creep.falling_friction_rate: missing"),
-    ('law = "polach"\nfriction = 0.3\nfalling_friction_rate = 0.6', "creep.falling_friction_ratio: missing"),
-    ('law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 1.5\nfalling_friction_rate = 0.6',
-     "creep.falling_friction_ratio: must be <= 1"),
-    ('law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 0.4\nfalling_friction_rate = -1',
-     "creep.falling_friction_rate: must be > 0"),
-])
+@pytest.mark.parametrize(
+    "change, fragment",
+    [
+        ('law = "coulomb"', "creep.law: must be one of linear, shen-hedrick-elkins, polach"),
+        ('law = "polach"', "creep.friction: missing"),
+        ('law = "polach"\nfriction = 0.0', "creep.friction: must be > 0"),
+        (
+            'law = "shen-hedrick-elkins"\nfriction = 0.3\nfalling_friction_ratio = 0.4',
+            "creep.falling_friction_ratio: falling friction belongs to the polach law",
+        ),
+        ('law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 0.4', "creep.falling_friction_rate: missing"),
+        ('law = "polach"\nfriction = 0.3\nfalling_friction_rate = 0.6', "creep.falling_friction_ratio: missing"),
+        (
+            'law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 1.5\nfalling_friction_rate = 0.6',
+            "creep.falling_friction_ratio: must be <= 1",
+        ),
+        (
+            'law = "polach"\nfriction = 0.3\nfalling_friction_ratio = 0.4\nfalling_friction_rate = -1',
+            "creep.falling_friction_rate: must be > 0",
+        ),
+    ],
+)
 def test_bad_creep_laws(change, fragment, tmp_path):
     text = linear_text("bogie").replace("f22 = 9.0e6\n", f"f22 = 9.0e6\n{change}\n")
     path = tmp_path / "bad.toml"
@@ -101,11 +116,10 @@ def test_bad_creep_laws(change, fragment, tmp_path):
 
 
 def test_a_fixed_body_needs_a_wheel_load_for_saturation(tmp_path):
-    text = linear_text("bogie").replace(
-        "f22 = 9.0e6\n", 'f22 = 9.0e6\nlaw = "polach"\nfriction = 0.3\n')
+    text = linear_text("bogie").replace("f22 = 9.0e6\n", 'f22 = 9.0e6\nlaw = "polach"\nfriction = 0.3\n')
     path = tmp_path / "bad.toml"
     path.write_text(text)
-    with pytest.raises(LayoutError, match="wheelset.wheel_load: missing"):
+    with pytest.raises(LayoutError, match=r"wheelset\.wheel_load: missing"):
         load_layout(path)
     path.write_text(text.replace("conicity = 0.15\n", "conicity = 0.15\nwheel_load = 55e3\n"))
     assert load_layout(path).wheelset.wheel_load == 55e3
@@ -133,7 +147,7 @@ def test_falling_friction_keeps_kalkers_slope_and_falls_to_its_floor():
     peak = int(np.argmax(force))
     assert 0 < peak < len(slips) - 1  # it rises, then falls: falling friction
     rounding = 1e-12 * LIMIT
-    assert np.all(np.diff(force[:peak + 1]) >= -rounding) and np.all(np.diff(force[peak:]) <= rounding)
+    assert np.all(np.diff(force[: peak + 1]) >= -rounding) and np.all(np.diff(force[peak:]) <= rounding)
     # Far past saturation the force is the floor's friction, 2 * A * mu0 * N: Polach's
     # law is then 1 - O(1/eps^3) of its limit, eps ~ 3e3 here, and exp(-B*w) ~ 2e-16.
     assert force[-1] == pytest.approx(2 * 0.4 * LIMIT, rel=1e-9)
@@ -144,8 +158,9 @@ def test_falling_friction_keeps_kalkers_slope_and_falls_to_its_floor():
 def test_without_falling_friction_polach_is_unchanged():
     slips = np.linspace(0.0, 0.05, 101)
     constant = lateral_force_against_slip(30.0, slips, friction_limit=LIMIT, law=POLACH)
-    flat = lateral_force_against_slip(30.0, slips, friction_limit=LIMIT, law=POLACH,
-                                      falling_friction_ratio=1.0, falling_friction_rate=0.6)
+    flat = lateral_force_against_slip(
+        30.0, slips, friction_limit=LIMIT, law=POLACH, falling_friction_ratio=1.0, falling_friction_rate=0.6
+    )
     assert np.array_equal(constant, flat)
 
 
@@ -153,8 +168,9 @@ def test_falling_friction_keeps_the_linear_critical_speed(tmp_path):
     """The friction only falls with slip, away from the centred state: the linearised
     vehicle, and so the eigen critical speed, are those of the linear law."""
     text = linear_text("manchester-coach").replace(
-        "f33 = 0.0\n", 'f33 = 0.0\nlaw = "polach"\nfriction = 0.3\n'
-                       'falling_friction_ratio = 0.4\nfalling_friction_rate = 0.6\n')
+        "f33 = 0.0\n",
+        'f33 = 0.0\nlaw = "polach"\nfriction = 0.3\nfalling_friction_ratio = 0.4\nfalling_friction_rate = 0.6\n',
+    )
     path = tmp_path / "falling.toml"
     path.write_text(text)
     linear = Stability(layout_from_dict(tomllib.loads(linear_text("manchester-coach")))).critical_speed()
@@ -168,11 +184,18 @@ def test_spin_moment_saturates_with_the_forces(law):
     Near zero creepage the moment is Kalker's; sliding sideways (xi_y alone) the moment
     f23*xi_y and the force -f22*xi_y saturate together, so the moment stays f23/f22 times
     the lateral force at every slip, and under 2*mu*N*f23/f22."""
-    coefficients = dict(r0=0.46, b=0.75, conicity=0.15, f11=14.3e6, f22=13.1e6, f23=36.5e3, f33=121.0,
-                        friction_limit=LIMIT, law=law)
+    coefficients = dict(
+        r0=0.46, b=0.75, conicity=0.15, f11=14.3e6, f22=13.1e6, f23=36.5e3, f33=121.0, friction_limit=LIMIT, law=law
+    )
     zero = np.zeros(1)
-    small = contact_forces(ContactParameters.broadcast(1, **coefficients), zero, zero,
-                           np.array([1e-9 * 30.0]), np.array([1e-9 * 30.0 / 0.75]), 30.0)
+    small = contact_forces(
+        ContactParameters.broadcast(1, **coefficients),
+        zero,
+        zero,
+        np.array([1e-9 * 30.0]),
+        np.array([1e-9 * 30.0 / 0.75]),
+        30.0,
+    )
     linear = 2 * (36.5e3 * 1e-9 - 121.0 * 1e-9 / 0.75)  # xi_y = 1e-9, xi_sp = psi_dot/V
     assert small.spin_moment[0] == pytest.approx(linear, rel=1e-6)  # SHE's 1 - u/3, u ~ 1e-6
     slips = np.geomspace(1e-6, 1.0, 61)
@@ -187,8 +210,9 @@ def test_pure_spin_is_kalkers(law):
     """A yawing wheelset displaced so that its rolling-radius difference exactly feeds its
     yaw rate (xi_x = 0 on both wheels, lam*y/r0 = -b*psi'/V) has no tangential force, so
     nothing saturates: the spin moment is Kalker's -2*f33*xi_sp, with no jump at zero force."""
-    p = ContactParameters.broadcast(1, r0=0.5, b=0.75, conicity=0.125, f11=14.3e6, f22=13.1e6,
-                                    f33=121.0, friction_limit=LIMIT, law=law)
+    p = ContactParameters.broadcast(
+        1, r0=0.5, b=0.75, conicity=0.125, f11=14.3e6, f22=13.1e6, f33=121.0, friction_limit=LIMIT, law=law
+    )
     psi_dot, speed = 0.1, 30.0
     y = -0.75 * psi_dot * 0.5 / (speed * 0.125)  # exact in binary: the creepages cancel to 0
     zero = np.zeros(1)

@@ -7,12 +7,12 @@ planar layout is refused spatial elements (and the reverse) with one line."""
 from __future__ import annotations
 
 import copy
+import tomllib
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
-import tomllib
 from scipy.linalg import eigh
 
 from rail_mj.layout import LayoutError, layout_from_dict
@@ -31,8 +31,11 @@ def point_motion_rows(model, body: str, r, has_vertical: bool) -> list[np.ndarra
     model's dofs: translation + (roll, pitch, yaw) x r (docs/spatial.md); a wheelset (not
     `has_vertical`) only its lateral and yaw."""
     rx, ry, rz = r
-    rows = [{"pitch": rz, "yaw": -ry}, {"lateral": 1.0, "yaw": rx, "roll": -rz},
-            {"vertical": 1.0, "roll": ry, "pitch": -rx}]
+    rows = [
+        {"pitch": rz, "yaw": -ry},
+        {"lateral": 1.0, "yaw": rx, "roll": -rz},
+        {"vertical": 1.0, "roll": ry, "pitch": -rx},
+    ]
     out = []
     for row in rows:
         a = np.zeros(model.nv)
@@ -74,8 +77,9 @@ def hand_stiffness(layout, model, kind="k") -> np.ndarray:
             for s in (1, -1):
                 element((xb + xw, s * e.spacing, e.height), w, frame, e)
         for s in (1, -1):
-            element((xb, s * sp.secondary.spacing, sp.secondary.height), frame, ("carbody", (0, 0, hc), True),
-                    sp.secondary)
+            element(
+                (xb, s * sp.secondary.spacing, sp.secondary.height), frame, ("carbody", (0, 0, hc), True), sp.secondary
+            )
         body = ("carbody", (0, 0, hc), True)
         if kind == "c" and sp.lateral_damper:
             element((xb, 0, sp.lateral_damper.height), frame, body, (0.0, sp.lateral_damper.c, 0.0))
@@ -179,13 +183,12 @@ def closed_forms(layout) -> np.ndarray:
     n = 2 * len(c.bogie_positions)  # springs
     d, h = e.spacing, sp.carbody_height - e.height
     wh = m * G * h if sp.gravity and sp.gravitational_stiffness else 0.0
-    l2 = sum(2 * x ** 2 for x in c.bogie_positions)  # sum over springs of x^2
+    l2 = sum(2 * x**2 for x in c.bogie_positions)  # sum over springs of x^2
     bounce = np.sqrt(n * e.kz / m)
-    pitch = np.sqrt((e.kz * l2 + n * e.kx * h ** 2 - wh) / Iy)
-    yaw = np.sqrt((e.ky * l2 + n * e.kx * d ** 2) / Iz)
-    k_phi = n * e.kz * d ** 2 + len(c.bogie_positions) * (sp.anti_roll_bar or 0.0) - wh
-    sway = eigh(np.diag([n * e.ky, k_phi]), np.array([[m, m * h], [m * h, Ix + m * h * h]]),
-                eigvals_only=True)
+    pitch = np.sqrt((e.kz * l2 + n * e.kx * h**2 - wh) / Iy)
+    yaw = np.sqrt((e.ky * l2 + n * e.kx * d**2) / Iz)
+    k_phi = n * e.kz * d**2 + len(c.bogie_positions) * (sp.anti_roll_bar or 0.0) - wh
+    sway = eigh(np.diag([n * e.ky, k_phi]), np.array([[m, m * h], [m * h, Ix + m * h * h]]), eigvals_only=True)
     return np.sort(np.array([bounce, pitch, yaw, *np.sqrt(sway)]) / (2 * np.pi))
 
 
@@ -203,15 +206,15 @@ def test_springs_at_the_centre_of_mass_uncouple_roll():
     layout = layout_from_dict(data)
     f = carbody_frequencies(Vehicle(layout))
     e, (Ix, Iy, _) = layout.spatial.secondary, layout.carbody.inertia
-    roll = np.sqrt(4 * e.kz * e.spacing ** 2 / Ix) / (2 * np.pi)
-    pitch = np.sqrt(4 * e.kz * 9.5 ** 2 / Iy) / (2 * np.pi)
+    roll = np.sqrt(4 * e.kz * e.spacing**2 / Ix) / (2 * np.pi)
+    pitch = np.sqrt(4 * e.kz * 9.5**2 / Iy) / (2 * np.pi)
     bounce = np.sqrt(4 * e.kz / 32000.0) / (2 * np.pi)
     for expected in (roll, pitch, bounce):
         assert np.min(np.abs(f - expected)) <= 1e-7 * expected
 
 
 def test_gravity_off_leaves_the_stiffness(coach):
-    layout, vehicle = coach
+    _layout, vehicle = coach
     data = copy.deepcopy(SPATIAL)
     data["spatial"]["gravity"] = False
     other = Vehicle(layout_from_dict(data))
@@ -233,8 +236,12 @@ def one_height():
     layout = layout_from_dict(data)
     planar = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("spatial", "primary", "secondary")}
     for key, s in (("primary", layout.primary), ("secondary", layout.secondary)):
-        planar[key] = {"lateral_stiffness": s.lateral_stiffness, "yaw_stiffness": s.yaw_stiffness,
-                       "lateral_damping": s.lateral_damping, "yaw_damping": s.yaw_damping}
+        planar[key] = {
+            "lateral_stiffness": s.lateral_stiffness,
+            "yaw_stiffness": s.yaw_stiffness,
+            "lateral_damping": s.lateral_damping,
+            "yaw_damping": s.yaw_damping,
+        }
     return layout, planar
 
 
@@ -278,23 +285,31 @@ def test_planar_equivalent(coach):
     assert layout.secondary.lateral_damping == 2 * 32e3
 
 
-@pytest.mark.parametrize("edit, message", [
-    (lambda d: d.pop("spatial"), r"primary\.axlebox: needs \[spatial\]"),
-    (lambda d: d["primary"].update(lateral_stiffness=1.0), r"primary\.lateral_stiffness: not used with \[spatial\]"),
-    (lambda d: d["primary"]["axlebox"].pop("kz"), r"primary\.axlebox\.kz: missing"),
-    (lambda d: d["secondary"]["spring"].update(height=-1.0), r"secondary\.spring\.height: must be > 0"),
-    (lambda d: d["secondary"]["spring"].update(spacing=7.0), r"secondary\.spring\.spacing: must be <= 2\.5"),
-    (lambda d: d["spatial"].update(carbody_height=0.5), r"spatial\.carbody_height: must not be below bogie_height"),
-    (lambda d: d["spatial"].update(heigth=0.5), r"spatial\.heigth: unknown key"),
-    (lambda d: d["carbody"].update(fixed=True), r"spatial: needs a free car body"),
-    # kN/m for N/m: a 78 km sag, the car body far below the rail.
-    (lambda d: d["secondary"]["spring"].update(kz=430.0), r"secondary\.spring\.kz: the static deflection"),
-    (lambda d: d["primary"]["axlebox"].update(kz=1220.0), r"primary\.axlebox\.kz: the static deflection"),
-    (lambda d: d.update(bogies={"2": {"axlebox": {"kz": 1.0}}}), r"bogies\.2\.axlebox\.kz: the static deflection"),
-    # m*g*h 1.16 MN m/rad over springs giving 0.155: the body tips over.
-    (lambda d: (d["spatial"].update(carbody_height=4.5), d["secondary"]["spring"].update(spacing=0.3)),
-     r"spatial\.carbody_height: carbody tips over on its springs"),
-])
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda d: d.pop("spatial"), r"primary\.axlebox: needs \[spatial\]"),
+        (
+            lambda d: d["primary"].update(lateral_stiffness=1.0),
+            r"primary\.lateral_stiffness: not used with \[spatial\]",
+        ),
+        (lambda d: d["primary"]["axlebox"].pop("kz"), r"primary\.axlebox\.kz: missing"),
+        (lambda d: d["secondary"]["spring"].update(height=-1.0), r"secondary\.spring\.height: must be > 0"),
+        (lambda d: d["secondary"]["spring"].update(spacing=7.0), r"secondary\.spring\.spacing: must be <= 2\.5"),
+        (lambda d: d["spatial"].update(carbody_height=0.5), r"spatial\.carbody_height: must not be below bogie_height"),
+        (lambda d: d["spatial"].update(heigth=0.5), r"spatial\.heigth: unknown key"),
+        (lambda d: d["carbody"].update(fixed=True), r"spatial: needs a free car body"),
+        # kN/m for N/m: a 78 km sag, the car body far below the rail.
+        (lambda d: d["secondary"]["spring"].update(kz=430.0), r"secondary\.spring\.kz: the static deflection"),
+        (lambda d: d["primary"]["axlebox"].update(kz=1220.0), r"primary\.axlebox\.kz: the static deflection"),
+        (lambda d: d.update(bogies={"2": {"axlebox": {"kz": 1.0}}}), r"bogies\.2\.axlebox\.kz: the static deflection"),
+        # m*g*h 1.16 MN m/rad over springs giving 0.155: the body tips over.
+        (
+            lambda d: (d["spatial"].update(carbody_height=4.5), d["secondary"]["spring"].update(spacing=0.3)),
+            r"spatial\.carbody_height: carbody tips over on its springs",
+        ),
+    ],
+)
 def test_bad_spatial_layouts_fail_with_one_line(edit, message):
     data = copy.deepcopy(SPATIAL)
     edit(data)
@@ -322,10 +337,18 @@ def test_mode_names_at_one_height_are_the_planar_ones(speed):
 # --- the secondary elements besides the springs: dampers, anti-roll bar, bump stop ------------------
 
 # The Manchester benchmark coach's lateral stop: 25 mm free play, then its force table.
-MANCHESTER_STOP = {"free_play": 0.025, "deflection": [0.030, 0.035, 0.040, 0.045, 0.050, 0.055, 0.060, 0.065],
-                   "force": [0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 230e3], "height": 1.0}
-ELEMENTS = {"lateral_damper": {"c": 30e3, "height": 1.1}, "yaw_damper": {"c": 250e3, "spacing": 1.3, "height": 0.9},
-            "anti_roll_bar": {"stiffness": 2.0e6}, "bump_stop": MANCHESTER_STOP}
+MANCHESTER_STOP = {
+    "free_play": 0.025,
+    "deflection": [0.030, 0.035, 0.040, 0.045, 0.050, 0.055, 0.060, 0.065],
+    "force": [0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 230e3],
+    "height": 1.0,
+}
+ELEMENTS = {
+    "lateral_damper": {"c": 30e3, "height": 1.1},
+    "yaw_damper": {"c": 250e3, "spacing": 1.3, "height": 0.9},
+    "anti_roll_bar": {"stiffness": 2.0e6},
+    "bump_stop": MANCHESTER_STOP,
+}
 
 
 def with_elements(**tables) -> dict:
@@ -366,8 +389,9 @@ def test_damping_matrix_is_the_hand_assembled_one(fitted):
     # The planar equivalents carry them: lateral c, yaw 2 c d^2, besides the springs' dampers.
     e, yaw = layout.spatial.secondary, layout.spatial.yaw_damper
     assert layout.secondary.lateral_damping == pytest.approx(2 * e.cy + 30e3, rel=1e-15)
-    assert layout.secondary.yaw_damping == pytest.approx(2 * e.cx * e.spacing ** 2 + 2 * yaw.c * yaw.spacing ** 2,
-                                                         rel=1e-15)
+    assert layout.secondary.yaw_damping == pytest.approx(
+        2 * e.cx * e.spacing**2 + 2 * yaw.c * yaw.spacing**2, rel=1e-15
+    )
 
 
 def test_anti_roll_bar_stiffness_and_sway(fitted):
@@ -399,12 +423,16 @@ def stop_force(stop, d: np.ndarray) -> np.ndarray:
     return np.sign(d) * (np.interp(a, xp, fp) + beyond)
 
 
-@pytest.mark.parametrize("stop", [
-    MANCHESTER_STOP,
-    # a falling slope (a negative deadband stiffness) and no free play (the first spring linear)
-    {"free_play": 0.01, "deflection": [0.02, 0.04, 0.05], "force": [1.0e3, 1.5e3, 9.0e3], "height": 0.7},
-    {"free_play": 0.0, "deflection": [0.01, 0.03], "force": [500.0, 4.0e3], "height": 1.2},
-], ids=["manchester", "falling-slope", "no-play"])
+@pytest.mark.parametrize(
+    "stop",
+    [
+        MANCHESTER_STOP,
+        # a falling slope (a negative deadband stiffness) and no free play (the first spring linear)
+        {"free_play": 0.01, "deflection": [0.02, 0.04, 0.05], "force": [1.0e3, 1.5e3, 9.0e3], "height": 0.7},
+        {"free_play": 0.0, "deflection": [0.01, 0.03], "force": [500.0, 4.0e3], "height": 1.2},
+    ],
+    ids=["manchester", "falling-slope", "no-play"],
+)
 def test_bump_stop_force_is_the_table(stop):
     """The car body moved laterally against the held frames: each frame's lateral passive force is
     its two springs' 2 ky d plus the stop's table force (1e-9 relative, 1e-9 N at zero), within the
@@ -455,38 +483,60 @@ def test_coach_without_the_elements_is_unchanged(coach):
     layout, vehicle = coach
     assert vehicle.model.ntendon == 36
     assert layout.secondary == layout.spatial.secondary.planar()
-    assert (layout.spatial.lateral_damper, layout.spatial.yaw_damper, layout.spatial.anti_roll_bar,
-            layout.spatial.bump_stop) == (None, None, None, None)
+    assert (
+        layout.spatial.lateral_damper,
+        layout.spatial.yaw_damper,
+        layout.spatial.anti_roll_bar,
+        layout.spatial.bump_stop,
+    ) == (None, None, None, None)
 
 
 def _stop(**changes):
     return lambda d: d["secondary"]["bump_stop"].update(changes)
 
 
-@pytest.mark.parametrize("edit, message", [
-    (_stop(deflection=[0.03, 0.04, 0.035, 0.045, 0.05, 0.055, 0.06, 0.065]),
-     r"secondary\.bump_stop\.deflection: must increase strictly"),
-    (_stop(deflection=[0.025, 0.035, 0.04, 0.045, 0.05, 0.055, 0.06, 0.065]),
-     r"secondary\.bump_stop\.deflection: must start beyond free_play \(0\.025 m\)"),
-    (_stop(deflection=[30, 35, 40, 45, 50, 55, 60, 65]), r"secondary\.bump_stop\.deflection: must be <= 0\.5 m"),
-    (_stop(force=[0.6e3, 1.76e3]), r"secondary\.bump_stop\.force: must give one force per deflection"),
-    (_stop(force=[-0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 230e3]),
-     r"secondary\.bump_stop\.force: must be >= 0"),
-    (_stop(force=[0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 20e3]),
-     r"secondary\.bump_stop\.force: must not decrease"),
-    (_stop(free_play=-0.001), r"secondary\.bump_stop\.free_play: must be >= 0"),
-    (_stop(force="230 kN"), r"secondary\.bump_stop\.force: must be a non-empty list"),
-    (_stop(deflection=[0.03, "0.035"]), r"secondary\.bump_stop\.deflection: must hold numbers"),
-    (lambda d: d["secondary"]["bump_stop"].pop("height"), r"secondary\.bump_stop\.height: missing"),
-    (lambda d: d["secondary"]["lateral_damper"].update(c=0.0), r"secondary\.lateral_damper\.c: must be > 0"),
-    (lambda d: d["secondary"]["lateral_damper"].update(spacing=1.0),
-     r"secondary\.lateral_damper\.spacing: unknown key"),
-    (lambda d: d["secondary"]["yaw_damper"].update(spacing=3.0), r"secondary\.yaw_damper\.spacing: must be <= 2\.5"),
-    (lambda d: d["secondary"]["yaw_damper"].update(cc=1.0), r"secondary\.yaw_damper\.cc: unknown key"),
-    (lambda d: d["secondary"]["anti_roll_bar"].update(stiffness=-1.0),
-     r"secondary\.anti_roll_bar\.stiffness: must be > 0"),
-    (lambda d: d["secondary"].update(lateral_dampr={"c": 1.0}), r"secondary\.lateral_dampr: unknown element table"),
-])
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (
+            _stop(deflection=[0.03, 0.04, 0.035, 0.045, 0.05, 0.055, 0.06, 0.065]),
+            r"secondary\.bump_stop\.deflection: must increase strictly",
+        ),
+        (
+            _stop(deflection=[0.025, 0.035, 0.04, 0.045, 0.05, 0.055, 0.06, 0.065]),
+            r"secondary\.bump_stop\.deflection: must start beyond free_play \(0\.025 m\)",
+        ),
+        (_stop(deflection=[30, 35, 40, 45, 50, 55, 60, 65]), r"secondary\.bump_stop\.deflection: must be <= 0\.5 m"),
+        (_stop(force=[0.6e3, 1.76e3]), r"secondary\.bump_stop\.force: must give one force per deflection"),
+        (
+            _stop(force=[-0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 230e3]),
+            r"secondary\.bump_stop\.force: must be >= 0",
+        ),
+        (
+            _stop(force=[0.6e3, 1.76e3, 3.73e3, 6.87e3, 11.58e3, 17.17e3, 29.2e3, 20e3]),
+            r"secondary\.bump_stop\.force: must not decrease",
+        ),
+        (_stop(free_play=-0.001), r"secondary\.bump_stop\.free_play: must be >= 0"),
+        (_stop(force="230 kN"), r"secondary\.bump_stop\.force: must be a non-empty list"),
+        (_stop(deflection=[0.03, "0.035"]), r"secondary\.bump_stop\.deflection: must hold numbers"),
+        (lambda d: d["secondary"]["bump_stop"].pop("height"), r"secondary\.bump_stop\.height: missing"),
+        (lambda d: d["secondary"]["lateral_damper"].update(c=0.0), r"secondary\.lateral_damper\.c: must be > 0"),
+        (
+            lambda d: d["secondary"]["lateral_damper"].update(spacing=1.0),
+            r"secondary\.lateral_damper\.spacing: unknown key",
+        ),
+        (
+            lambda d: d["secondary"]["yaw_damper"].update(spacing=3.0),
+            r"secondary\.yaw_damper\.spacing: must be <= 2\.5",
+        ),
+        (lambda d: d["secondary"]["yaw_damper"].update(cc=1.0), r"secondary\.yaw_damper\.cc: unknown key"),
+        (
+            lambda d: d["secondary"]["anti_roll_bar"].update(stiffness=-1.0),
+            r"secondary\.anti_roll_bar\.stiffness: must be > 0",
+        ),
+        (lambda d: d["secondary"].update(lateral_dampr={"c": 1.0}), r"secondary\.lateral_dampr: unknown element table"),
+    ],
+)
 def test_bad_secondary_elements_fail_with_one_line(edit, message):
     data = with_elements(**ELEMENTS)
     edit(data)
@@ -628,10 +678,13 @@ def test_gravitational_stiffness_is_the_drop_of_the_attachment_points(coach_grav
 
     layout, vehicle = coach_gravitational
     model, data = vehicle.model, mujoco.MjData(vehicle.model)
-    force = {model.tendon(t).name: model.tendon_stiffness[t] * model.tendon_lengthspring[t, 0]
-             for t in range(model.ntendon)}
-    elements = [(force[f"{name}_z"], np.array(point), lower[0], upper[0])
-                for name, point, lower, upper, _ in spatial_elements(layout)]
+    force = {
+        model.tendon(t).name: model.tendon_stiffness[t] * model.tendon_lengthspring[t, 0] for t in range(model.ntendon)
+    }
+    elements = [
+        (force[f"{name}_z"], np.array(point), lower[0], upper[0])
+        for name, point, lower, upper, _ in spatial_elements(layout)
+    ]
     mujoco.mj_kinematics(model, data)
     arm = {b: {} for b in ("carbody", "bogie1", "bogie2")}  # point's offset from the centre of mass at q = 0
     for k, (_, point, lower, upper) in enumerate(elements):
@@ -688,8 +741,8 @@ def test_shipped_coach_bounce_is_the_two_mass_chain():
     it, so it is a root of the two-mass chain, car body m_c on the secondary (4 kz, 4 cz) over the
     frames 2 m_b on the primary (8 kz, 8 cz): (M s^2 + C s + K) v = 0, damping included (1e-7: the
     finite-difference linearisation, rail_mj.simulation.linear, gives 6e-9)."""
-    from rail_mj.layout import load_layout
     from rail_mj.analysis.stability import Stability
+    from rail_mj.layout import load_layout
 
     layout = load_layout(SHIPPED_SPATIAL)
     sp, c, b = layout.spatial, layout.carbody, layout.bogie
@@ -714,8 +767,11 @@ def test_shipped_coach_bounce_is_the_two_mass_chain():
 
 # The trailing bogie a motor bogie: a heavier frame and stiffer axleboxes, placed wider and higher
 # (made-up numbers, each unlike [bogie]'s and [primary.axlebox]'s).
-MOTOR_BOGIE = {"mass": 3400.0, "inertia": [2200.0, 1900.0, 3900.0],
-               "axlebox": {"kz": 1500e3, "ky": 5.0e6, "cz": 6e3, "spacing": 1.05, "height": 0.5}}
+MOTOR_BOGIE = {
+    "mass": 3400.0,
+    "inertia": [2200.0, 1900.0, 3900.0],
+    "axlebox": {"kz": 1500e3, "ky": 5.0e6, "cz": 6e3, "spacing": 1.05, "height": 0.5},
+}
 
 
 def different_bogies(gravitational_stiffness: bool = True, longitudinal: bool = True, **bogie2) -> dict:
@@ -736,10 +792,19 @@ def test_different_bogies_layout():
     first, second = layout.spatial.bogies
     default = layout.spatial.primary
     assert (first.mass, first.inertia, first.wheelset_positions, first.axlebox) == (
-        2615.0, (1722.0, 1476.0, 3067.0), (1.28, -1.28), default)
+        2615.0,
+        (1722.0, 1476.0, 3067.0),
+        (1.28, -1.28),
+        default,
+    )
     assert (second.mass, second.inertia, second.wheelset_positions) == (3400.0, (2200.0, 1900.0, 3900.0), (1.4, -1.4))
-    assert (second.axlebox.kz, second.axlebox.ky, second.axlebox.cz, second.axlebox.spacing,
-            second.axlebox.height) == (1500e3, 5.0e6, 6e3, 1.05, 0.5)
+    assert (second.axlebox.kz, second.axlebox.ky, second.axlebox.cz, second.axlebox.spacing, second.axlebox.height) == (
+        1500e3,
+        5.0e6,
+        6e3,
+        1.05,
+        0.5,
+    )
     assert (second.axlebox.kx, second.axlebox.cx, second.axlebox.cy) == (default.kx, default.cx, default.cy)
     assert layout.bogie.mass == 2615.0 and layout.bogie.wheelset_positions == (1.28, -1.28)
     assert layout.wheelset_x == (9.5 + 1.28, 9.5 - 1.28, -9.5 + 1.4, -9.5 - 1.4)
@@ -819,37 +884,56 @@ def _bogies(edit):
     def change(d):
         d["bogies"] = {"2": copy.deepcopy(MOTOR_BOGIE)}
         edit(d)
+
     return change
 
 
-@pytest.mark.parametrize("edit, message", [
-    (_bogies(lambda d: d["bogies"].update({"3": {"mass": 3000.0}})),
-     r"bogies\.3: no such bogie: N in \[bogies\.N\] is a bogie's number in carbody\.bogie_positions, "
-     r"1 \(leading\) to 2"),
-    (_bogies(lambda d: d["bogies"].update({"0": {}})), r"bogies\.0: no such bogie"),
-    (_bogies(lambda d: d["bogies"].update({"motor": {}})), r"bogies\.motor: no such bogie"),
-    (lambda d: d.update(bogies=[{"mass": 3400.0}]), r"bogies: must be a table, got a list"),
-    (_bogies(lambda d: d["bogies"].update({"2": 3400.0})), r"bogies\.2: must be a table"),
-    (_bogies(lambda d: d["bogies"]["2"].update(wheelset_positions=[2.0, 0.0, -2.0])),
-     r"bogies\.2\.wheelset_positions: gives 3 wheelsets, \[bogie\] 2: every bogie must have \[bogie\]'s number "
-     r"of wheelsets \(a limitation"),
-    (_bogies(lambda d: d["bogies"]["2"].update(wheelset_positions=[-1.28, 1.28])),
-     r"bogies\.2\.wheelset_positions: must list the leading wheelset first"),
-    (_bogies(lambda d: d["bogies"]["2"].update(masss=1.0)), r"bogies\.2\.masss: unknown key"),
-    (_bogies(lambda d: d["bogies"]["2"].update(mass=-1.0)), r"bogies\.2\.mass: must be > 0"),
-    (_bogies(lambda d: d["bogies"]["2"].update(inertia=[1000.0, 1000.0, 3000.0])),
-     r"bogies\.2\.inertia: is not a rigid body's inertia"),
-    (_bogies(lambda d: d["bogies"]["2"].update(mass=34.0)),
-     r"bogies\.2\.inertia: .* check the mass and the units"),
-    (_bogies(lambda d: d["bogies"]["2"]["axlebox"].update(kz=0.0)), r"bogies\.2\.axlebox\.kz: must be > 0"),
-    (_bogies(lambda d: d["bogies"]["2"]["axlebox"].update(spacing=7.0)),
-     r"bogies\.2\.axlebox\.spacing: must be <= 2\.5"),
-    (_bogies(lambda d: d["bogies"]["2"]["axlebox"].update(kzz=1.0)), r"bogies\.2\.axlebox\.kzz: unknown key"),
-    (_bogies(lambda d: d["bogies"]["2"].update(axlebox=1.0)), r"bogies\.2\.axlebox: must be a table"),
-    (_bogies(lambda d: (d["bogies"].update({"1": {"wheelset_positions": [1.28, -9.6]}}),
-                        d["bogies"]["2"].update(wheelset_positions=[9.6, -1.28]))),
-     r"bogies: the wheelsets of bogies 1 and 2 at x = -0\.1 and 0\.1 m overlap"),
-])
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (
+            _bogies(lambda d: d["bogies"].update({"3": {"mass": 3000.0}})),
+            r"bogies\.3: no such bogie: N in \[bogies\.N\] is a bogie's number in carbody\.bogie_positions, "
+            r"1 \(leading\) to 2",
+        ),
+        (_bogies(lambda d: d["bogies"].update({"0": {}})), r"bogies\.0: no such bogie"),
+        (_bogies(lambda d: d["bogies"].update({"motor": {}})), r"bogies\.motor: no such bogie"),
+        (lambda d: d.update(bogies=[{"mass": 3400.0}]), r"bogies: must be a table, got a list"),
+        (_bogies(lambda d: d["bogies"].update({"2": 3400.0})), r"bogies\.2: must be a table"),
+        (
+            _bogies(lambda d: d["bogies"]["2"].update(wheelset_positions=[2.0, 0.0, -2.0])),
+            r"bogies\.2\.wheelset_positions: gives 3 wheelsets, \[bogie\] 2: every bogie must have \[bogie\]'s number "
+            r"of wheelsets \(a limitation",
+        ),
+        (
+            _bogies(lambda d: d["bogies"]["2"].update(wheelset_positions=[-1.28, 1.28])),
+            r"bogies\.2\.wheelset_positions: must list the leading wheelset first",
+        ),
+        (_bogies(lambda d: d["bogies"]["2"].update(masss=1.0)), r"bogies\.2\.masss: unknown key"),
+        (_bogies(lambda d: d["bogies"]["2"].update(mass=-1.0)), r"bogies\.2\.mass: must be > 0"),
+        (
+            _bogies(lambda d: d["bogies"]["2"].update(inertia=[1000.0, 1000.0, 3000.0])),
+            r"bogies\.2\.inertia: is not a rigid body's inertia",
+        ),
+        (_bogies(lambda d: d["bogies"]["2"].update(mass=34.0)), r"bogies\.2\.inertia: .* check the mass and the units"),
+        (_bogies(lambda d: d["bogies"]["2"]["axlebox"].update(kz=0.0)), r"bogies\.2\.axlebox\.kz: must be > 0"),
+        (
+            _bogies(lambda d: d["bogies"]["2"]["axlebox"].update(spacing=7.0)),
+            r"bogies\.2\.axlebox\.spacing: must be <= 2\.5",
+        ),
+        (_bogies(lambda d: d["bogies"]["2"]["axlebox"].update(kzz=1.0)), r"bogies\.2\.axlebox\.kzz: unknown key"),
+        (_bogies(lambda d: d["bogies"]["2"].update(axlebox=1.0)), r"bogies\.2\.axlebox: must be a table"),
+        (
+            _bogies(
+                lambda d: (
+                    d["bogies"].update({"1": {"wheelset_positions": [1.28, -9.6]}}),
+                    d["bogies"]["2"].update(wheelset_positions=[9.6, -1.28]),
+                )
+            ),
+            r"bogies: the wheelsets of bogies 1 and 2 at x = -0\.1 and 0\.1 m overlap",
+        ),
+    ],
+)
 def test_bad_bogies_fail_with_one_line(edit, message):
     data = copy.deepcopy(SPATIAL)
     edit(data)

@@ -14,16 +14,16 @@ import mujoco
 import numpy as np
 import pytest
 from click.testing import CliRunner
-
 from conftest import assert_callbacks_agree
+from test_loads import ROUNDING, static_wheel_loads
+from test_spatial import SPATIAL, G, dof, fd_stiffness, point_motion_rows
+from test_trains import matched_error
+
+from rail_mj.analysis.stability import Stability
+from rail_mj.analysis.train_modes import SNAKING
 from rail_mj.cli import cli
 from rail_mj.layout import LayoutError, layout_from_dict
 from rail_mj.vehicle.model import Vehicle, build_spec, compile_spec, preload, tendon_jacobian
-from rail_mj.analysis.stability import Stability
-from rail_mj.analysis.train_modes import SNAKING
-from test_loads import ROUNDING, static_wheel_loads
-from test_spatial import G, SPATIAL, dof, fd_stiffness, point_motion_rows
-from test_trains import matched_error
 
 PAIR_FILE = Path(__file__).parent / "data" / "spatial-articulated-pair.toml"
 PAIR = tomllib.loads(PAIR_FILE.read_text())
@@ -35,9 +35,12 @@ def two_coaches(**coupling) -> dict:
     data = {k: copy.deepcopy(v) for k, v in SPATIAL.items() if k != "carbody"}
     c = SPATIAL["carbody"]
     car = {"mass": c["mass"], "inertia": c["inertia"], "length": 24.5}
-    data.update(name="two", train={"bogie_positions": [22.0, 3.0, -3.0, -22.0]},
-                car=[{**car, "position": 12.5, "bogies": [1, 2]}, {**car, "position": -12.5, "bogies": [3, 4]}],
-                coupling=[{"cars": [1, 2], **coupling}])
+    data.update(
+        name="two",
+        train={"bogie_positions": [22.0, 3.0, -3.0, -22.0]},
+        car=[{**car, "position": 12.5, "bogies": [1, 2]}, {**car, "position": -12.5, "bogies": [3, 4]}],
+        coupling=[{"cars": [1, 2], **coupling}],
+    )
     return data
 
 
@@ -75,8 +78,11 @@ def hand_train_stiffness(layout, model, kind: str = "k") -> np.ndarray:
         return point_motion_rows(model, body, r, full)
 
     def element(point, lower, upper, gains):
-        for a, b, k in zip(motion(upper[0], np.subtract(point, upper[1]), upper[2]),
-                           motion(lower[0], np.subtract(point, lower[1]), lower[2]), gains):
+        for a, b, k in zip(
+            motion(upper[0], np.subtract(point, upper[1]), upper[2]),
+            motion(lower[0], np.subtract(point, lower[1]), lower[2]),
+            gains,
+        ):
             K[:] += k * np.outer(a - b, a - b)
 
     n = len(layout.bogie.wheelset_positions)
@@ -99,8 +105,12 @@ def hand_train_stiffness(layout, model, kind: str = "k") -> np.ndarray:
                 element((xb, 0, sp.lateral_damper.height), frame, body, (0.0, share * sp.lateral_damper.c, 0.0))
             if kind == "c" and sp.yaw_damper:
                 for s in (1, -1):
-                    element((xb, s * sp.yaw_damper.spacing, sp.yaw_damper.height), frame, body,
-                            (share * sp.yaw_damper.c, 0.0, 0.0))
+                    element(
+                        (xb, s * sp.yaw_damper.spacing, sp.yaw_damper.height),
+                        frame,
+                        body,
+                        (share * sp.yaw_damper.c, 0.0, 0.0),
+                    )
             if kind == "k" and sp.anti_roll_bar:
                 a = np.zeros(model.nv)
                 a[dof(model, f"carbody{k}_roll")], a[dof(model, f"bogie{i}_roll")] = 1.0, -1.0
@@ -234,8 +244,9 @@ def test_run_on_a_spatial_train(tmp_path):
     """`run` from the CLI on the pair: the summary has every wheelset's Y/Q and Q, the CSV the
     frames' and wheels' columns."""
     out = tmp_path / "pair.csv"
-    result = CliRunner().invoke(cli, ["run", str(PAIR_FILE), "--speed", "40", "--distance", "100", "--json",
-                                      "--out", str(out)])
+    result = CliRunner().invoke(
+        cli, ["run", str(PAIR_FILE), "--speed", "40", "--distance", "100", "--json", "--out", str(out)]
+    )
     assert result.exit_code == 0, result.output
     summary = json.loads(result.output)
     assert 0.0 < summary["largest_y_over_q"] < summary["y_over_q_limit"]
@@ -289,12 +300,16 @@ def planar_with_height() -> dict:
 
 
 BAD = {
-    "car below its bogies": (edit(lambda d: d["car"][1].update(height=0.5)),
-                             "car[2].height: must not be below spatial.bogie_height (0.6 m), got 0.5 m"),
+    "car below its bogies": (
+        edit(lambda d: d["car"][1].update(height=0.5)),
+        "car[2].height: must not be below spatial.bogie_height (0.6 m), got 0.5 m",
+    ),
     "negative height": (edit(lambda d: d["car"][0].update(height=-1.0)), "car[1].height: must be"),
     "height not a number": (edit(lambda d: d["car"][0].update(height="high")), "car[1].height:"),
-    "default below the bogies": (edit(lambda d: d["spatial"].update(carbody_height=0.4)),
-                                 "spatial.carbody_height: must not be below bogie_height"),
+    "default below the bogies": (
+        edit(lambda d: d["spatial"].update(carbody_height=0.4)),
+        "spatial.carbody_height: must not be below bogie_height",
+    ),
     "height in a planar train": (planar_with_height(), "car[1].height: needs [spatial]"),
 }
 
@@ -317,8 +332,13 @@ def test_a_spatial_trains_recording(tmp_path):
 
     run = simulate(load_layout(PAIR_FILE), 40.0, 20.0, 0.002)
     titles = [p.title for p in plots(run)]
-    for title in ("Car 1: lateral y (mm)", "Car 2: yaw ψ (mrad)", "Bogies, car body: roll φ (mrad)",
-                  "Bogies, car body: bounce z (mm)", "Wheels: vertical load Q (kN)"):
+    for title in (
+        "Car 1: lateral y (mm)",
+        "Car 2: yaw ψ (mrad)",
+        "Bogies, car body: roll φ (mrad)",
+        "Bogies, car body: bounce z (mm)",
+        "Wheels: vertical load Q (kN)",
+    ):
         assert title in titles
     out = tmp_path / "pair.rrd"
     write_recording(run, out)

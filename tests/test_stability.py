@@ -9,31 +9,38 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from scipy.optimize import linear_sum_assignment
-
 from conftest import CONED, MODELS, SHIPPED, free_truck
 from planar import closed_form_critical_speed, planar_eigenvalues
-from rail_mj.cli import main
-from rail_mj.simulation.callback import CreepForces, installed
-from rail_mj.layout import layout_from_dict, load_layout
+from scipy.optimize import linear_sum_assignment
+
 from rail_mj.analysis.stability import Stability, time_critical_speed
+from rail_mj.cli import main
+from rail_mj.layout import layout_from_dict, load_layout
+from rail_mj.simulation.callback import CreepForces, installed
 
 
 def restrained(m, Iz, ky, kpsi, f11, f22, lam, r0, b):
-    return layout_from_dict({
-        "name": "restrained",
-        "wheelset": {"mass": m, "inertia": [Iz, 100.0, Iz], "rolling_radius": r0,
-                     "contact_half_spacing": b, "conicity": lam},
-        "creep": {"f11": f11, "f22": f22},
-        "primary": {"lateral_stiffness": ky, "yaw_stiffness": kpsi},
-        "carbody": {"fixed": True, "wheelset_positions": [0.0]},
-    })
+    return layout_from_dict(
+        {
+            "name": "restrained",
+            "wheelset": {
+                "mass": m,
+                "inertia": [Iz, 100.0, Iz],
+                "rolling_radius": r0,
+                "contact_half_spacing": b,
+                "conicity": lam,
+            },
+            "creep": {"f11": f11, "f22": f22},
+            "primary": {"lateral_stiffness": ky, "yaw_stiffness": kpsi},
+            "carbody": {"fixed": True, "wheelset_positions": [0.0]},
+        }
+    )
 
 
 CASES = [
     # m, Iz, ky, kpsi, f11, f22, lam, r0, b
-    (1813, 1120, 0.0, 2e6, 10e6, 10e6, 0.1, 0.46, 0.75),   # checked: 57.50 m/s, 4.866 Hz
-    (1250, 700, 1e6, 5e6, 8e6, 6e6, 0.2, 0.45, 0.75),      # checked: 82.75 m/s, 9.431 Hz
+    (1813, 1120, 0.0, 2e6, 10e6, 10e6, 0.1, 0.46, 0.75),  # checked: 57.50 m/s, 4.866 Hz
+    (1250, 700, 1e6, 5e6, 8e6, 6e6, 0.2, 0.45, 0.75),  # checked: 82.75 m/s, 9.431 Hz
     (1500, 900, 3e5, 1e6, 12e6, 9e6, 0.05, 0.50, 0.75),
     (1813, 1120, 2e6, 8e6, 10e6, 9e6, 0.15, 0.46, 0.75),
 ]
@@ -114,8 +121,7 @@ def test_mode_names_identify_primary_hunting_of_a_stiff_bogie():
     speed = 5.0
     r0, b, lam, a = 0.46, 0.75, 0.15, 1.28
     rigid = 2 * math.pi * math.sqrt(r0 * b / lam * (1 + 9e6 / 10e6 * a**2 / b**2))
-    slowest = min((m for m in s.modes(speed) if m.oscillatory and m.damping_ratio < 0.5),
-                  key=lambda m: m.frequency)
+    slowest = min((m for m in s.modes(speed) if m.oscillatory and m.damping_ratio < 0.5), key=lambda m: m.frequency)
     # 1e9 primary springs are 50-100x the creep stiffnesses (rigid to ~0.1 %), and the
     # inertia correction at 5 m/s is ~1e-4: 0.5 % leaves margin for both.
     assert slowest.frequency == pytest.approx(speed / rigid, rel=5e-3)
@@ -128,19 +134,25 @@ def test_mode_names_identify_secondary_hunting_under_an_immovable_frame():
     mode is named secondary hunting."""
     case = CASES[0]
     m, Iz, ky, kpsi, f11, f22, lam, r0, b = case
-    layout = layout_from_dict({
-        "name": "heavy-frame",
-        "wheelset": {"mass": m, "inertia": [Iz, 100.0, Iz], "rolling_radius": r0,
-                     "contact_half_spacing": b, "conicity": lam},
-        "creep": {"f11": f11, "f22": f22},
-        "primary": {"lateral_stiffness": ky, "yaw_stiffness": kpsi},
-        "bogie": {"mass": 1e7, "inertia": [1e7, 1e7, 1e7], "wheelset_positions": [1.28, -1.28]},
-        "secondary": {"lateral_stiffness": 1e6, "yaw_stiffness": 1e8, "lateral_damping": 1e6,
-                      "yaw_damping": 1e7},
-        "carbody": {"fixed": True, "bogie_positions": [0.0]},
-    })
+    layout = layout_from_dict(
+        {
+            "name": "heavy-frame",
+            "wheelset": {
+                "mass": m,
+                "inertia": [Iz, 100.0, Iz],
+                "rolling_radius": r0,
+                "contact_half_spacing": b,
+                "conicity": lam,
+            },
+            "creep": {"f11": f11, "f22": f22},
+            "primary": {"lateral_stiffness": ky, "yaw_stiffness": kpsi},
+            "bogie": {"mass": 1e7, "inertia": [1e7, 1e7, 1e7], "wheelset_positions": [1.28, -1.28]},
+            "secondary": {"lateral_stiffness": 1e6, "yaw_stiffness": 1e8, "lateral_damping": 1e6, "yaw_damping": 1e7},
+            "carbody": {"fixed": True, "bogie_positions": [0.0]},
+        }
+    )
     result = Stability(layout).critical_speed(5.0, 150.0)
-    vc, fc = closed_form_critical_speed(*case)
+    vc, _fc = closed_form_critical_speed(*case)
     assert result.critical_speed == pytest.approx(vc, rel=1e-2)  # the frame moves a little
     assert result.mode in ("wheelset 1 (secondary hunting)", "wheelset 2 (secondary hunting)")
 
@@ -179,8 +191,7 @@ def test_cli_critical_speed_json(capsys):
 
 
 def test_cli_eigen_json(capsys):
-    status = main(["eigen", str(MODELS / "manchester-coach" / "manchester-coach.toml"),
-                   "--speed", "90", "--json"])
+    status = main(["eigen", str(MODELS / "manchester-coach" / "manchester-coach.toml"), "--speed", "90", "--json"])
     assert status == 0
     out = json.loads(capsys.readouterr().out)
     assert out["stable"] is False  # above the 79.3 m/s critical speed
@@ -191,8 +202,7 @@ def test_cli_eigen_json(capsys):
 
 def test_cli_root_locus_writes_plot_and_csv(tmp_path, capsys):
     png = tmp_path / "locus.png"
-    status = main(["root-locus", str(MODELS / "bogie" / "bogie.toml"), "--speeds", "10:120:12",
-                   "-o", str(png)])
+    status = main(["root-locus", str(MODELS / "bogie" / "bogie.toml"), "--speeds", "10:120:12", "-o", str(png)])
     assert status == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert png.stat().st_size > 20_000  # three labelled panels of points, not a blank figure
@@ -206,12 +216,15 @@ def test_cli_root_locus_writes_plot_and_csv(tmp_path, capsys):
     assert f"critical speed {vc:.2f} m/s" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["critical-speed", "LAYOUT", "--vmin", "50", "--vmax", "10"], "--vmin"),
-    (["eigen", "LAYOUT", "--speed", "-1"], "--speed"),
-    (["root-locus", "LAYOUT", "--speeds", "10:5:3", "-o", "x.png"], "--speeds"),
-    (["root-locus", "LAYOUT", "--speeds", "abc", "-o", "x.png"], "--speeds"),
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["critical-speed", "LAYOUT", "--vmin", "50", "--vmax", "10"], "--vmin"),
+        (["eigen", "LAYOUT", "--speed", "-1"], "--speed"),
+        (["root-locus", "LAYOUT", "--speeds", "10:5:3", "-o", "x.png"], "--speeds"),
+        (["root-locus", "LAYOUT", "--speeds", "abc", "-o", "x.png"], "--speeds"),
+    ],
+)
 def test_cli_stability_bad_arguments(argv, fragment, tmp_path, capsys):
     argv = [str(MODELS / "bogie" / "bogie.toml") if a == "LAYOUT" else a for a in argv]
     assert main(argv) == 2
@@ -225,31 +238,44 @@ def test_lower_conicity_raises_the_bogie_critical_speed():
     import dataclasses
 
     base = load_layout(MODELS / "bogie" / "bogie.toml")
-    speeds = [Stability(dataclasses.replace(base, wheelset=dataclasses.replace(base.wheelset, conicity=lam)))
-              .critical_speed(5.0, 300.0).critical_speed for lam in (0.15, 0.05, 0.025)]
+    speeds = [
+        Stability(dataclasses.replace(base, wheelset=dataclasses.replace(base.wheelset, conicity=lam)))
+        .critical_speed(5.0, 300.0)
+        .critical_speed
+        for lam in (0.15, 0.05, 0.025)
+    ]
     assert speeds[0] < speeds[1] < speeds[2]
 
 
 def test_time_method_counts_derailing_runs_as_growing():
     # 400 m/s is far above the restrained wheelset's 57.5 m/s: it leaves the rails.
-    result = time_critical_speed(load_layout(MODELS / "wheelset" / "wheelset.toml"), 400.0, 1000.0,
-                                 points=3, duration=5.0)
+    result = time_critical_speed(
+        load_layout(MODELS / "wheelset" / "wheelset.toml"), 400.0, 1000.0, points=3, duration=5.0
+    )
     assert result.critical_speed is None and "already grows at 400" in result.note
 
 
-@pytest.mark.parametrize("argv, status, fragment", [
-    (["critical-speed", "LAYOUT", "--method", "time", "--vmin", "1e-4", "--vmax", "1"], 3, "too slow"),
-    (["eigen", "BROKEN", "--speed", "30"], 2, "not a rigid body"),
-    (["critical-speed", "BROKEN"], 2, "not a rigid body"),
-    (["critical-speed", "BROKEN", "--method", "time"], 2, "not a rigid body"),
-    (["root-locus", "BROKEN", "--speeds", "10:20:3", "-o", "x.png"], 2, "not a rigid body"),
-])
+@pytest.mark.parametrize(
+    "argv, status, fragment",
+    [
+        (["critical-speed", "LAYOUT", "--method", "time", "--vmin", "1e-4", "--vmax", "1"], 3, "too slow"),
+        (["eigen", "BROKEN", "--speed", "30"], 2, "not a rigid body"),
+        (["critical-speed", "BROKEN"], 2, "not a rigid body"),
+        (["critical-speed", "BROKEN", "--method", "time"], 2, "not a rigid body"),
+        (["root-locus", "BROKEN", "--speeds", "10:20:3", "-o", "x.png"], 2, "not a rigid body"),
+    ],
+)
 def test_cli_stability_failures_are_one_line(argv, status, fragment, tmp_path, capsys):
     broken = tmp_path / "broken.toml"
-    broken.write_text((MODELS / "wheelset" / "wheelset.toml").read_text().replace(
-        "inertia = [1120.0, 112.0, 1120.0]", "inertia = [1.0, 1.0, 1120.0]"))  # A + B < C
-    argv = [str(MODELS / "wheelset" / "wheelset.toml") if a == "LAYOUT" else
-            str(broken) if a == "BROKEN" else a for a in argv]
+    broken.write_text(
+        (MODELS / "wheelset" / "wheelset.toml")
+        .read_text()
+        .replace("inertia = [1120.0, 112.0, 1120.0]", "inertia = [1.0, 1.0, 1120.0]")
+    )  # A + B < C
+    argv = [
+        str(MODELS / "wheelset" / "wheelset.toml") if a == "LAYOUT" else str(broken) if a == "BROKEN" else a
+        for a in argv
+    ]
     assert main(argv) == status
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and fragment in err and "Traceback" not in err

@@ -9,14 +9,13 @@ import sys
 import time
 
 import pytest
-
-from rail_mj.studies import sweep as sweep_module
-from rail_mj.cli import main
-from rail_mj.analysis.stability import Stability
-from rail_mj.layout import load_layout
-from rail_mj.studies.sweep import Journal, SweepError, plan, summarise, sweep
-
 from conftest import MODELS
+
+from rail_mj.analysis.stability import Stability
+from rail_mj.cli import main
+from rail_mj.layout import load_layout
+from rail_mj.studies import sweep as sweep_module
+from rail_mj.studies.sweep import Journal, SweepError, plan, summarise, sweep
 
 WHEELSET = MODELS / "wheelset" / "wheelset.toml"  # linear creep, no flange: Vc = 57.50 m/s
 BOGIE = MODELS / "bogie" / "bogie.toml"
@@ -70,8 +69,21 @@ def test_resuming_keeps_every_written_row_and_runs_only_the_rest(tmp_path):
     """A sweep killed mid-way (SIGKILL), and a journal line cut short by it: the same sweep
     again runs exactly the cases without a row, and keeps the others as they were."""
     out = tmp_path / "sweep.csv"
-    command = [sys.executable, "-m", "rail_mj.cli", "sweep", str(WHEELSET), "--speeds", "20:59:40",
-               "--distance", "1500", "--workers", "1", "-o", str(out)]
+    command = [
+        sys.executable,
+        "-m",
+        "rail_mj.cli",
+        "sweep",
+        str(WHEELSET),
+        "--speeds",
+        "20:59:40",
+        "--distance",
+        "1500",
+        "--workers",
+        "1",
+        "-o",
+        str(out),
+    ]
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     journal = Journal(out)
     deadline = time.monotonic() + 120
@@ -85,8 +97,14 @@ def test_resuming_keeps_every_written_row_and_runs_only_the_rest(tmp_path):
     with open(journal.path, "a") as f:  # a kill in the middle of a write
         f.write('{"case": 99, "speed_m_')
     ran = []
-    table = sweep(WHEELSET, (20.0, 59.0, 40), distance=1500.0, workers=1, out=out,
-                  progress=lambda done, total, row: ran.append(row["case"]))
+    table = sweep(
+        WHEELSET,
+        (20.0, 59.0, 40),
+        distance=1500.0,
+        workers=1,
+        out=out,
+        progress=lambda done, total, row: ran.append(row["case"]),
+    )
     assert sorted(ran + [r["case"] for r in written]) == list(range(40))  # nothing lost, nothing twice
     kept = {r["case"]: r for r in table.to_pylist()}
     for row in written:
@@ -108,10 +126,10 @@ def test_an_output_of_another_sweep_is_not_overwritten(tmp_path):
 
 def test_a_dask_cluster_gives_the_local_table():
     import distributed
+
     args = dict(speeds=(30.0, 70.0, 3), grids=["wheelset.conicity=0.05:0.1:2"], distance=100.0)
     local = sweep(WHEELSET, **args)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True,
-                                  dashboard_address=None) as cluster:
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None) as cluster:
         remote = sweep(WHEELSET, scheduler=cluster.scheduler_address, **args)
     assert results(remote) == results(local)
 
@@ -126,20 +144,45 @@ def test_critical_speed_sweeps_match_the_critical_speed_command(capsys):
 
 def test_cli_sweep_and_map(tmp_path, capsys):
     out = tmp_path / "s.csv"
-    assert main(["sweep", str(WHEELSET), "--speeds", "50:65:4", "--distance", "300", "-o", str(out),
-                 "--json"]) == 0
+    assert main(["sweep", str(WHEELSET), "--speeds", "50:65:4", "--distance", "300", "-o", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["cases"] == 4 and summary["by_status"]["failed"] == 0
     assert summary["brackets"][0]["critical_speed_bracket_m_per_s"] == [55.0, 60.0]
     png, csv = tmp_path / "map.png", tmp_path / "map.csv"
-    assert main(["map", str(BOGIE), "--x", "wheelset.conicity=0.05:0.3:3", "--y",
-                 "primary.yaw_stiffness=5e6:60e6:3:log", "-o", str(png)]) == 0
+    assert (
+        main(
+            [
+                "map",
+                str(BOGIE),
+                "--x",
+                "wheelset.conicity=0.05:0.3:3",
+                "--y",
+                "primary.yaw_stiffness=5e6:60e6:3:log",
+                "-o",
+                str(png),
+            ]
+        )
+        == 0
+    )
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     lines = csv.read_text().splitlines()
     assert len(lines) == 10 and '"wheelset.conicity","primary.yaw_stiffness"' in lines[0]
     assert main(["sweep", str(WHEELSET), "--speeds", "50:65:4", "-o", str(tmp_path / "s.xlsx")]) == 2
-    assert main(["map", str(BOGIE), "--x", "wheelset.conicity=0.05:0.3:3", "--y", "wheelset.conicity=0.1:0.2:2",
-                 "-o", str(png)]) == 2
+    assert (
+        main(
+            [
+                "map",
+                str(BOGIE),
+                "--x",
+                "wheelset.conicity=0.05:0.3:3",
+                "--y",
+                "wheelset.conicity=0.1:0.2:2",
+                "-o",
+                str(png),
+            ]
+        )
+        == 2
+    )
 
 
 def test_one_recording_per_run_case(tmp_path):

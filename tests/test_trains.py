@@ -5,18 +5,17 @@ topologies fail with one line."""
 from __future__ import annotations
 
 import copy
+import tomllib
 
 import numpy as np
 import pytest
-from scipy.optimize import linear_sum_assignment
-
 from conftest import MODELS
 from planar import planar_train_eigenvalues
-from rail_mj.layout import LayoutError, layout_from_dict, load_layout
+from scipy.optimize import linear_sum_assignment
+
 from rail_mj.analysis.stability import Stability
 from rail_mj.analysis.train_modes import SNAKING
-
-import tomllib
+from rail_mj.layout import LayoutError, layout_from_dict, load_layout
 
 COACH = tomllib.loads((MODELS / "manchester-coach" / "manchester-coach.toml").read_text())
 
@@ -35,17 +34,25 @@ def coach(position: float, bogies: list[int]) -> dict:
 
 def two_coaches(**coupling) -> dict:
     """Two Manchester coaches, bogies 19 m apart on each, ends 0.5 m apart."""
-    return {"name": "two", **running_gear(), "train": {"bogie_positions": [22.0, 3.0, -3.0, -22.0]},
-            "car": [coach(12.5, [1, 2]), coach(-12.5, [3, 4])],
-            **({"coupling": [{"cars": [1, 2], **coupling}]} if coupling else {})}
+    return {
+        "name": "two",
+        **running_gear(),
+        "train": {"bogie_positions": [22.0, 3.0, -3.0, -22.0]},
+        "car": [coach(12.5, [1, 2]), coach(-12.5, [3, 4])],
+        **({"coupling": [{"cars": [1, 2], **coupling}]} if coupling else {}),
+    }
 
 
 def articulated_pair(**coupling) -> dict:
     """Two 18 m bodies on three bogies, the middle one a Jacobs bogie."""
     car = {"mass": 30000.0, "inertia": [50000.0, 1.5e6, 1.5e6], "length": 18.0}
-    return {"name": "pair", **running_gear(), "train": {"bogie_positions": [18.0, 0.0, -18.0]},
-            "car": [{**car, "position": 9.0, "bogies": [1, 2]}, {**car, "position": -9.0, "bogies": [2, 3]}],
-            **({"coupling": [{"cars": [1, 2], **coupling}]} if coupling else {})}
+    return {
+        "name": "pair",
+        **running_gear(),
+        "train": {"bogie_positions": [18.0, 0.0, -18.0]},
+        "car": [{**car, "position": 9.0, "bogies": [1, 2]}, {**car, "position": -9.0, "bogies": [2, 3]}],
+        **({"coupling": [{"cars": [1, 2], **coupling}]} if coupling else {}),
+    }
 
 
 def matched_error(a: np.ndarray, b: np.ndarray) -> float:
@@ -73,8 +80,9 @@ def test_zero_coupling_is_no_coupling():
     assert matched_error(zero, free) < 1e-9
 
 
-@pytest.mark.parametrize("coupling", [{}, {"lateral_stiffness": 2e5, "yaw_stiffness": 3e6, "lateral_damping": 1e4,
-                                           "yaw_damping": 4e5}])
+@pytest.mark.parametrize(
+    "coupling", [{}, {"lateral_stiffness": 2e5, "yaw_stiffness": 3e6, "lateral_damping": 1e4, "yaw_damping": 4e5}]
+)
 @pytest.mark.parametrize("speed", [15.0, 60.0])
 def test_articulated_pair_agrees_with_the_planar_model(coupling, speed):
     layout = layout_from_dict(articulated_pair(**coupling))
@@ -140,24 +148,33 @@ def edit(data: dict, change) -> dict:
 
 BAD = {
     "body without support": (lambda d: d["car"][1].update(bogies=[]), "car[2].bogies: empty: a car body with no bogie"),
-    "bogie under no body": (lambda d: (d["car"][0].update(bogies=[1]), d["car"][1].update(bogies=[3])),
-                            "train.bogie_positions: bogie 2 at x = 0 m carries no car body"),
-    "bodies overlap": (lambda d: d["car"][1].update(length=20.0),
-                       "car[2]: car bodies 1 and 2 overlap by 1 m"),
-    "bogies overlap": (lambda d: d["train"].update(bogie_positions=[18.0, 16.0, -18.0]),
-                       "train.bogie_positions: bogies at x = 18 and 16 m overlap"),
+    "bogie under no body": (
+        lambda d: (d["car"][0].update(bogies=[1]), d["car"][1].update(bogies=[3])),
+        "train.bogie_positions: bogie 2 at x = 0 m carries no car body",
+    ),
+    "bodies overlap": (lambda d: d["car"][1].update(length=20.0), "car[2]: car bodies 1 and 2 overlap by 1 m"),
+    "bogies overlap": (
+        lambda d: d["train"].update(bogie_positions=[18.0, 16.0, -18.0]),
+        "train.bogie_positions: bogies at x = 18 and 16 m overlap",
+    ),
     "no such bogie": (lambda d: d["car"][1].update(bogies=[2, 5]), "car[2].bogies: bogie 5 does not exist"),
-    "bogie not under its body": (lambda d: d["car"][0].update(bogies=[1, 3]),
-                                 "car[1].bogies: bogie 3 at x = -18 m is not under this 18 m body"),
+    "bogie not under its body": (
+        lambda d: d["car"][0].update(bogies=[1, 3]),
+        "car[1].bogies: bogie 3 at x = -18 m is not under this 18 m body",
+    ),
     "cars out of order": (lambda d: d.update(car=d["car"][::-1]), "car[2].position: cars must be listed leading first"),
     "no cars": (lambda d: d.pop("car"), "car: missing: a [train] needs its car bodies"),
     "carbody with train": (lambda d: d.update(carbody={"mass": 1.0}), "carbody: not used with [train]"),
     "cars without train": (lambda d: d.pop("train"), "car: given without [train]"),
     "train without bogie": (lambda d: (d.pop("bogie"), d.pop("secondary")), "train: needs [bogie]"),
-    "coupling not adjacent": (lambda d: d.update(coupling=[{"cars": [1, 3]}]),
-                              "coupling[1].cars: must be two adjacent cars"),
-    "coupling typo": (lambda d: d.update(coupling=[{"cars": [1, 2], "yaw_dampin": 1.0}]),
-                      "coupling[1].yaw_dampin: unknown key"),
+    "coupling not adjacent": (
+        lambda d: d.update(coupling=[{"cars": [1, 3]}]),
+        "coupling[1].cars: must be two adjacent cars",
+    ),
+    "coupling typo": (
+        lambda d: d.update(coupling=[{"cars": [1, 2], "yaw_dampin": 1.0}]),
+        "coupling[1].yaw_dampin: unknown key",
+    ),
     "one [coupling] table": (lambda d: d.update(coupling={"cars": [1, 2]}), "coupling: must be an array of tables"),
     "one [car] table": (lambda d: d.update(car=d["car"][0]), "car: is one [car] table"),
 }
@@ -182,8 +199,10 @@ def test_sweep_keys_reach_into_a_trains_couplings():
     second = with_value(data, "coupling.2.lateral_damping", 3.0)
     assert "lateral_damping" not in second["coupling"][0] and second["coupling"][1]["lateral_damping"] == 3.0
     assert "lateral_damping" not in data["coupling"][1]  # a copy
-    for key, message in (("coupling.3.yaw_damping", "must number one of the 2"),
-                         ("coupling.yaw_damping", "holds several tables")):
+    for key, message in (
+        ("coupling.3.yaw_damping", "must number one of the 2"),
+        ("coupling.yaw_damping", "holds several tables"),
+    ):
         with pytest.raises(SweepError, match=message):
             with_value(data, key, 1.0)
 

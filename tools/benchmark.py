@@ -40,18 +40,18 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from rail_mj.analysis.stability import Stability
+from rail_mj.layout import layout_from_dict, load_layout
+from rail_mj.output.plots import root_locus
 from rail_mj.simulation import native
 from rail_mj.simulation.callback import CreepForces, installed
-from rail_mj.layout import layout_from_dict, load_layout
-from rail_mj.vehicle.model import Vehicle
-from rail_mj.output.plots import root_locus
 from rail_mj.simulation.runner import PACK, Request, prepare, simulate, simulate_many
-from rail_mj.analysis.stability import Stability
 from rail_mj.studies.sweep import sweep
+from rail_mj.vehicle.model import Vehicle
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import peer_numba  # noqa: E402
-import peer_solve_ivp  # noqa: E402
+import peer_numba
+import peer_solve_ivp
 
 ROOT = Path(__file__).resolve().parent.parent
 COACH = ROOT / "models" / "manchester-coach" / "manchester-coach.toml"
@@ -87,7 +87,9 @@ def batches(layout, turns: int = 5) -> dict[str, tuple[float, float]]:
     speeds = np.linspace(*SPEEDS)
     runs = {
         "sweep": lambda: sweep(COACH, SPEEDS),
-        "runs": lambda: simulate_many([Request(layout, v, 1000.0, 0.002) for v in speeds], threads=peer_numba.threads()),
+        "runs": lambda: simulate_many(
+            [Request(layout, v, 1000.0, 0.002) for v in speeds], threads=peer_numba.threads()
+        ),
         "peer": lambda: peer_numba.time_batch(repeats=1),
         "balanced": lambda: peer_numba.time_batch(repeats=1, balanced=True),
     }
@@ -138,10 +140,14 @@ def start_up() -> list[tuple[str, float]]:
         return [
             ("`python -c pass` (the interpreter alone)", best(lambda: process("-c", "pass"), 5)),
             ("`rail-mj --help`", best(lambda: process("-m", "rail_mj.cli", "--help"), 5)),
-            ("`rail-mj run` on a layout with an error", best(
-                lambda: process("-m", "rail_mj.cli", "run", str(bad), "--speed", "30", "--distance", "10"), 5)),
-            ("importing what a run needs (MuJoCo, numba, scipy)", best(
-                lambda: process("-c", "import rail_mj.simulation.runner, rail_mj.analysis, scipy.signal"), 3)),
+            (
+                "`rail-mj run` on a layout with an error",
+                best(lambda: process("-m", "rail_mj.cli", "run", str(bad), "--speed", "30", "--distance", "10"), 5),
+            ),
+            (
+                "importing what a run needs (MuJoCo, numba, scipy)",
+                best(lambda: process("-c", "import rail_mj.simulation.runner, rail_mj.analysis, scipy.signal"), 3),
+            ),
         ]
 
 
@@ -158,8 +164,7 @@ def ten_car_train():
     centres = [(n - 1) * pitch / 2 - k * pitch for k in range(n)]
     data["name"] = "ten-coaches"
     data["train"]["bogie_positions"] = [c + s for c in centres for s in (axle, -axle)]
-    data["car"] = [{**data["car"][0], "position": c, "bogies": [2 * k + 1, 2 * k + 2]}
-                   for k, c in enumerate(centres)]
+    data["car"] = [{**data["car"][0], "position": c, "bogies": [2 * k + 1, 2 * k + 2]} for k, c in enumerate(centres)]
     data["coupling"] = [{**data["coupling"][0], "cars": [k + 1, k + 2]} for k in range(n - 1)]
     return layout_from_dict(data, "ten-coaches (tools/benchmark.py)")
 
@@ -207,8 +212,10 @@ def spatial_against_planar(speed: float = 40.0, n: int = 3000, repeats: int = 11
     its 2 mm start; the four steppings of a pair alternate, best of each: the machine is shared,
     so the steps are timed in CPU time of the calling thread (a step's cost, not the
     neighbours' share of the cores)."""
-    pairs = [("on cones", load_layout(COACH), spatial_coned()),
-             ("on S1002/60E1", load_layout(S1002), load_layout(SPATIAL))]
+    pairs = [
+        ("on cones", load_layout(COACH), spatial_coned()),
+        ("on S1002/60E1", load_layout(S1002), load_layout(SPATIAL)),
+    ]
     rows = []
     for name, *layouts in pairs:
         models, steps = [], []
@@ -231,22 +238,36 @@ def spatial_against_planar(speed: float = 40.0, n: int = 3000, repeats: int = 11
         runs = [[], []]
         for _ in range(3):
             for k, layout in enumerate(layouts):
-                runs[k].append(best(lambda: simulate(layout, 60.0, 1000.0, 0.002), 1))
-        rows.append((name, [m.nv for m, _ in models], steps, [min(t) for t in fast], [min(t) for t in bare],
-                     [min(t) for t in runs]))
+                runs[k].append(best(lambda layout=layout: simulate(layout, 60.0, 1000.0, 0.002), 1))
+        rows.append(
+            (
+                name,
+                [m.nv for m, _ in models],
+                steps,
+                [min(t) for t in fast],
+                [min(t) for t in bare],
+                [min(t) for t in runs],
+            )
+        )
     return rows
 
 
 def print_spatial(rows) -> None:
-    print("| the spatial coach against the planar one, 40 m/s, same law (Polach, mu 0.3); steps in CPU time "
-          "| planar | spatial | spatial / planar |")
+    print(
+        "| the spatial coach against the planar one, 40 m/s, same law (Polach, mu 0.3); steps in CPU time "
+        "| planar | spatial | spatial / planar |"
+    )
     print("|---|---|---|---|")
     for name, nv, steps, fast, bare, runs in rows:
-        print(f"| {name} ({nv[0]} and {nv[1]} dof; the runner's step {steps[0] * 1e3:.3g} and "
-              f"{steps[1] * 1e3:.3g} ms): one RK4 step with the native creep callback | {fast[0] * 1e6:.1f} µs "
-              f"| {fast[1] * 1e6:.1f} µs | {fast[1] / fast[0]:.2f}x (target: at most 3x) |")
-        print(f"| {name}: one RK4 step, bare MuJoCo | {bare[0] * 1e6:.1f} µs | {bare[1] * 1e6:.1f} µs "
-              f"| {bare[1] / bare[0]:.2f}x |")
+        print(
+            f"| {name} ({nv[0]} and {nv[1]} dof; the runner's step {steps[0] * 1e3:.3g} and "
+            f"{steps[1] * 1e3:.3g} ms): one RK4 step with the native creep callback | {fast[0] * 1e6:.1f} µs "
+            f"| {fast[1] * 1e6:.1f} µs | {fast[1] / fast[0]:.2f}x (target: at most 3x) |"
+        )
+        print(
+            f"| {name}: one RK4 step, bare MuJoCo | {bare[0] * 1e6:.1f} µs | {bare[1] * 1e6:.1f} µs "
+            f"| {bare[1] / bare[0]:.2f}x |"
+        )
         print(f"| {name}: `simulate`, 1 km at 60 m/s | {runs[0]:.2f} s | {runs[1]:.2f} s | {runs[1] / runs[0]:.2f}x |")
 
 
@@ -282,8 +303,15 @@ def main() -> None:
     km = best(lambda: simulate(layout, 60.0, 1000.0, 0.002), 5)
     batch = batches(layout)
     sweep_time = batch["sweep"][0] * VEHICLE_KM
-    map_time = best(lambda: sweep(COACH, (5.0, 150.0, 60), method="eigen",
-                                  grids=["wheelset.conicity=0.025:0.4:20", "primary.yaw_stiffness=2e6:100e6:20:log"]), 1)
+    map_time = best(
+        lambda: sweep(
+            COACH,
+            (5.0, 150.0, 60),
+            method="eigen",
+            grids=["wheelset.conicity=0.025:0.4:20", "primary.yaw_stiffness=2e6:100e6:20:log"],
+        ),
+        1,
+    )
     peers = single_peers()
     spatial = spatial_against_planar()
 
@@ -293,42 +321,57 @@ def main() -> None:
     print(f"| root locus, 50 speeds | {locus:.2f} s |")
     print(f"| one RK4 step, bare MuJoCo | {bare * 1e6:.1f} µs |")
     print(f"| one RK4 step with the native creep callback | {fast * 1e6:.1f} µs ({fast / bare:.2f}x bare) |")
-    print(f"| one RK4 step with the Python creep callback (4 calls) | {creep * 1e6:.1f} µs ({creep / bare:.1f}x bare) |")
+    print(
+        f"| one RK4 step with the Python creep callback (4 calls) | {creep * 1e6:.1f} µs ({creep / bare:.1f}x bare) |"
+    )
     print(f"| `simulate`: 400 m at 40 m/s (10 s, 10 000 steps) | {run:.2f} s |")
     print(f"| `simulate`: 1 km at 60 m/s | {km:.2f} s |")
-    print(f"| `rail-mj sweep`: 64 speeds 20-100 m/s, 1 km each, every core | {sweep_time:.1f} s "
-          f"({sweep_time / VEHICLE_KM:.3f} s per vehicle-km) |")
+    print(
+        f"| `rail-mj sweep`: 64 speeds 20-100 m/s, 1 km each, every core | {sweep_time:.1f} s "
+        f"({sweep_time / VEHICLE_KM:.3f} s per vehicle-km) |"
+    )
     print(f"| `rail-mj map`: 20 x 20 eigen critical speeds | {map_time:.1f} s |")
     print()
     print("| one RK4 step of the coach, CPU time | µs | the peer's step times |")
     print("|---|---|---|")
     print(f"| the numba peer's whole step (`tools/peer_numba.py`, creep law included) | {peer_step * 1e6:.2f} | 1 |")
-    print(f"| a coach in a model of {PACK}, bare MuJoCo (no creep forces) | {packed_bare * 1e6:.2f} | "
-          f"{packed_bare / peer_step:.2f} |")
+    print(
+        f"| a coach in a model of {PACK}, bare MuJoCo (no creep forces) | {packed_bare * 1e6:.2f} | "
+        f"{packed_bare / peer_step:.2f} |"
+    )
     print(f"| a coach in a model of {PACK}, native creep callback | {packed * 1e6:.2f} | {packed / peer_step:.2f} |")
     print()
     print("| the coach, per vehicle-km (1 km at 60 m/s) | s | rail-mj is |")
     print("|---|---|---|")
     print(f"| rail-mj, one run (`simulate`) | {km:.3f} | |")
     for name, seconds in peers:
-        print(f"| {name} | {seconds:.3f} | {seconds / km:.2f}x faster |" if seconds >= km else
-              f"| {name} | {seconds:.3f} | {km / seconds:.2f}x slower |")
+        print(
+            f"| {name} | {seconds:.3f} | {seconds / km:.2f}x faster |"
+            if seconds >= km
+            else f"| {name} | {seconds:.3f} | {km / seconds:.2f}x slower |"
+        )
     print()
-    print("| batch: 64 speeds 20-100 m/s, 1 km each, every core, per vehicle-km | wall s | CPU s "
-          "| against the numba peer as written (wall, CPU) |")
+    print(
+        "| batch: 64 speeds 20-100 m/s, 1 km each, every core, per vehicle-km | wall s | CPU s "
+        "| against the numba peer as written (wall, CPU) |"
+    )
     print("|---|---|---|---|")
-    names = {"sweep": "rail-mj, `sweep` (runs and their EN 14363 summary rows)",
-             "runs": "rail-mj, the runs alone (`simulate_many`, no summaries)",
-             "peer": "the numba RK4 peer, as written (`prange` over the speeds in order)",
-             "balanced": "the numba RK4 peer, its speeds dealt out evenly to the cores"}
+    names = {
+        "sweep": "rail-mj, `sweep` (runs and their EN 14363 summary rows)",
+        "runs": "rail-mj, the runs alone (`simulate_many`, no summaries)",
+        "peer": "the numba RK4 peer, as written (`prange` over the speeds in order)",
+        "balanced": "the numba RK4 peer, its speeds dealt out evenly to the cores",
+    }
     peer = batch["peer"]
     for name, (wall, cpu) in batch.items():
         print(f"| {names[name]} | {wall:.3f} | {cpu:.3f} | {wall / peer[0]:.2f}x, {cpu / peer[1]:.2f}x |")
     print()
     print(f"| a ten-car train ({train_nv} dof), real time 10 s at 60 m/s | time | faster than real time |")
     print("|---|---|---|")
-    print(f"| one RK4 step of 1 ms with the native creep callback | {train_step * 1e6:.0f} µs | "
-          f"{1e-3 / train_step:.1f}x |")
+    print(
+        f"| one RK4 step of 1 ms with the native creep callback | {train_step * 1e6:.0f} µs | "
+        f"{1e-3 / train_step:.1f}x |"
+    )
     print(f"| `simulate`: 600 m at 60 m/s (10 s) | {train_run:.2f} s | {10.0 / train_run:.1f}x |")
     print()
     print_spatial(spatial)

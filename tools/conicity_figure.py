@@ -35,7 +35,7 @@ from rail_mj.contact.conicity import equivalent_conicity
 from rail_mj.files import atomic_write
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import worn_profile  # noqa: E402
+import worn_profile
 
 AMPLITUDES = np.round(np.arange(0.5, 10.0 + 1e-9, 0.1), 10)  # mm
 QUOTED = (1.0, 3.0, 5.0)  # mm: the README's table
@@ -44,9 +44,11 @@ QUOTED = (1.0, 3.0, 5.0)  # mm: the README's table
 def pairs() -> list[tuple[str, G.Track]]:
     new, rail = P.s1002(), P.rail_60e1()
     worn = P.read_profile(worn_profile.OUT / f"{worn_profile.NAME}.csv", "wheel")
-    return [("new S1002, 60E1 at 1:40", G.Track(new, rail, rail_inclination=1 / 40)),
-            ("new S1002, 60E1 at 1:20", G.Track(new, rail, rail_inclination=1 / 20)),
-            (f"worn S1002 ({worn_profile.DEPTH:g} mm), 60E1 at 1:40", G.Track(worn, rail, rail_inclination=1 / 40))]
+    return [
+        ("new S1002, 60E1 at 1:40", G.Track(new, rail, rail_inclination=1 / 40)),
+        ("new S1002, 60E1 at 1:20", G.Track(new, rail, rail_inclination=1 / 20)),
+        (f"worn S1002 ({worn_profile.DEPTH:g} mm), 60E1 at 1:40", G.Track(worn, rail, rail_inclination=1 / 40)),
+    ]
 
 
 def flange_from(table: G.ContactTable) -> float:
@@ -74,8 +76,11 @@ def main() -> int:
     worn = results[2][1].wheel
     axes[0].plot(s, new_z, color="C0", label="new S1002")
     axes[0].plot(s, worn.height(s * 1e-3) * 1e3, color="C2", label="worn")
-    axes[0].set(xlabel="S across the wheel from the taping line (mm, + outer face)",
-                ylabel="z = -(r - r0) (mm)", title="the wheels (flange root at left)")
+    axes[0].set(
+        xlabel="S across the wheel from the taping line (mm, + outer face)",
+        ylabel="z = -(r - r0) (mm)",
+        title="the wheels (flange root at left)",
+    )
     axes[0].set_ylim(-8.0, 2.5)
     wear = axes[0].twinx()
     wear.fill_between(s, worn_profile.wear_depth(s), color="C2", alpha=0.15, lw=0)
@@ -85,14 +90,21 @@ def main() -> int:
     for k, (name, _, table, lam, quoted) in enumerate(results):
         color = ("C0", "C1", "C2")[k]
         axes[1].plot(table.y * 1e3, table.delta_r * 1e3, color=color, lw=1.2, label=name)
-        axes[2].plot(AMPLITUDES, lam, color=color, lw=1.5,
-                     label=f"{name}: {quoted[1]:.3f} at 3 mm")
-    axes[1].set(xlabel="lateral shift y (mm)", ylabel="Δr = r_left - r_right (mm)",
-                title="rolling-radius difference (flange contact off scale)", ylim=(-5.0, 5.0))
+        axes[2].plot(AMPLITUDES, lam, color=color, lw=1.5, label=f"{name}: {quoted[1]:.3f} at 3 mm")
+    axes[1].set(
+        xlabel="lateral shift y (mm)",
+        ylabel="Δr = r_left - r_right (mm)",
+        title="rolling-radius difference (flange contact off scale)",
+        ylim=(-5.0, 5.0),
+    )
     axes[1].legend(loc="upper left", fontsize=8)
     axes[2].axvline(3.0, color="grey", ls=":", lw=1)
-    axes[2].set(xlabel="amplitude ŷ (mm)", ylabel="equivalent conicity λe",
-                title="EN 15302 equivalent conicity (integration)", xlim=(0.0, 10.0))
+    axes[2].set(
+        xlabel="amplitude ŷ (mm)",
+        ylabel="equivalent conicity λe",
+        title="EN 15302 equivalent conicity (integration)",
+        xlim=(0.0, 10.0),
+    )
     axes[2].set_ylim(0.0, max(float(np.nanmax(r[3])) for r in results) * 1.05)
     axes[2].legend(loc="upper left", fontsize=8)
     for ax in axes:

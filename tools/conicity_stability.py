@@ -25,13 +25,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from rail_mj.analysis.bifurcation import nonlinear_critical_speed  # noqa: E402
-from rail_mj.files import atomic_write  # noqa: E402
-from rail_mj.layout import load_layout  # noqa: E402
-from rail_mj.analysis.stability import Stability  # noqa: E402
+from rail_mj.analysis.bifurcation import nonlinear_critical_speed
+from rail_mj.analysis.stability import Stability
+from rail_mj.files import atomic_write
+from rail_mj.layout import load_layout
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 VMIN, VMAX = 20.0, 250.0
@@ -70,10 +70,13 @@ def main() -> None:
     args = parser.parse_args()
 
     new, worn = coach("manchester-coach-s1002"), coach("manchester-coach-worn")
-    pairs = [("new S1002, 1:40, 1435 mm", new), ("new S1002, 1:20, 1435 mm", on_track(new, rail_inclination=0.05)),
-             ("new S1002, 1:40, 1432 mm", on_track(new, track_gauge=1.432)),
-             ("new S1002, 1:40, 1438 mm", on_track(new, track_gauge=1.438)),
-             ("worn S1002, 1:40, 1435 mm", worn)]
+    pairs = [
+        ("new S1002, 1:40, 1435 mm", new),
+        ("new S1002, 1:20, 1435 mm", on_track(new, rail_inclination=0.05)),
+        ("new S1002, 1:40, 1432 mm", on_track(new, track_gauge=1.432)),
+        ("new S1002, 1:40, 1438 mm", on_track(new, track_gauge=1.438)),
+        ("worn S1002, 1:40, 1435 mm", worn),
+    ]
     rows = []
     for label, layout in pairs:
         lam, vc, mode = linear(layout)
@@ -82,8 +85,7 @@ def main() -> None:
             result = nonlinear_critical_speed(layout, VMIN, VMAX)[0]
             vn, outcome = result.critical_speed, result.outcome
         rows.append((label, lam, vc, mode, vn, outcome))
-        print(f"{label}: λe(3 mm) = {lam:.3f}, linear Vc = {vc} ({mode}), nonlinear = {vn} ({outcome})",
-              flush=True)
+        print(f"{label}: λe(3 mm) = {lam:.3f}, linear Vc = {vc} ({mode}), nonlinear = {vn} ({outcome})", flush=True)
     amplitudes = [1.0, 1.5, 2.0, 3.0, 4.0, 6.0]
     sweep = [(a, *linear(new, a)[:2]) for a in amplitudes]
     for a, lam, vc in sweep:
@@ -92,14 +94,24 @@ def main() -> None:
     line = cone_line(new, lams)
 
     fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=120)
-    ax.plot(lams, [np.nan if v is None else v for v in line], color="0.6", lw=1.5,
-            label="the same coach on cones (centred contact's creep coefficients)")
-    ax.plot([s[1] for s in sweep], [np.nan if s[2] is None else s[2] for s in sweep], "s--", color="tab:blue",
-            ms=5, label="new S1002/60E1 1:40, linearised at 1-6 mm")
-    for (a, lam, vc) in sweep:
+    ax.plot(
+        lams,
+        [np.nan if v is None else v for v in line],
+        color="0.6",
+        lw=1.5,
+        label="the same coach on cones (centred contact's creep coefficients)",
+    )
+    ax.plot(
+        [s[1] for s in sweep],
+        [np.nan if s[2] is None else s[2] for s in sweep],
+        "s--",
+        color="tab:blue",
+        ms=5,
+        label="new S1002/60E1 1:40, linearised at 1-6 mm",
+    )
+    for a, lam, vc in sweep:
         if vc is not None:
-            ax.annotate(f"{a:g} mm", (lam, vc), textcoords="offset points", xytext=(6, 4), fontsize=7,
-                        color="tab:blue")
+            ax.annotate(f"{a:g} mm", (lam, vc), textcoords="offset points", xytext=(6, 4), fontsize=7, color="tab:blue")
     markers = iter("oDv^P")
     for label, lam, vc, _, vn, _ in rows:
         m = next(markers)
@@ -118,15 +130,21 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     atomic_write(args.out / "critical_speed_conicity.png", buf.getvalue())
 
-    print("\n| wheel and track | λe at 3 mm | linear critical speed (m/s), mode |" + (
-        " nonlinear critical speed (m/s) |" if args.nonlinear else ""))
+    print(
+        "\n| wheel and track | λe at 3 mm | linear critical speed (m/s), mode |"
+        + (" nonlinear critical speed (m/s) |" if args.nonlinear else "")
+    )
     print("|---|---|---|" + ("---|" if args.nonlinear else ""))
     for label, lam, vc, mode, vn, outcome in rows:
-        cells = (f"| {label} | {lam:.3f} | {vc:.1f}, {mode} |" if vc
-                 else f"| {label} | {lam:.3f} | stable to {VMAX:g} |")
+        cells = f"| {label} | {lam:.3f} | {vc:.1f}, {mode} |" if vc else f"| {label} | {lam:.3f} | stable to {VMAX:g} |"
         if args.nonlinear:
-            cells += (f" {vn:.1f} |" if vn else " the linear one: no limit cycle below it |" if outcome == "linear"
-                      else f" none ({outcome}) |")
+            cells += (
+                f" {vn:.1f} |"
+                if vn
+                else " the linear one: no limit cycle below it |"
+                if outcome == "linear"
+                else f" none ({outcome}) |"
+            )
         print(cells)
 
 

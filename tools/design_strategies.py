@@ -22,12 +22,12 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from rail_mj.files import atomic_write  # noqa: E402
-from rail_mj.layout import load_layout  # noqa: E402
-from rail_mj.analysis.stability import Stability  # noqa: E402
+from rail_mj.analysis.stability import Stability
+from rail_mj.files import atomic_write
+from rail_mj.layout import load_layout
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 VMIN, VMAX = 5.0, 300.0
@@ -62,8 +62,9 @@ def yaw_stiffness_sweep(values):
     base = layout("manchester-coach")
     out = {}
     for lam in (0.05, 0.15):
-        out[lam] = [critical(with_changes(base, wheelset={"conicity": lam},
-                                          primary={"yaw_stiffness": k}))[0] for k in values]
+        out[lam] = [
+            critical(with_changes(base, wheelset={"conicity": lam}, primary={"yaw_stiffness": k}))[0] for k in values
+        ]
     return out
 
 
@@ -71,8 +72,9 @@ def wagon_damping_sweep(values):
     base = layout("wagon")
     out = {}
     for ky in (1.0e6, 0.25e6):
-        out[ky] = [critical(with_changes(base, primary={"lateral_stiffness": ky,
-                                                        "lateral_damping": c}))[0] for c in values]
+        out[ky] = [
+            critical(with_changes(base, primary={"lateral_stiffness": ky, "lateral_damping": c}))[0] for c in values
+        ]
     return out
 
 
@@ -93,33 +95,44 @@ def main() -> None:
     base_coach = critical(layout("manchester-coach"))
     soft_coach = critical(with_changes(layout("manchester-coach"), primary={"yaw_stiffness": 5e6}))
     base_wagon = critical(layout("wagon"))
-    wickens = critical(with_changes(layout("wagon"), primary={"lateral_stiffness": 0.25e6,
-                                                              "lateral_damping": 60e3}))
+    wickens = critical(with_changes(layout("wagon"), primary={"lateral_stiffness": 0.25e6, "lateral_damping": 60e3}))
 
     print("| vehicle | change | eigen critical speed | mode at the threshold |")
     print("|---|---|---|---|")
     for name, change, vc, mode in rows:
         print(f"| {name} | {change} | {fmt(vc)} | {mode} |")
     print(f"| manchester-coach | soft primary yaw stiffness, 5 MN m/rad | {fmt(soft_coach[0])} | {soft_coach[1]} |")
-    print(f"| manchester-coach | stiff primary yaw stiffness, 62.78 MN m/rad (shipped; Matsudaira) | {fmt(base_coach[0])} | {base_coach[1]} |")
+    print(
+        f"| manchester-coach | stiff primary yaw stiffness, 62.78 MN m/rad (shipped; Matsudaira) | {fmt(base_coach[0])} | {base_coach[1]} |"  # noqa: E501
+    )
     print(f"| wagon | shipped: 1 MN/m, 20 kN s/m | {fmt(base_wagon[0])} | {base_wagon[1]} |")
     print(f"| wagon | 0.25 MN/m, 60 kN s/m (Wickens) | {fmt(wickens[0])} | {wickens[1]} |")
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 5), layout="constrained")
     for lam, vcs in yaw_vc.items():
-        ax1.plot(yaw / 1e6, [np.nan if v is None else v for v in vcs], "o-", ms=3,
-                 label=f"conicity {lam:g}")
+        ax1.plot(yaw / 1e6, [np.nan if v is None else v for v in vcs], "o-", ms=3, label=f"conicity {lam:g}")
     ax1.axvline(62.78, color="grey", linestyle=":", label="shipped 62.78 MN m/rad")
-    ax1.set(xscale="log", xlabel="primary yaw stiffness per wheelset (MN m/rad)",
-            ylabel="eigen critical speed (m/s)",
-            title="Coach: Matsudaira's route (stiffer yaw, lower conicity)")
+    ax1.set(
+        xscale="log",
+        xlabel="primary yaw stiffness per wheelset (MN m/rad)",
+        ylabel="eigen critical speed (m/s)",
+        title="Coach: Matsudaira's route (stiffer yaw, lower conicity)",
+    )
     ax1.grid(alpha=0.3, which="both")
     ax1.legend()
     for ky, vcs in wagon_vc.items():
-        ax2.plot(damping / 1e3, [np.nan if v is None else v for v in vcs], "o-", ms=3,
-                 label=f"lateral stiffness {ky / 1e6:g} MN/m")
-    ax2.set(xlabel="lateral damping per wheelset (kN s/m)", ylabel="eigen critical speed (m/s)",
-            title="Two-axle wagon: Wickens' route (soft, laterally damped)")
+        ax2.plot(
+            damping / 1e3,
+            [np.nan if v is None else v for v in vcs],
+            "o-",
+            ms=3,
+            label=f"lateral stiffness {ky / 1e6:g} MN/m",
+        )
+    ax2.set(
+        xlabel="lateral damping per wheelset (kN s/m)",
+        ylabel="eigen critical speed (m/s)",
+        title="Two-axle wagon: Wickens' route (soft, laterally damped)",
+    )
     ax2.grid(alpha=0.3)
     ax2.legend()
     png = io.BytesIO()

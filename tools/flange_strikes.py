@@ -17,16 +17,18 @@ from pathlib import Path
 import numpy as np
 
 from rail_mj.analysis import flange_strikes
+from rail_mj.analysis.stability import Stability
 from rail_mj.layout import load_layout
 from rail_mj.simulation.runner import simulate
-from rail_mj.analysis.stability import Stability
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 SETTLE, SAMPLE = 8.0, 4.0  # s on the limit cycle before sampling, and sampled
 
 
 def main() -> None:
-    print("| vehicle | speed | strikes | yaw on arrival | yaw on leaving | creep couple | flange force at its lead | peak flange force |")
+    print(
+        "| vehicle | speed | strikes | yaw on arrival | yaw on leaving | creep couple | flange force at its lead | peak flange force |"  # noqa: E501
+    )
     print("|---|---|---|---|---|---|---|---|")
     for name in ("bogie", "manchester-coach"):
         layout = load_layout(MODELS / name / f"{name}.toml")
@@ -40,8 +42,10 @@ def main() -> None:
         couple = np.mean([side * forces.creep_couple[s:e, 0].mean() for side, s, e in rows]) / 1e3
         lead = np.mean([side * forces.flange_moment[s:e, 0].mean() for side, s, e in rows]) / 1e3
         peak = np.max(np.abs(forces.flange_lateral[run.t >= SETTLE, 0])) / 1e3
-        print(f"| {name} | {speed:.1f} m/s | {len(rows)} | {arrive:+.1f} mrad | {leave:+.1f} mrad | "
-              f"{couple:+.2f} kN m | {lead:+.2f} kN m | {peak:.0f} kN |")
+        print(
+            f"| {name} | {speed:.1f} m/s | {len(rows)} | {arrive:+.1f} mrad | {leave:+.1f} mrad | "
+            f"{couple:+.2f} kN m | {lead:+.2f} kN m | {peak:.0f} kN |"
+        )
 
 
 if __name__ == "__main__":

@@ -22,10 +22,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from rail_mj.analysis import hunting_limit, hunting_rms
+from rail_mj.analysis.stability import Stability
 from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
 from rail_mj.simulation.runner import simulate
-from rail_mj.analysis.stability import Stability
 
 BOGIE = Path(__file__).resolve().parent.parent / "models" / "bogie" / "bogie.toml"
 ZOOM = 40.0  # m at the end of the run
@@ -46,17 +46,17 @@ def main() -> None:
 
     fig, axes = plt.subplots(4, 1, figsize=(10, 10), layout="constrained")
     axes[0].plot(run.x, run.y[:, 0] * 1e3, lw=0.6)
-    axes[0].set(ylabel="wheelset 1 y (mm)",
-                title=f"bogie at {speed:.1f} m/s (1.1 x its linear critical speed {linear:.1f} m/s), "
-                      "from a 2 mm disturbance")
+    axes[0].set(
+        ylabel="wheelset 1 y (mm)",
+        title=f"bogie at {speed:.1f} m/s (1.1 x its linear critical speed {linear:.1f} m/s), from a 2 mm disturbance",
+    )
     zoom = run.x >= run.x[-1] - ZOOM
     for i in range(run.n_wheelsets):
         color = f"C{i}"
         axes[1].plot(run.x[zoom], run.y[zoom, i] * 1e3, color=color, label=f"wheelset {i + 1}")
         axes[2].plot(run.x[zoom], run.psi[zoom, i] * 1e3, color=color, label=f"wheelset {i + 1}")
         axes[3].plot(run.x[zoom], guiding[zoom, i] / 1e3, color=color, lw=0.7, label=f"ΣY, wheelset {i + 1}")
-        axes[3].plot(run.x[zoom], rms[zoom, i] / 1e3, color=color, lw=2.5,
-                     label="its rms over 100 m, band-passed")
+        axes[3].plot(run.x[zoom], rms[zoom, i] / 1e3, color=color, lw=2.5, label="its rms over 100 m, band-passed")
     for ax in axes[:2]:
         for sign in (1, -1):
             ax.axhline(sign * clearance, color="grey", ls=":", lw=1)
@@ -74,8 +74,10 @@ def main() -> None:
     fig.savefig(png, format="png", dpi=100)
     plt.close(fig)
     atomic_write(Path(args.out) / "hunting_bogie.png", png.getvalue())
-    print(f"bogie at {speed:.1f} m/s: wheelset 1 limit cycle {np.max(np.abs(run.y[zoom, 0])) * 1e3:.1f} mm, "
-          f"rms Sigma Y up to {np.nanmax(rms) / 1e3:.1f} kN against {limit / 1e3:.1f} kN")
+    print(
+        f"bogie at {speed:.1f} m/s: wheelset 1 limit cycle {np.max(np.abs(run.y[zoom, 0])) * 1e3:.1f} mm, "
+        f"rms Sigma Y up to {np.nanmax(rms) / 1e3:.1f} kN against {limit / 1e3:.1f} kN"
+    )
 
 
 if __name__ == "__main__":

@@ -30,18 +30,26 @@ def main() -> None:
     print("|---|---|---|---|")
     bogie = load_layout(MODELS / "bogie" / "bogie.toml")
     # Polach's falling friction with illustrative values (mu falls from 0.3 towards 0.12).
-    falling = dataclasses.replace(bogie, creep=dataclasses.replace(
-        bogie.creep, falling_friction_ratio=0.4, falling_friction_rate=0.6))
-    cases = [("bogie", bogie), ("manchester-coach", load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")),
-             ("bogie, falling friction A 0.4, B 0.6 s/m", falling)]
+    falling = dataclasses.replace(
+        bogie, creep=dataclasses.replace(bogie.creep, falling_friction_ratio=0.4, falling_friction_rate=0.6)
+    )
+    cases = [
+        ("bogie", bogie),
+        ("manchester-coach", load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")),
+        ("bogie, falling friction A 0.4, B 0.6 s/m", falling),
+    ]
     for name, layout in cases:
         critical, down, up = bifurcation(layout)  # the one procedure and step (bifurcation.STEP)
         if layout is not falling:
-            atomic_write(Path(args.out) / f"bifurcation_{name}.png",
-                         bifurcation_png(critical, down, up, layout.wheelset.flangeway_clearance, name))
-        print(f"| {name} | {critical.linear_critical_speed:.1f} m/s | {critical.critical_speed:.1f} m/s "
-              f"({critical.mode}, {critical.frequency:.2f} Hz) | {down.amplitudes[0] * 1e3:.1f} mm at "
-              f"{down.speeds[0]:.1f} m/s |")
+            atomic_write(
+                Path(args.out) / f"bifurcation_{name}.png",
+                bifurcation_png(critical, down, up, layout.wheelset.flangeway_clearance, name),
+            )
+        print(
+            f"| {name} | {critical.linear_critical_speed:.1f} m/s | {critical.critical_speed:.1f} m/s "
+            f"({critical.mode}, {critical.frequency:.2f} Hz) | {down.amplitudes[0] * 1e3:.1f} mm at "
+            f"{down.speeds[0]:.1f} m/s |"
+        )
 
 
 if __name__ == "__main__":

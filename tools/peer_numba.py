@@ -23,9 +23,21 @@ import time
 
 import numba
 import numpy as np
+from peers import (
+    DISTANCE,
+    INITIAL_LATERAL,
+    SPEED,
+    TIMESTEP,
+    Coach,
+    best,
+    coach,
+    initial_state,
+    max_difference,
+    reference,
+    table,
+    time_rail_mj,
+)
 
-from peers import (DISTANCE, INITIAL_LATERAL, SPEED, TIMESTEP, Coach, best, coach, initial_state,
-                   max_difference, reference, table, time_rail_mj)
 from rail_mj.contact.creep import wheelset_contact
 
 BATCH_SPEEDS = (20.0, 100.0)  # m/s: the batch's speeds, evenly spaced
@@ -60,8 +72,17 @@ def _workspace(parent):
         slots[i] = above + 2
         dof_parent[2 * i] = -1 if P < 0 else 2 * P + 1  # a body's slide hangs from its parent's hinge
         dof_parent[2 * i + 1] = 2 * i  # its hinge from its own slide
-    return (chain, slots, dof_parent, np.zeros(bodies), np.zeros((bodies, 2)),
-            np.zeros((bodies, 2, 2 * bodies)), np.zeros((bodies, 2)), np.zeros((dofs, dofs)), np.zeros(dofs))
+    return (
+        chain,
+        slots,
+        dof_parent,
+        np.zeros(bodies),
+        np.zeros((bodies, 2)),
+        np.zeros((bodies, 2, 2 * bodies)),
+        np.zeros((bodies, 2)),
+        np.zeros((dofs, dofs)),
+        np.zeros(dofs),
+    )
 
 
 @numba.njit(cache=True)
@@ -151,8 +172,9 @@ def _accelerations(vehicle, speed, q, v, work, qacc):
             k = chain[i, c]
             Q[k] -= mass[i] * (J[i, 0, c] * a[i, 0] + J[i, 1, c] * a[i, 1])
             for b in range(c + 1):
-                M[k, chain[i, b]] += mass[i] * (J[i, 0, c] * J[i, 0, b] + J[i, 1, c] * J[i, 1, b]) \
-                    + (izz[i] if c % 2 and b % 2 else 0.0)
+                M[k, chain[i, b]] += mass[i] * (J[i, 0, c] * J[i, 0, b] + J[i, 1, c] * J[i, 1, b]) + (
+                    izz[i] if c % 2 and b % 2 else 0.0
+                )
     qacc[:] = Q
     _solve_tree(M, dof_parent, qacc)
 
@@ -200,13 +222,24 @@ def _run(vehicle, speed, state, dt, steps, every, ys, psis):
 
 def _arrays(vehicle: Coach) -> tuple:
     """The vehicle as the tuple the compiled functions take."""
-    return (vehicle.parent, vehicle.offset, vehicle.mass, vehicle.yaw_inertia, vehicle.stiffness,
-            vehicle.damping, vehicle.wheelsets, np.ascontiguousarray(vehicle.contact), vehicle.law,
-            vehicle.flange, vehicle.falling)
+    return (
+        vehicle.parent,
+        vehicle.offset,
+        vehicle.mass,
+        vehicle.yaw_inertia,
+        vehicle.stiffness,
+        vehicle.damping,
+        vehicle.wheelsets,
+        np.ascontiguousarray(vehicle.contact),
+        vehicle.law,
+        vehicle.flange,
+        vehicle.falling,
+    )
 
 
-def simulate(vehicle: Coach, speed: float, distance: float, initial_lateral: float,
-             dt: float = TIMESTEP, every: int = 1):
+def simulate(
+    vehicle: Coach, speed: float, distance: float, initial_lateral: float, dt: float = TIMESTEP, every: int = 1
+):
     """One run: (t, y, psi), the wheelsets' absolute lateral displacement (m) and yaw
     (rad), sampled every `every` steps as rail-mj samples (its last sample at or past
     `distance`)."""
@@ -223,7 +256,7 @@ def simulate(vehicle: Coach, speed: float, distance: float, initial_lateral: flo
 def _batch(vehicle, speeds, distance, initial_lateral, dt, tail, amplitude, final):
     for r in numba.prange(speeds.size):
         speed = speeds[r]
-        steps = int(math.ceil(distance / speed / dt))
+        steps = math.ceil(distance / speed / dt)
         wheelsets = vehicle[6].size
         ys = np.zeros((steps + 1, wheelsets))  # every step: 1 km at 20 m/s is 1.6 MB
         psis = np.zeros((steps + 1, wheelsets))
@@ -235,8 +268,14 @@ def _batch(vehicle, speeds, distance, initial_lateral, dt, tail, amplitude, fina
         amplitude[r] = np.max(np.abs(ys[last:]))
 
 
-def batch(vehicle: Coach, speeds: np.ndarray, distance: float = DISTANCE,
-          initial_lateral: float = INITIAL_LATERAL, dt: float = TIMESTEP, tail: float = TAIL):
+def batch(
+    vehicle: Coach,
+    speeds: np.ndarray,
+    distance: float = DISTANCE,
+    initial_lateral: float = INITIAL_LATERAL,
+    dt: float = TIMESTEP,
+    tail: float = TAIL,
+):
     """Many runs at once, one speed each, spread over every core (numba prange):
     (amplitude, final), each run's largest wheelset |y| over its last `tail` metres (m)
     and its final state (q, q'). What a speed sweep keeps (a bifurcation diagram plots
@@ -244,8 +283,7 @@ def batch(vehicle: Coach, speeds: np.ndarray, distance: float = DISTANCE,
     speeds = np.ascontiguousarray(speeds, dtype=np.float64)
     amplitude = np.zeros(speeds.size)
     final = np.zeros((speeds.size, 2 * vehicle.dofs))
-    _batch(_arrays(vehicle), speeds, float(distance), float(initial_lateral), float(dt), float(tail),
-           amplitude, final)
+    _batch(_arrays(vehicle), speeds, float(distance), float(initial_lateral), float(dt), float(tail), amplitude, final)
     return amplitude, final
 
 
@@ -253,8 +291,9 @@ def threads() -> int:
     return numba.get_num_threads()
 
 
-def agreement(run=None, speed: float = SPEED, distance: float = DISTANCE,
-              initial_lateral: float = INITIAL_LATERAL) -> float:
+def agreement(
+    run=None, speed: float = SPEED, distance: float = DISTANCE, initial_lateral: float = INITIAL_LATERAL
+) -> float:
     """max |y_peer - y_rail_mj| (m) over the samples of rail-mj's run of the coach (made
     here unless given: `run` must be `peers.reference(speed, distance, initial_lateral)`),
     at its timestep."""
@@ -271,8 +310,13 @@ def time_single(speed: float = SPEED, distance: float = DISTANCE, repeats: int =
     return best(lambda: simulate(vehicle, speed, distance, INITIAL_LATERAL), repeats), distance / 1000.0
 
 
-def time_batch(runs: int = BATCH_RUNS, speeds: tuple[float, float] = BATCH_SPEEDS, distance: float = DISTANCE,
-               repeats: int = 2, balanced: bool = False) -> tuple[float, float]:
+def time_batch(
+    runs: int = BATCH_RUNS,
+    speeds: tuple[float, float] = BATCH_SPEEDS,
+    distance: float = DISTANCE,
+    repeats: int = 2,
+    balanced: bool = False,
+) -> tuple[float, float]:
     """(seconds, vehicle-km) of `runs` runs at speeds evenly from speeds[0] to speeds[1],
     each `distance` long, on every core; compilation excluded.
 
@@ -283,8 +327,8 @@ def time_batch(runs: int = BATCH_RUNS, speeds: tuple[float, float] = BATCH_SPEED
     vehicle = coach()
     grid = np.linspace(*speeds, runs)
     if balanced:
-        grid = np.concatenate([grid[i::threads()] for i in range(threads())])
-    batch(vehicle, grid[:threads()], 1.0)
+        grid = np.concatenate([grid[i :: threads()] for i in range(threads())])
+    batch(vehicle, grid[: threads()], 1.0)
     return best(lambda: batch(vehicle, grid, distance), repeats), runs * distance / 1000.0
 
 
@@ -306,15 +350,24 @@ def step_time(speed: float = SPEED, steps: int = 5000, repeats: int = 5) -> floa
 
 def main() -> None:
     run = reference()
-    print(f"max |y - y_rail_mj| over {DISTANCE:g} m at {SPEED:g} m/s: {agreement(run):.3g} m "
-          f"(timestep {run.timestep:g} s)")
+    print(
+        f"max |y - y_rail_mj| over {DISTANCE:g} m at {SPEED:g} m/s: {agreement(run):.3g} m "
+        f"(timestep {run.timestep:g} s)"
+    )
     print()
-    print(table([
-        (f"rail_mj.simulate, {DISTANCE / 1000:g} km at {SPEED:g} m/s", *time_rail_mj()),
-        (f"numba RK4, {DISTANCE / 1000:g} km at {SPEED:g} m/s", *time_single()),
-        (f"numba RK4 batch: {BATCH_RUNS} speeds {BATCH_SPEEDS[0]:g}-{BATCH_SPEEDS[1]:g} m/s, "
-         f"{DISTANCE / 1000:g} km each, {threads()} threads", *time_batch()),
-    ]))
+    print(
+        table(
+            [
+                (f"rail_mj.simulate, {DISTANCE / 1000:g} km at {SPEED:g} m/s", *time_rail_mj()),
+                (f"numba RK4, {DISTANCE / 1000:g} km at {SPEED:g} m/s", *time_single()),
+                (
+                    f"numba RK4 batch: {BATCH_RUNS} speeds {BATCH_SPEEDS[0]:g}-{BATCH_SPEEDS[1]:g} m/s, "
+                    f"{DISTANCE / 1000:g} km each, {threads()} threads",
+                    *time_batch(),
+                ),
+            ]
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -21,10 +21,22 @@ prints the agreement with `rail_mj.simulate` over 1 km at 60 m/s and a timing ta
 from __future__ import annotations
 
 import numpy as np
+from peers import (
+    DISTANCE,
+    INITIAL_LATERAL,
+    SPEED,
+    TIMESTEP,
+    Coach,
+    best,
+    coach,
+    initial_state,
+    max_difference,
+    reference,
+    table,
+    time_rail_mj,
+)
 from scipy.integrate import solve_ivp
 
-from peers import (DISTANCE, INITIAL_LATERAL, SPEED, TIMESTEP, Coach, best, coach, initial_state,
-                   max_difference, reference, table, time_rail_mj)
 from rail_mj.contact.creep import POLACH
 
 METHODS = ("RK45", "DOP853")
@@ -34,16 +46,16 @@ RTOL = 1e-10
 ATOL = 1e-13  # m, rad and their rates: y is a few mm, the rates a few cm/s
 
 
-def creep_forces(contact: np.ndarray, law: int, flange: bool, falling: bool, y, psi, y_dot, psi_dot,
-                 speed: float):
+def creep_forces(contact: np.ndarray, law: int, flange: bool, falling: bool, y, psi, y_dot, psi_dot, speed: float):
     """The rails' lateral force Fy (N) and yaw moment Mz (N m) on each wheelset: rail-mj's
     law (docs/creep.md, docs/flange.md) in numpy, arrays over the wheelsets. `contact` is
     rail_mj.contact.creep.ContactParameters.table (one column a wheelset); `falling`: Polach's
     falling friction on."""
     if law != POLACH:
         raise ValueError("this peer writes Polach's law only, the coach's")
-    (r0, b, lam, f11, f22, f23, f33, limit, fall_ratio, fall_rate, clearance, k_flange, c_flange,
-     slope, *_ellipse) = contact  # the contact ellipse's rows serve the fastsim law only
+    (r0, b, lam, f11, f22, f23, f33, limit, fall_ratio, fall_rate, clearance, k_flange, c_flange, slope, *_ellipse) = (
+        contact  # the contact ellipse's rows serve the fastsim law only
+    )
 
     def rise(y):  # a wheel's rolling radius over r0 when the wheelset moves y towards it
         return lam * y + (slope - lam) * np.maximum(y - clearance, 0.0)
@@ -129,7 +141,7 @@ class Equations:
         J[0, :, 0::2], J[1, :, 0::2] = -A * s, A * c
         J[0, :, 1::2] = -A * (p[1][:, None] - p[1][None, :])
         J[1, :, 1::2] = A * (p[0][:, None] - p[0][None, :])
-        a = (-omega_p ** 2 * u - 2.0 * omega_p * v_y * np.array([c, s])) @ A.T
+        a = (-(omega_p**2) * u - 2.0 * omega_p * v_y * np.array([c, s])) @ A.T
         return theta, omega, p, J, a
 
     def __call__(self, t, x):
@@ -141,8 +153,9 @@ class Equations:
         Q = -veh.stiffness * q - veh.damping * v - (a[0] @ mJ[0] + a[1] @ mJ[1])
         ws = veh.wheelsets
         Jy = J[1, ws]
-        fy, mz = creep_forces(veh.contact, veh.law, veh.flange, veh.falling, p[1, ws], theta[ws], Jy @ v,
-                              omega[ws], self.speed)
+        fy, mz = creep_forces(
+            veh.contact, veh.law, veh.flange, veh.falling, p[1, ws], theta[ws], Jy @ v, omega[ws], self.speed
+        )
         Q += fy @ Jy + mz @ self.Gw
         return np.concatenate([v, np.linalg.solve(M, Q)])
 
@@ -154,16 +167,30 @@ def wheelset_y(vehicle: Coach, q: np.ndarray) -> np.ndarray:
     return ((vehicle.offset * np.sin(theta_p) + q[:, 0::2] * np.cos(theta_p)) @ A.T)[:, vehicle.wheelsets]
 
 
-def simulate(vehicle: Coach, speed: float, t_eval: np.ndarray, initial_lateral: float, method: str = "RK45",
-             rtol: float = RTOL, atol: float = ATOL):
+def simulate(
+    vehicle: Coach,
+    speed: float,
+    t_eval: np.ndarray,
+    initial_lateral: float,
+    method: str = "RK45",
+    rtol: float = RTOL,
+    atol: float = ATOL,
+):
     """One run sampled at t_eval (s): (y, solution), the wheelsets' absolute lateral
     displacement (samples, 4) and solve_ivp's result."""
     f = Equations(vehicle, speed)
-    solution = solve_ivp(f, (0.0, t_eval[-1]), initial_state(vehicle, initial_lateral), method=method,
-                         t_eval=t_eval, rtol=rtol, atol=atol)
+    solution = solve_ivp(
+        f,
+        (0.0, t_eval[-1]),
+        initial_state(vehicle, initial_lateral),
+        method=method,
+        t_eval=t_eval,
+        rtol=rtol,
+        atol=atol,
+    )
     if not solution.success:
         raise RuntimeError(f"solve_ivp {method} failed: {solution.message}")
-    return wheelset_y(vehicle, solution.y[:vehicle.dofs].T), solution
+    return wheelset_y(vehicle, solution.y[: vehicle.dofs].T), solution
 
 
 def sample_times(speed: float, distance: float, dt: float = TIMESTEP) -> np.ndarray:
@@ -171,8 +198,13 @@ def sample_times(speed: float, distance: float, dt: float = TIMESTEP) -> np.ndar
     return np.arange(int(np.ceil(distance / speed / dt)) + 1) * dt
 
 
-def agreement(run=None, method: str = "RK45", speed: float = SPEED, distance: float = DISTANCE,
-              initial_lateral: float = INITIAL_LATERAL) -> float:
+def agreement(
+    run=None,
+    method: str = "RK45",
+    speed: float = SPEED,
+    distance: float = DISTANCE,
+    initial_lateral: float = INITIAL_LATERAL,
+) -> float:
     """max |y_peer - y_rail_mj| (m) over the samples of rail-mj's run of the coach (made
     here unless given: `run` must be `peers.reference(speed, distance, initial_lateral)`)."""
     run = run or reference(speed, distance, initial_lateral)
@@ -180,8 +212,9 @@ def agreement(run=None, method: str = "RK45", speed: float = SPEED, distance: fl
     return max_difference(run, run.t, y)
 
 
-def time_run(method: str = "RK45", speed: float = SPEED, distance: float = DISTANCE,
-             repeats: int = 2) -> tuple[float, float]:
+def time_run(
+    method: str = "RK45", speed: float = SPEED, distance: float = DISTANCE, repeats: int = 2
+) -> tuple[float, float]:
     """(seconds, vehicle-km) of one run of `distance` m with `method`, sampled as rail-mj samples."""
     vehicle, t = coach(), sample_times(speed, distance)
     return best(lambda: simulate(vehicle, speed, t, INITIAL_LATERAL, method), repeats), distance / 1000.0
@@ -192,8 +225,10 @@ def main() -> None:
     rows = [(f"rail_mj.simulate, {DISTANCE / 1000:g} km at {SPEED:g} m/s", *time_rail_mj())]
     for method in METHODS:
         y, solution = simulate(coach(), SPEED, run.t, INITIAL_LATERAL, method)
-        print(f"{method} (rtol {RTOL:g}, atol {ATOL:g}): max |y - y_rail_mj| = {max_difference(run, run.t, y):.3g} m "
-              f"over {DISTANCE:g} m at {SPEED:g} m/s; {solution.nfev} evaluations")
+        print(
+            f"{method} (rtol {RTOL:g}, atol {ATOL:g}): max |y - y_rail_mj| = {max_difference(run, run.t, y):.3g} m "
+            f"over {DISTANCE:g} m at {SPEED:g} m/s; {solution.nfev} evaluations"
+        )
         rows.append((f"solve_ivp {method}, {DISTANCE / 1000:g} km at {SPEED:g} m/s", *time_run(method)))
     print()
     print(table(rows))

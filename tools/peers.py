@@ -44,10 +44,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rail_mj.simulation.callback import contact_parameters
 from rail_mj.layout import load_layout
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.simulation.callback import contact_parameters
 from rail_mj.simulation.runner import Run, simulate
+from rail_mj.vehicle.model import Vehicle
 
 COACH = Path(__file__).resolve().parent.parent / "models" / "manchester-coach" / "manchester-coach.toml"
 
@@ -107,11 +107,18 @@ def coach(path: Path = COACH) -> Coach:
     springs = np.array(springs)
     params = contact_parameters(Vehicle(layout).model, len(wheelsets))
     return Coach(
-        names=tuple(names), parent=np.array(parent, dtype=np.int64), offset=np.array(offset),
-        mass=np.array(mass), yaw_inertia=np.array(izz),
-        stiffness=springs[:, :2].reshape(-1), damping=springs[:, 2:].reshape(-1),
-        wheelsets=np.array(wheelsets, dtype=np.int64), contact=params.table.copy(),
-        law=params.law, flange=params.flange, falling=params.falling,
+        names=tuple(names),
+        parent=np.array(parent, dtype=np.int64),
+        offset=np.array(offset),
+        mass=np.array(mass),
+        yaw_inertia=np.array(izz),
+        stiffness=springs[:, :2].reshape(-1),
+        damping=springs[:, 2:].reshape(-1),
+        wheelsets=np.array(wheelsets, dtype=np.int64),
+        contact=params.table.copy(),
+        law=params.law,
+        flange=params.flange,
+        falling=params.falling,
     )
 
 
@@ -122,8 +129,9 @@ def initial_state(vehicle: Coach, initial_lateral: float) -> np.ndarray:
     return state
 
 
-def reference(speed: float = SPEED, distance: float = DISTANCE,
-              initial_lateral: float = INITIAL_LATERAL, path: Path = COACH) -> Run:
+def reference(
+    speed: float = SPEED, distance: float = DISTANCE, initial_lateral: float = INITIAL_LATERAL, path: Path = COACH
+) -> Run:
     """rail-mj's run of the coach: what the peers are compared with."""
     return simulate(load_layout(path), speed, distance, initial_lateral)
 
@@ -134,8 +142,9 @@ def best(fn, repeats: int) -> float:
     return min(timeit.repeat(fn, number=1, repeat=repeats))
 
 
-def time_rail_mj(speed: float = SPEED, distance: float = DISTANCE, repeats: int = 3,
-                 path: Path = COACH) -> tuple[float, float]:
+def time_rail_mj(
+    speed: float = SPEED, distance: float = DISTANCE, repeats: int = 3, path: Path = COACH
+) -> tuple[float, float]:
     """(seconds, vehicle-km) of `rail_mj.simulate` on the coach: the whole call, as a user
     makes it (building the model and choosing the timestep included)."""
     coach_layout = load_layout(path)
@@ -172,8 +181,9 @@ def main() -> None:
     for method in peer_solve_ivp.METHODS:
         rows.append((f"solve_ivp {method} (numpy), 1 km at 60 m/s", *peer_solve_ivp.time_run(method)))
     rows.append(("numba RK4, 1 km at 60 m/s", *peer_numba.time_single()))
-    rows.append((f"numba RK4 batch: 64 speeds 20-100 m/s, 1 km each, {peer_numba.threads()} threads",
-                 *peer_numba.time_batch()))
+    rows.append(
+        (f"numba RK4 batch: 64 speeds 20-100 m/s, 1 km each, {peer_numba.threads()} threads", *peer_numba.time_batch())
+    )
     print(table(rows))
     print()
     run = reference()

@@ -38,12 +38,16 @@ def stale_files(layout_path: Path) -> list[str]:
     layout = load_layout(layout_path)
     folder = layout_path.parent
     expected = generated_files(layout)
-    stale = [rel for rel, data in expected.items()
-             if not (folder / rel).is_file() or (folder / rel).read_bytes() != data]
+    stale = [
+        rel for rel, data in expected.items() if not (folder / rel).is_file() or (folder / rel).read_bytes() != data
+    ]
     assets = folder / "assets"
     if assets.is_dir():
-        stale += [f"assets/{p.name} (not generated)" for p in sorted(assets.iterdir())
-                  if f"assets/{p.name}" not in expected and not is_input(p)]
+        stale += [
+            f"assets/{p.name} (not generated)"
+            for p in sorted(assets.iterdir())
+            if f"assets/{p.name}" not in expected and not is_input(p)
+        ]
     return stale
 
 

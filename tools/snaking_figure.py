@@ -21,13 +21,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from rail_mj.files import atomic_write  # noqa: E402
-from rail_mj.layout import load_layout  # noqa: E402
-from rail_mj.analysis.stability import Stability  # noqa: E402
-from rail_mj.analysis.train_modes import SNAKING  # noqa: E402
+from rail_mj.analysis.stability import Stability
+from rail_mj.analysis.train_modes import SNAKING
+from rail_mj.files import atomic_write
+from rail_mj.layout import load_layout
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 SPEED = 50.0  # m/s, where the snaking mode is read
@@ -43,21 +43,33 @@ def main() -> None:
     base = load_layout(MODELS / "articulated-set" / "articulated-set.toml")
     rows = []
     for c in DAMPING:
-        train = dataclasses.replace(base.train, couplings=tuple(
-            dataclasses.replace(k, yaw_damping=c) for k in base.train.couplings))
+        train = dataclasses.replace(
+            base.train, couplings=tuple(dataclasses.replace(k, yaw_damping=c) for k in base.train.couplings)
+        )
         layout = dataclasses.replace(base, train=train)
         analysis = Stability(layout)
         snaking = next((m for m in analysis.modes(SPEED) if m.name == SNAKING), None)
         critical = analysis.critical_speed(VMIN, VMAX)
-        low = Stability(dataclasses.replace(layout, wheelset=dataclasses.replace(
-            layout.wheelset, conicity=LOW_CONICITY))).critical_speed(VMIN, VMAX)
-        rows.append((c, snaking.frequency if snaking else np.nan, snaking.damping_ratio if snaking else np.nan,
-                     critical.critical_speed or np.nan, low.critical_speed or np.nan, critical.mode or critical.note,
-                     low.mode or low.note))
-    print(f"| inter-car yaw damping (kN m s/rad) | snaking at {SPEED:g} m/s: f (Hz) | damping ratio "
-          f"| critical speed (m/s), conicity {base.wheelset.conicity:g} | conicity {LOW_CONICITY:g} |")
+        low = Stability(
+            dataclasses.replace(layout, wheelset=dataclasses.replace(layout.wheelset, conicity=LOW_CONICITY))
+        ).critical_speed(VMIN, VMAX)
+        rows.append(
+            (
+                c,
+                snaking.frequency if snaking else np.nan,
+                snaking.damping_ratio if snaking else np.nan,
+                critical.critical_speed or np.nan,
+                low.critical_speed or np.nan,
+                critical.mode or critical.note,
+                low.mode or low.note,
+            )
+        )
+    print(
+        f"| inter-car yaw damping (kN m s/rad) | snaking at {SPEED:g} m/s: f (Hz) | damping ratio "
+        f"| critical speed (m/s), conicity {base.wheelset.conicity:g} | conicity {LOW_CONICITY:g} |"
+    )
     print("|---|---|---|---|---|")
-    for c, f, zeta, vc, vlow, mode, low_mode in rows:
+    for c, f, zeta, vc, vlow, _mode, _low_mode in rows:
         # A root no longer oscillating is overdamped: say so, not "0 Hz".
         cells = f"{f:.3f} | {zeta:.3f}" if f > 0 else "— | overdamped"
         print(f"| {c / 1e3:g} | {cells} | {vc:.2f} | {vlow:.2f} |")

@@ -41,12 +41,12 @@ ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "models" / "manchester-coach-worn" / "assets"
 NAME = "s1002_worn"
 
-DEPTH = 0.8         # mm, the deepest wear
-CENTRE = 5.0        # mm from the taping line, towards the outer face: the band's middle
-HALF_WIDTH = 30.0   # mm: the band runs from CENTRE - HALF_WIDTH to CENTRE + HALF_WIDTH
-STEP = 0.25         # mm between points across the tread (from the worn band's flange side on)
+DEPTH = 0.8  # mm, the deepest wear
+CENTRE = 5.0  # mm from the taping line, towards the outer face: the band's middle
+HALF_WIDTH = 30.0  # mm: the band runs from CENTRE - HALF_WIDTH to CENTRE + HALF_WIDTH
+STEP = 0.25  # mm between points across the tread (from the worn band's flange side on)
 FLANGE_POINTS = 1001  # S1002's points (evenly along its length) kept on the flange side
-DECIMALS = 6        # mm: the files' precision, 1 nm
+DECIMALS = 6  # mm: the files' precision, 1 nm
 
 
 def wear_depth(s_mm):
@@ -84,9 +84,11 @@ def _number(v: float) -> str:
 
 
 def _header() -> list[str]:
-    return [f"S1002 (EN 13715) less a tread wear band: written by tools/worn_profile.py",
-            f"w(S) = {DEPTH:g} mm * cos^2(pi (S - {CENTRE:g}) / {2 * HALF_WIDTH:g}) for |S - {CENTRE:g}| "
-            f"< {HALF_WIDTH:g} mm, else 0; docs/profiles.md, 'A worn S1002'"]
+    return [
+        "S1002 (EN 13715) less a tread wear band: written by tools/worn_profile.py",
+        f"w(S) = {DEPTH:g} mm * cos^2(pi (S - {CENTRE:g}) / {2 * HALF_WIDTH:g}) for |S - {CENTRE:g}| "
+        f"< {HALF_WIDTH:g} mm, else 0; docs/profiles.md, 'A worn S1002'",
+    ]
 
 
 def csv_bytes() -> bytes:
@@ -102,9 +104,17 @@ def prw_bytes() -> bytes:
     z down (the radius above r0), no other preprocessing flag."""
     y, z = points_mm()
     lines = [f"! {h}" for h in _header()]
-    lines += ["header.begin", "  version = 1", "  type = 1  ! 0 rail, 1 wheel", "header.end",
-              "spline.begin", "  approx.smooth = 0", "  units.len.f = 1000.0", "  point.begin",
-              "    ! y z (mm, z down)"]
+    lines += [
+        "header.begin",
+        "  version = 1",
+        "  type = 1  ! 0 rail, 1 wheel",
+        "header.end",
+        "spline.begin",
+        "  approx.smooth = 0",
+        "  units.len.f = 1000.0",
+        "  point.begin",
+        "    ! y z (mm, z down)",
+    ]
     lines += [f"    {_number(a)} {_number(0.0 - b)}" for a, b in zip(y, z)]
     lines += ["  point.end", "spline.end"]
     return ("\n".join(lines) + "\n").encode()
@@ -124,9 +134,11 @@ def report() -> None:
         table = G.contact_table(G.Track(wheel, P.rail_60e1()))
         lam = equivalent_conicity(G.delta_r(table), amplitudes)
         flange = table.y[(table.y > 0) & (table.contact_angle_left > 1.0)]
-        print(f"{name}: lambda_e at {', '.join(f'{a:g}' for a in amplitudes)} mm = "
-              f"{', '.join(f'{v:.3f}' for v in lam)}; flange contact from y = {flange.min() * 1e3:.2f} mm "
-              f"(0.05 mm table)")
+        print(
+            f"{name}: lambda_e at {', '.join(f'{a:g}' for a in amplitudes)} mm = "
+            f"{', '.join(f'{v:.3f}' for v in lam)}; flange contact from y = {flange.min() * 1e3:.2f} mm "
+            f"(0.05 mm table)"
+        )
 
 
 def main() -> int:
@@ -134,8 +146,7 @@ def main() -> int:
     parser.add_argument("--check", action="store_true", help="only compare, exit 1 if out of date")
     parser.add_argument("--report", action="store_true", help="print the equivalent conicities")
     args = parser.parse_args()
-    stale = [path for path, data in files().items()
-             if not path.is_file() or path.read_bytes() != data]
+    stale = [path for path, data in files().items() if not path.is_file() or path.read_bytes() != data]
     if args.check:
         for path in stale:
             print(f"{path.relative_to(ROOT)} is out of date")

@@ -11,7 +11,12 @@ The names of rail-mj 0.1's `rail_mj.analysis` (`summary`, ...) are still found h
 
 from rail_mj import _lazy
 
-_EXPORTS = {"summary": "motion", "Stability": "stability", "CriticalSpeed": "stability",
-            "time_critical_speed": "stability", "nonlinear_critical_speed": "bifurcation",
-            "bifurcation": "bifurcation"}
+_EXPORTS = {
+    "summary": "motion",
+    "Stability": "stability",
+    "CriticalSpeed": "stability",
+    "time_critical_speed": "stability",
+    "nonlinear_critical_speed": "bifurcation",
+    "bifurcation": "bifurcation",
+}
 __getattr__, __dir__ = _lazy.exports(__name__, _EXPORTS, fallback="motion")

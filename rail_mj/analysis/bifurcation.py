@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
 from rail_mj.analysis import late_motion, oscillation
+from rail_mj.analysis.stability import CriticalSpeed, Stability
 from rail_mj.layout import Layout
 from rail_mj.simulation.runner import simulate
-from rail_mj.analysis.stability import CriticalSpeed, Stability
 
 # One procedure and one step for every nonlinear critical speed rail-mj reports (the
 # critical-speed command, the bifurcation diagram, the README's tables): 2 % a step, so
@@ -61,9 +61,16 @@ def _amplitude(run) -> tuple[float, float, float]:
     return float(second), float(second - first), freq
 
 
-def follow(layout: Layout, speeds, state=None, initial_lateral: float = 0.0,
-           dwell: float = DWELL, stop_when_dead: bool = False, restart: bool = False,
-           progress: Callable[[str], None] | None = None) -> Branch:
+def follow(
+    layout: Layout,
+    speeds,
+    state=None,
+    initial_lateral: float = 0.0,
+    dwell: float = DWELL,
+    stop_when_dead: bool = False,
+    restart: bool = False,
+    progress: Callable[[str], None] | None = None,
+) -> Branch:
     """Step through `speeds`, each run continuing from the previous one's final state
     (or, with `restart`, each from the initial disturbance afresh). `progress` is told
     each step's result, one short line."""
@@ -71,8 +78,7 @@ def follow(layout: Layout, speeds, state=None, initial_lateral: float = 0.0,
     branch = Branch(direction, [], [], [], [])
     dead = DEAD_FRACTION * layout.wheelset.flangeway_clearance
     for v in speeds:
-        run = simulate(layout, float(v), float(v) * dwell, initial_lateral, 1e-4 if state is None else 0.0,
-                       state=state)
+        run = simulate(layout, float(v), float(v) * dwell, initial_lateral, 1e-4 if state is None else 0.0, state=state)
         state = None if restart else run.final_state
         amplitude, change, freq = _amplitude(run)
         branch.speeds.append(float(v))
@@ -80,18 +86,24 @@ def follow(layout: Layout, speeds, state=None, initial_lateral: float = 0.0,
         branch.frequencies.append(freq)
         branch.alive.append(bool(amplitude >= dead and change >= -SHRINKING * amplitude))
         if progress is not None:
-            progress(f"{branch.direction}: {v:.2f} m/s, amplitude {amplitude * 1e3:.2f} mm"
-                     f"{'' if branch.alive[-1] else ', dying'}")
+            progress(
+                f"{branch.direction}: {v:.2f} m/s, amplitude {amplitude * 1e3:.2f} mm"
+                f"{'' if branch.alive[-1] else ', dying'}"
+            )
         if stop_when_dead and amplitude < dead and change <= 0:
             break
     return branch
 
 
-def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0,
-                             step: float = STEP, dwell: float = DWELL,
-                             progress: Callable[[str], None] | None = None,
-                             amplitude: float | None = None,
-                             ) -> tuple[CriticalSpeed, Branch]:
+def nonlinear_critical_speed(
+    layout: Layout,
+    vmin: float = 5.0,
+    vmax: float = 150.0,
+    step: float = STEP,
+    dwell: float = DWELL,
+    progress: Callable[[str], None] | None = None,
+    amplitude: float | None = None,
+) -> tuple[CriticalSpeed, Branch]:
     """Lowest speed at which the hunting limit cycle survives, with the branch it followed.
 
     Starts at 1.1 x the linear (eigen) critical speed on the limit cycle, reached from a
@@ -101,46 +113,106 @@ def nonlinear_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 15
     speed (the note says so): it is never reported above the linear one.
     """
     if (layout.flange is None and layout.profiles is None) or layout.creep.law == "linear":
-        raise ValueError(f"{layout.source}: the nonlinear critical speed needs flange contact ([flange] or "
-                         f"[profiles]) and a saturating creep law: without them hunting grows without bound")
+        raise ValueError(
+            f"{layout.source}: the nonlinear critical speed needs flange contact ([flange] or "
+            f"[profiles]) and a saturating creep law: without them hunting grows without bound"
+        )
     linear = Stability(layout, amplitude).critical_speed(vmin, vmax)
     if linear.critical_speed is None:
-        return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
-                             f"no linear critical speed to start from: {linear.note}",
-                             outcome=linear.outcome, amplitude_mm=linear.amplitude_mm), None
+        return CriticalSpeed(
+            "nonlinear",
+            None,
+            None,
+            None,
+            vmin,
+            vmax,
+            f"no linear critical speed to start from: {linear.note}",
+            outcome=linear.outcome,
+            amplitude_mm=linear.amplitude_mm,
+        ), None
     vc = linear.critical_speed
     start = min(1.1 * linear.critical_speed, vmax)
     speeds = start * (1.0 - step) ** np.arange(int(math.log(vmin / start) / math.log(1.0 - step)) + 1)
     # Onto the flanges: twice the clearance into the flange spring, or on profiles, whose
     # flanges are rigid walls, to where they touch.
     reach = 1.0 if layout.profiles is not None else 2.0
-    branch = follow(layout, speeds, initial_lateral=reach * layout.wheelset.flangeway_clearance,
-                    dwell=dwell, stop_when_dead=True, progress=progress)
+    branch = follow(
+        layout,
+        speeds,
+        initial_lateral=reach * layout.wheelset.flangeway_clearance,
+        dwell=dwell,
+        stop_when_dead=True,
+        progress=progress,
+    )
     alive = [k for k, ok in enumerate(branch.alive) if ok]
     if alive and alive[-1] == len(branch.alive) - 1:
-        return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
-                             f"the limit cycle survives down to {branch.speeds[-1]:.2f} m/s",
-                             linear_critical_speed=vc, step=step, outcome="unstable", amplitude_mm=linear.amplitude_mm), branch
+        return CriticalSpeed(
+            "nonlinear",
+            None,
+            None,
+            None,
+            vmin,
+            vmax,
+            f"the limit cycle survives down to {branch.speeds[-1]:.2f} m/s",
+            linear_critical_speed=vc,
+            step=step,
+            outcome="unstable",
+            amplitude_mm=linear.amplitude_mm,
+        ), branch
     if not alive:
-        return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
-                             f"no limit cycle at {start:.2f} m/s", linear_critical_speed=vc,
-                             step=step, outcome="none", amplitude_mm=linear.amplitude_mm), branch
+        return CriticalSpeed(
+            "nonlinear",
+            None,
+            None,
+            None,
+            vmin,
+            vmax,
+            f"no limit cycle at {start:.2f} m/s",
+            linear_critical_speed=vc,
+            step=step,
+            outcome="none",
+            amplitude_mm=linear.amplitude_mm,
+        ), branch
     last = alive[-1]  # the lowest speed that still carried the limit cycle
     if branch.speeds[last] > vc:
-        return CriticalSpeed("nonlinear", None, None, None, vmin, vmax,
-                             f"no limit cycle below the linear critical speed: it dies below "
-                             f"{branch.speeds[last]:.2f} m/s (steps of {step:.0%}), above "
-                             f"{vc:.2f} m/s, so hunting starts at the linear critical speed",
-                             linear_critical_speed=vc, step=step, outcome="linear", amplitude_mm=linear.amplitude_mm), branch
-    return CriticalSpeed("nonlinear", branch.speeds[last], branch.frequencies[last], linear.mode,
-                         vmin, vmax, f"the limit cycle dies below this speed (steps of {step:.0%}); "
-                         f"the mode is the linear one at {vc:.2f} m/s", linear_critical_speed=vc,
-                         step=step, amplitude_mm=linear.amplitude_mm), branch
+        return CriticalSpeed(
+            "nonlinear",
+            None,
+            None,
+            None,
+            vmin,
+            vmax,
+            f"no limit cycle below the linear critical speed: it dies below "
+            f"{branch.speeds[last]:.2f} m/s (steps of {step:.0%}), above "
+            f"{vc:.2f} m/s, so hunting starts at the linear critical speed",
+            linear_critical_speed=vc,
+            step=step,
+            outcome="linear",
+            amplitude_mm=linear.amplitude_mm,
+        ), branch
+    return CriticalSpeed(
+        "nonlinear",
+        branch.speeds[last],
+        branch.frequencies[last],
+        linear.mode,
+        vmin,
+        vmax,
+        f"the limit cycle dies below this speed (steps of {step:.0%}); the mode is the linear one at {vc:.2f} m/s",
+        linear_critical_speed=vc,
+        step=step,
+        amplitude_mm=linear.amplitude_mm,
+    ), branch
 
 
-def bifurcation(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, step: float = STEP,
-                dwell: float = DWELL, progress: Callable[[str], None] | None = None,
-                amplitude: float | None = None) -> tuple[CriticalSpeed, Branch, Branch]:
+def bifurcation(
+    layout: Layout,
+    vmin: float = 5.0,
+    vmax: float = 150.0,
+    step: float = STEP,
+    dwell: float = DWELL,
+    progress: Callable[[str], None] | None = None,
+    amplitude: float | None = None,
+) -> tuple[CriticalSpeed, Branch, Branch]:
     """Both branches of the bifurcation diagram around the linear critical speed Vc:
     down from the limit cycle at 1.1*Vc until it dies, and, at the same speeds, runs from
     a small disturbance (5 % of the clearance) for twice as long, which decay below Vc
@@ -151,6 +223,12 @@ def bifurcation(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, step: fl
         return critical, None, None
     low = down.speeds[-1] * (1.0 - step) ** np.arange(3, 0, -1)  # a little below where it died
     speeds = [float(v) for v in low if v >= vmin] + down.speeds[::-1]
-    up = follow(layout, speeds, initial_lateral=DEAD_FRACTION * layout.wheelset.flangeway_clearance,
-                dwell=2 * dwell, restart=True, progress=progress)
+    up = follow(
+        layout,
+        speeds,
+        initial_lateral=DEAD_FRACTION * layout.wheelset.flangeway_clearance,
+        dwell=2 * dwell,
+        restart=True,
+        progress=progress,
+    )
     return critical, down, up

@@ -12,9 +12,7 @@ Example:
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
-
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -55,8 +53,9 @@ def oscillation(t: np.ndarray, s: np.ndarray) -> tuple[float, float]:
 # sum of guiding forces, band-pass filtered around the instability frequency f0 (f0 +/- 2 Hz),
 # over a sliding 100 m of track, against half Prud'homme's track-shift limit,
 # (10 + 2*Q0/3)/2 kN = (10 + P0/3)/2 kN with Q0 the static wheel load and P0 = 2*Q0 the
-# static axle load, in kN (alpha = 1: passenger vehicles and locomotives). The filter keeps the hunting and drops its flange-contact harmonics (and, on real
-# track, the irregularities' broad band).
+# static axle load, in kN (alpha = 1: passenger vehicles and locomotives). The filter keeps
+# the hunting and drops its flange-contact harmonics (and, on real track, the
+# irregularities' broad band).
 # EN 14363's limit on the derailment quotient Y/Q of a wheel, for curve radii of 250 m and more
 # (tangent track included); the quotient itself is the one Nadal's formula bounds.
 Y_OVER_Q_LIMIT = 0.8
@@ -102,7 +101,7 @@ def band_pass(t: np.ndarray, signal: np.ndarray, f0: float) -> np.ndarray:
     high = min(f0 + HUNTING_BAND, 0.45 * fs)
     # An f0 past the filter's top (only for samples far sparser than a run's) keeps the
     # low-pass: the band cannot be resolved there.
-    if HUNTING_BAND < f0 and f0 - HUNTING_BAND < high:
+    if f0 > HUNTING_BAND and f0 - HUNTING_BAND < high:
         sos = butter(FILTER_ORDER, [f0 - HUNTING_BAND, high], btype="bandpass", fs=fs, output="sos")
     else:
         sos = butter(FILTER_ORDER, high, btype="lowpass", fs=fs, output="sos")
@@ -169,8 +168,9 @@ def flange_strikes(run: Run) -> list[Strike]:
     strikes = []
     for i in range(run.n_wheelsets):
         changes = np.nonzero(np.diff(padded[:, i]))[0]  # index k: sample k is the first that differs
-        strikes += [Strike(i, int(a), int(b), int(side[a, i]))
-                    for a, b in zip(changes[:-1], changes[1:]) if side[a, i] != 0]
+        strikes += [
+            Strike(i, int(a), int(b), int(side[a, i])) for a, b in zip(changes[:-1], changes[1:]) if side[a, i] != 0
+        ]
     return strikes
 
 
@@ -211,18 +211,20 @@ def summary(run: Run) -> dict:
         decayed = decayed_at(run.t, y)
         window = run.t <= (run.t[-1] if decayed is None else decayed)
         freq, sigma = oscillation(run.t[window], y[window])
-        wheelsets.append({
-            "wheelset": i + 1,
-            "max_abs_lateral_m": float(np.max(np.abs(y))),
-            "max_abs_yaw_rad": float(np.max(np.abs(run.psi[:, i]))),
-            "final_abs_lateral_m": float(np.max(np.abs(y[run.t >= 0.9 * run.t[-1]]))),
-            "decayed": decayed is not None,
-            "decayed_by_s": decayed,
-            "decayed_by_m": None if decayed is None else decayed * run.speed,
-            "growth_rate_per_s": None if math.isnan(sigma) else sigma,
-            "frequency_hz": None if math.isnan(freq) else freq,
-            "wavelength_m": None if math.isnan(freq) else run.speed / freq,
-        })
+        wheelsets.append(
+            {
+                "wheelset": i + 1,
+                "max_abs_lateral_m": float(np.max(np.abs(y))),
+                "max_abs_yaw_rad": float(np.max(np.abs(run.psi[:, i]))),
+                "final_abs_lateral_m": float(np.max(np.abs(y[run.t >= 0.9 * run.t[-1]]))),
+                "decayed": decayed is not None,
+                "decayed_by_s": decayed,
+                "decayed_by_m": None if decayed is None else decayed * run.speed,
+                "growth_rate_per_s": None if math.isnan(sigma) else sigma,
+                "frequency_hz": None if math.isnan(freq) else freq,
+                "wavelength_m": None if math.isnan(freq) else run.speed / freq,
+            }
+        )
     safety = wheel_safety(run)
     for w, per in zip(wheelsets, safety["wheelsets"]):
         w.update(per)
@@ -248,11 +250,10 @@ def sliding_mean(values: np.ndarray, x: np.ndarray, window: float) -> np.ndarray
     wheel off its rail), and only there. At the run's ends the end values stand for the track
     beyond (the whole run if it is shorter than the window)."""
     step = float(x[1] - x[0]) if len(x) > 1 else 0.0
-    n = max(1, int(round(window / step))) if step > 0 else 1
+    n = max(1, round(window / step)) if step > 0 else 1
     n = min(n, len(values))
     half = n // 2
-    padded = np.concatenate([np.repeat(values[:1], half, axis=0), values,
-                             np.repeat(values[-1:], n - 1 - half, axis=0)])
+    padded = np.concatenate([np.repeat(values[:1], half, axis=0), values, np.repeat(values[-1:], n - 1 - half, axis=0)])
     missing = np.isnan(padded)
     zero = np.zeros((1,) + values.shape[1:])
     total = np.concatenate([zero, np.cumsum(np.where(missing, 0.0, padded), axis=0)])
@@ -278,25 +279,45 @@ def wheel_safety(run: Run) -> dict:
         if not np.isfinite(finite).any():
             return None, None
         j, i, side = np.unravel_index(pick(finite), values.shape)
-        return float(values[j, i, side]), {"wheelset": int(i) + 1, "wheel": WHEELS[side], "x_m": float(run.x[j]),
-                                           "t_s": float(run.t[j])}
+        return float(values[j, i, side]), {
+            "wheelset": int(i) + 1,
+            "wheel": WHEELS[side],
+            "x_m": float(run.x[j]),
+            "t_s": float(run.t[j]),
+        }
 
     per = []
     for i in range(run.n_wheelsets):
-        per.append({"largest_y_over_q": at(quotient[:, i:i + 1], np.nanargmax)[0],
-                    "largest_y_over_q_peak": at(peaks[:, i:i + 1], np.nanargmax)[0],
-                    "smallest_wheel_load_n": at(q[:, i:i + 1], np.nanargmin)[0]})
+        per.append(
+            {
+                "largest_y_over_q": at(quotient[:, i : i + 1], np.nanargmax)[0],
+                "largest_y_over_q_peak": at(peaks[:, i : i + 1], np.nanargmax)[0],
+                "smallest_wheel_load_n": at(q[:, i : i + 1], np.nanargmin)[0],
+            }
+        )
     largest, where_largest = at(quotient, np.nanargmax)
     smallest, where_smallest = at(q, np.nanargmin)
     # Where Q comes from: a spatial vehicle's suspension (rail_mj.vehicle.loads); on profiles the contact's
     # equilibrium under the static axle load; on a planar vehicle's cones the static share.
     spatial = run.layout.spatial
-    source = ("suspension" if spatial is not None and spatial.gravity else
-              "profile contact, static axle load" if run.layout.profiles is not None else "static share")
-    return {"wheelsets": per, "run": {"largest_y_over_q": largest, "largest_y_over_q_at": where_largest,
-                                      "wheel_loads_from": source,
-                                      "largest_y_over_q_peak": at(peaks, np.nanargmax)[0],
-                                      "y_over_q_window_m": Y_OVER_Q_WINDOW,
-                                      "smallest_wheel_load_n": smallest, "smallest_wheel_load_at": where_smallest,
-                                      "y_over_q_limit": Y_OVER_Q_LIMIT,
-                                      "y_over_q_exceeded": largest is not None and largest > Y_OVER_Q_LIMIT}}
+    source = (
+        "suspension"
+        if spatial is not None and spatial.gravity
+        else "profile contact, static axle load"
+        if run.layout.profiles is not None
+        else "static share"
+    )
+    return {
+        "wheelsets": per,
+        "run": {
+            "largest_y_over_q": largest,
+            "largest_y_over_q_at": where_largest,
+            "wheel_loads_from": source,
+            "largest_y_over_q_peak": at(peaks, np.nanargmax)[0],
+            "y_over_q_window_m": Y_OVER_Q_WINDOW,
+            "smallest_wheel_load_n": smallest,
+            "smallest_wheel_load_at": where_smallest,
+            "y_over_q_limit": Y_OVER_Q_LIMIT,
+            "y_over_q_exceeded": largest is not None and largest > Y_OVER_Q_LIMIT,
+        },
+    }

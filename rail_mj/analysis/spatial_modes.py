@@ -31,12 +31,13 @@ class SpatialModes:
         bogies = [f"bogie{i + 1}" for i in range(len(layout.carbody.bogie_positions))]
         train = layout.train
         self.cars = ["carbody"] if train is None else [f"carbody{k + 1}" for k in range(len(train.cars))]
-        self.groups = {c: [] for c in self.cars} | {b: [f"wheelset{i * n + j + 1}" for j in range(n)]
-                                                    for i, b in enumerate(bogies)}
+        self.groups = {c: [] for c in self.cars} | {
+            b: [f"wheelset{i * n + j + 1}" for j in range(n)] for i, b in enumerate(bogies)
+        }
         self.dofs, self.inertia, self.x, self.half = {}, {}, {}, {}
         for body in [*self.cars, *bogies]:
             self.dofs[body] = [dof(body, m) for m in MOTIONS]
-        for group, wheelsets in self.groups.items():
+        for _group, wheelsets in self.groups.items():
             for w in wheelsets:
                 self.dofs[w] = [dof(w, LATERAL), dof(w, YAW)]
         for b in range(1, model.nbody):

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -28,9 +28,9 @@ from scipy.optimize import brentq
 from rail_mj.analysis import late_motion, oscillation
 from rail_mj.layout import Layout
 from rail_mj.simulation.linear import RIGID_TOLERANCE, modal_roots, state_matrix
-from rail_mj.vehicle.model import LATERAL, YAW, Vehicle
-from rail_mj.vehicle.block import set_speed
 from rail_mj.simulation.runner import Derailed, simulate
+from rail_mj.vehicle.block import set_speed
+from rail_mj.vehicle.model import LATERAL, YAW, Vehicle
 
 CRITICAL_XTOL = 1e-4  # relative; the issue asks for 0.1 % or better
 # Speeds (m/s) at which A(V) = A0 + D/V + G*V is sampled: spread by factors of 4, so that
@@ -117,17 +117,21 @@ class Stability:
         self.layout = layout
         self.amplitude = None
         if layout.profiles is not None:
-            from rail_mj.contact.conicity import QUOTED_AMPLITUDE, MIN_AMPLITUDE
+            from rail_mj.contact.conicity import MIN_AMPLITUDE, QUOTED_AMPLITUDE
 
             self.amplitude = QUOTED_AMPLITUDE if amplitude is None else float(amplitude)
             if not (math.isfinite(self.amplitude) and MIN_AMPLITUDE <= self.amplitude <= LARGEST_AMPLITUDE):
-                raise ValueError(f"the amplitude must be from {MIN_AMPLITUDE:g} to {LARGEST_AMPLITUDE:g} mm, "
-                                 f"got {amplitude}")
-            layout = dataclasses.replace(layout, profiles=dataclasses.replace(
-                layout.profiles, linearised_at=self.amplitude))
+                raise ValueError(
+                    f"the amplitude must be from {MIN_AMPLITUDE:g} to {LARGEST_AMPLITUDE:g} mm, got {amplitude}"
+                )
+            layout = dataclasses.replace(
+                layout, profiles=dataclasses.replace(layout.profiles, linearised_at=self.amplitude)
+            )
         elif amplitude is not None:
-            raise ValueError(f"{layout.source}: an amplitude linearises a profiled contact; this layout's "
-                             f"wheels are cones, the same at every amplitude")
+            raise ValueError(
+                f"{layout.source}: an amplitude linearises a profiled contact; this layout's "
+                f"wheels are cones, the same at every amplitude"
+            )
         self.vehicle = Vehicle(layout)
         self._speed_terms = None  # A0, D, G of state_matrix, once fitted
         model = self.vehicle.model
@@ -170,8 +174,10 @@ class Stability:
         """How the contact is linearised, one phrase (empty for cones)."""
         if self.amplitude is None:
             return ""
-        return (f"contact linearised at a lateral amplitude of {self.amplitude:g} mm "
-                f"(equivalent conicity {self.equivalent_conicity:.4g})")
+        return (
+            f"contact linearised at a lateral amplitude of {self.amplitude:g} mm "
+            f"(equivalent conicity {self.equivalent_conicity:.4g})"
+        )
 
     # --- linearisation ------------------------------------------------------
 
@@ -207,7 +213,7 @@ class Stability:
         A = self.state_matrix(speed)
         lam, vec = np.linalg.eig(A)
         keep = (np.abs(lam) > RIGID_TOLERANCE * np.max(np.abs(lam))) & (lam.imag >= 0)
-        modes = [self._mode(l, vec[: self.model.nv, k]) for k, l in enumerate(lam) if keep[k]]
+        modes = [self._mode(root, vec[: self.model.nv, k]) for k, root in enumerate(lam) if keep[k]]
         return sorted(modes, key=lambda m: -m.eigenvalue.real)
 
     def least_damped(self, speed: float) -> Mode:
@@ -292,8 +298,7 @@ class Stability:
     def _arm(self, body: str) -> float:
         """(Half the frame's length)^2 * m / Iz: turns yaw energy into end-lateral energy."""
         model = self.model
-        children = [model.body_pos[i][0] for i in range(model.nbody)
-                    if model.body_parentid[i] == model.body(body).id]
+        children = [model.body_pos[i][0] for i in range(model.nbody) if model.body_parentid[i] == model.body(body).id]
         half = max((abs(x) for x in children), default=0.0)
         m, iz = self._mass[body]
         return half**2 * m / iz if iz > 0 else 0.0
@@ -324,19 +329,44 @@ class Stability:
         ranges = self._unstable_ranges(speeds, growth)
         if growth[0] >= 0:
             mode = self.least_damped(vmin)
-            return CriticalSpeed("eigen", None, None, None, vmin, vmax,
-                                 f"unstable already at {vmin:g} m/s: {mode.name} grows at "
-                                 f"{mode.eigenvalue.real:.3g} 1/s", ranges, outcome="unstable",
-                                 amplitude_mm=self.amplitude)
+            return CriticalSpeed(
+                "eigen",
+                None,
+                None,
+                None,
+                vmin,
+                vmax,
+                f"unstable already at {vmin:g} m/s: {mode.name} grows at {mode.eigenvalue.real:.3g} 1/s",
+                ranges,
+                outcome="unstable",
+                amplitude_mm=self.amplitude,
+            )
         if ranges:
             vc = ranges[0][0]
             mode = self.least_damped(vc)
-            return CriticalSpeed("eigen", vc, mode.frequency, mode.name, vmin, vmax,
-                                 "the least-damped root crosses the imaginary axis", ranges,
-                                 amplitude_mm=self.amplitude)
-        return CriticalSpeed("eigen", None, None, None, vmin, vmax,
-                             f"stable over the whole range {vmin:g}-{vmax:g} m/s", ranges, outcome="stable",
-                             amplitude_mm=self.amplitude)
+            return CriticalSpeed(
+                "eigen",
+                vc,
+                mode.frequency,
+                mode.name,
+                vmin,
+                vmax,
+                "the least-damped root crosses the imaginary axis",
+                ranges,
+                amplitude_mm=self.amplitude,
+            )
+        return CriticalSpeed(
+            "eigen",
+            None,
+            None,
+            None,
+            vmin,
+            vmax,
+            f"stable over the whole range {vmin:g}-{vmax:g} m/s",
+            ranges,
+            outcome="stable",
+            amplitude_mm=self.amplitude,
+        )
 
 
 def _crossing(f, lo: float, hi: float) -> float:
@@ -372,9 +402,15 @@ def late_growth(run) -> tuple[float, float]:
     return sigma, freq
 
 
-def time_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, points: int = 12,
-                        duration: float = TIME_DURATION, rtol: float = 2e-3,
-                        progress: Callable[[str], None] | None = None) -> CriticalSpeed:
+def time_critical_speed(
+    layout: Layout,
+    vmin: float = 5.0,
+    vmax: float = 150.0,
+    points: int = 12,
+    duration: float = TIME_DURATION,
+    rtol: float = 2e-3,
+    progress: Callable[[str], None] | None = None,
+) -> CriticalSpeed:
     """Critical speed from simulations: a scan of runs from a small disturbance brackets
     the lowest speed where the motion stops decaying, Brent's method refines it.
 
@@ -412,23 +448,45 @@ def time_critical_speed(layout: Layout, vmin: float = 5.0, vmax: float = 150.0, 
 
     speeds = np.linspace(vmin, vmax, points)
     if growth(speeds[0]) >= 0:
-        return CriticalSpeed("time", None, None, None, vmin, vmax,
-                             f"the motion already grows at {vmin:g} m/s ({growth(speeds[0]):.3g} 1/s)",
-                             outcome="unstable")
+        return CriticalSpeed(
+            "time",
+            None,
+            None,
+            None,
+            vmin,
+            vmax,
+            f"the motion already grows at {vmin:g} m/s ({growth(speeds[0]):.3g} 1/s)",
+            outcome="unstable",
+        )
     for lo, hi in zip(speeds, speeds[1:]):
         if growth(hi) >= 0:
             vc = float(brentq(growth, lo, hi, xtol=rtol * lo, rtol=1e-12))
             freq = measure(vc)[1]
             if not math.isfinite(freq):
-                return CriticalSpeed("time", vc, None, None, vmin, vmax,
-                                     "the disturbed motion stops decaying; no frequency measured")
+                return CriticalSpeed(
+                    "time", vc, None, None, vmin, vmax, "the disturbed motion stops decaying; no frequency measured"
+                )
             modes = [m for m in Stability(layout).modes(vc) if m.oscillatory]
             # Of the modes at the measured frequency (a train's bogies hunt at frequencies a
             # thousandth apart), the least damped: the one that stops decaying at vc.
             near = [m for m in modes if abs(m.frequency - freq) <= MATCH_FREQUENCY * freq]
-            name = (max(near, key=lambda m: m.eigenvalue.real).name if near
-                    else min(modes, key=lambda m: abs(m.frequency - freq)).name if modes else None)
-            return CriticalSpeed("time", vc, freq, name, vmin, vmax,
-                                 "the disturbed motion stops decaying; mode matched by frequency")
-    return CriticalSpeed("time", None, None, None, vmin, vmax,
-                         f"the motion decays at every speed scanned, {vmin:g}-{vmax:g} m/s", outcome="stable")
+            name = (
+                max(near, key=lambda m: m.eigenvalue.real).name
+                if near
+                else min(modes, key=lambda m: abs(m.frequency - freq)).name
+                if modes
+                else None
+            )
+            return CriticalSpeed(
+                "time", vc, freq, name, vmin, vmax, "the disturbed motion stops decaying; mode matched by frequency"
+            )
+    return CriticalSpeed(
+        "time",
+        None,
+        None,
+        None,
+        vmin,
+        vmax,
+        f"the motion decays at every speed scanned, {vmin:g}-{vmax:g} m/s",
+        outcome="stable",
+    )

@@ -35,8 +35,9 @@ class TrainModes:
         self.cars = [f"carbody{k + 1}" for k in range(len(train.cars))]
         n = len(bogie.wheelset_positions)
         self.bogie_x = layout.carbody.bogie_positions
-        self.groups = {f"bogie{i + 1}": [f"wheelset{i * n + j + 1}" for j in range(n)]
-                       for i in range(len(self.bogie_x))}
+        self.groups = {
+            f"bogie{i + 1}": [f"wheelset{i * n + j + 1}" for j in range(n)] for i in range(len(self.bogie_x))
+        }
         self.wheelset_x = dict(zip((f"wheelset{i + 1}" for i in range(layout.n_wheelsets)), layout.wheelset_x))
 
     def arms(self) -> dict[str, float]:

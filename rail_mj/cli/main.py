@@ -110,8 +110,14 @@ def cli():
 
 @cli.command("generate")
 @click.argument("layout", type=click.Path(dir_okay=False))
-@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False),
-              help="Folder for <name>.xml, scene.xml and assets/.")
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Folder for <name>.xml, scene.xml and assets/.",
+)
 def generate_cmd(layout, out_dir):
     """Generate the MJCF model of LAYOUT."""
     from rail_mj.vehicle.model import generate
@@ -139,8 +145,9 @@ def _csv_bytes(run) -> bytes:
     return buf.getvalue().encode()
 
 
-def _check_outputs(layout: str | None, outputs: list[tuple[str, str | None]], folders: bool = False,
-                   source: str = "the layout file") -> None:
+def _check_outputs(
+    layout: str | None, outputs: list[tuple[str, str | None]], folders: bool = False, source: str = "the layout file"
+) -> None:
     """Refuse, before any work, outputs that cannot or must not be written: a folder
     given for a file, the input (`layout`, called `source`) itself, two outputs on one path
     (or on standard output), an unwritable place. `-` is standard output; a FIFO or a
@@ -151,8 +158,7 @@ def _check_outputs(layout: str | None, outputs: list[tuple[str, str | None]], fo
         raise Failure(f"cannot use the output path: {e}", EXIT_BAD_INPUT) from None
 
 
-def _check_output_paths(layout: str | None, outputs: list[tuple[str, str | None]], folders: bool,
-                        source: str) -> None:
+def _check_output_paths(layout: str | None, outputs: list[tuple[str, str | None]], folders: bool, source: str) -> None:
     seen = {Path(layout).resolve(): source} if layout is not None else {}
     on_stdout = None
     for option, path in outputs:
@@ -187,14 +193,27 @@ def _check_output_paths(layout: str | None, outputs: list[tuple[str, str | None]
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option("--speed", type=float, required=True, help="Forward speed, m/s.")
 @click.option("--distance", type=float, required=True, help="Distance to run, m.")
-@click.option("--initial-lateral", type=float, default=0.002, show_default=True,
-              help="Start with the whole vehicle shifted left by this much, m.")
-@click.option("--initial-yaw", type=float, default=0.0, show_default=True,
-              help="Start with every wheelset yawed nose-left by this much, rad.")
+@click.option(
+    "--initial-lateral",
+    type=float,
+    default=0.002,
+    show_default=True,
+    help="Start with the whole vehicle shifted left by this much, m.",
+)
+@click.option(
+    "--initial-yaw",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Start with every wheelset yawed nose-left by this much, rad.",
+)
 @click.option("--rrd", type=click.Path(dir_okay=False), help="Write a Rerun recording here.")
-@click.option("--rrd-rate", default="auto", show_default=True,
-              help="Samples per second in the recording: auto (chosen from the motion), a number, "
-                   "or full (every sample).")
+@click.option(
+    "--rrd-rate",
+    default="auto",
+    show_default=True,
+    help="Samples per second in the recording: auto (chosen from the motion), a number, or full (every sample).",
+)
 @click.option("--out", type=click.Path(dir_okay=False), help="Write the samples as CSV here.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate, out, as_json):
@@ -230,8 +249,7 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
 
                     save_recording(run, tmp, rate)
                     keep = recorded_samples(run, rate)
-                    result["rrd_rate_per_s"] = (sample_rate(run) / (keep[1] - keep[0])
-                                                if len(keep) > 1 else None)
+                    result["rrd_rate_per_s"] = sample_rate(run) / (keep[1] - keep[0]) if len(keep) > 1 else None
     except OSError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     if out:
@@ -256,8 +274,9 @@ def _recording_rate(text: str) -> float | None:
     except ValueError:
         rate = math.nan
     if not (math.isfinite(rate) and rate > 0):
-        raise Failure(f"--rrd-rate must be auto, full or a positive number of samples per second, "
-                      f"got {text!r}", EXIT_BAD_INPUT)
+        raise Failure(
+            f"--rrd-rate must be auto, full or a positive number of samples per second, got {text!r}", EXIT_BAD_INPUT
+        )
     return rate
 
 
@@ -270,14 +289,20 @@ def _check_disturbance(layout: Layout, lateral: float, yaw: float) -> None:
         if not math.isfinite(value):
             raise Failure(f"{option} must be a finite number, got {value}", EXIT_BAD_INPUT)
     if abs(lateral) > w.flangeway_clearance:
-        raise Failure(f"--initial-lateral {lateral:g} m: a wheelset shifted past its flangeway "
-                      f"clearance ({w.flangeway_clearance:g} m) would start with its flange inside the "
-                      f"rail; give at most {w.flangeway_clearance:g} m", EXIT_BAD_INPUT)
+        raise Failure(
+            f"--initial-lateral {lateral:g} m: a wheelset shifted past its flangeway "
+            f"clearance ({w.flangeway_clearance:g} m) would start with its flange inside the "
+            f"rail; give at most {w.flangeway_clearance:g} m",
+            EXIT_BAD_INPUT,
+        )
     limit = max_initial_yaw(w.rolling_radius, w.flangeway_clearance)
     if abs(yaw) > limit:
-        raise Failure(f"--initial-yaw {yaw:g} rad: yawed more than {limit:.3g} rad, a wheelset's "
-                      f"flange fronts would cross the rails (clearance {w.flangeway_clearance:g} m); "
-                      f"angles of attack on track are a few mrad", EXIT_BAD_INPUT)
+        raise Failure(
+            f"--initial-yaw {yaw:g} rad: yawed more than {limit:.3g} rad, a wheelset's "
+            f"flange fronts would cross the rails (clearance {w.flangeway_clearance:g} m); "
+            f"angles of attack on track are a few mrad",
+            EXIT_BAD_INPUT,
+        )
 
 
 def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw):
@@ -308,37 +333,49 @@ def _print_summary(result: dict, err: bool = False) -> None:
     def say(text: str) -> None:
         click.echo(text, err=err)
 
-    say(f"{result['layout']}: {result['distance_m']:g} m at {result['speed_m_per_s']:g} m/s "
-        f"({result['duration_s']:.3g} s, timestep {result['timestep_s']:.3g} s)")
+    say(
+        f"{result['layout']}: {result['distance_m']:g} m at {result['speed_m_per_s']:g} m/s "
+        f"({result['duration_s']:.3g} s, timestep {result['timestep_s']:.3g} s)"
+    )
     say("wheelset  max|y| (mm)  end|y| (mm)  growth (1/s)  frequency (Hz)  wavelength (m)")
     for w in result["wheelsets"]:
-        line = (f"{w['wheelset']:>8}  {w['max_abs_lateral_m'] * 1e3:>11.3f}  "
-                f"{w['final_abs_lateral_m'] * 1e3:>11.3f}  {_fmt(w['growth_rate_per_s'], '>12.4f')}  "
-                f"{_fmt(w['frequency_hz'], '>14.4f')}  {_fmt(w['wavelength_m'], '>14.3f')}")
+        line = (
+            f"{w['wheelset']:>8}  {w['max_abs_lateral_m'] * 1e3:>11.3f}  "
+            f"{w['final_abs_lateral_m'] * 1e3:>11.3f}  {_fmt(w['growth_rate_per_s'], '>12.4f')}  "
+            f"{_fmt(w['frequency_hz'], '>14.4f')}  {_fmt(w['wavelength_m'], '>14.3f')}"
+        )
         if w["decayed"]:
             line += f"  decayed by {w['decayed_by_s']:.3g} s ({w['decayed_by_m']:.4g} m)"
         say(line)
     if any(w["decayed"] for w in result["wheelsets"]):
-        say("decayed: |y| below 5 % of its largest value from then to the end; growth, frequency and "
-            "wavelength are those of the motion before")
+        say(
+            "decayed: |y| below 5 % of its largest value from then to the end; growth, frequency and "
+            "wavelength are those of the motion before"
+        )
     h = result.get("hunting")
     if h is not None:
         worst = max(h["max_rms_n"])
-        say(f"hunting (EN 14363, rms Sigma Y over 100 m, band-passed at {h['frequency_hz']:.2f} +/- 2 Hz): "
+        say(
+            f"hunting (EN 14363, rms Sigma Y over 100 m, band-passed at {h['frequency_hz']:.2f} +/- 2 Hz): "
             f"{'YES' if h['hunting'] else 'no'}, largest {worst / 1e3:.1f} kN against a limit of "
-            f"{h['limit_n'] / 1e3:.1f} kN")
+            f"{h['limit_n'] / 1e3:.1f} kN"
+        )
     elif result.get("hunting_note"):
         say(f"hunting (EN 14363): not assessed, {result['hunting_note']}")
     if result.get("largest_y_over_q") is not None:
         at, low = result["largest_y_over_q_at"], result["smallest_wheel_load_at"]
         exceeded = "EXCEEDS the limit " if result["y_over_q_exceeded"] else "limit "
-        line = (f"wheel loads ({result['wheel_loads_from']}): largest Y/Q {result['largest_y_over_q']:.3f} over "
-                f"{result['y_over_q_window_m']:g} m ({exceeded}{result['y_over_q_limit']:g}; peak "
-                f"{result['largest_y_over_q_peak']:.3f}), wheelset {at['wheelset']} {at['wheel']} at "
-                f"x = {at['x_m']:.4g} m")
+        line = (
+            f"wheel loads ({result['wheel_loads_from']}): largest Y/Q {result['largest_y_over_q']:.3f} over "
+            f"{result['y_over_q_window_m']:g} m ({exceeded}{result['y_over_q_limit']:g}; peak "
+            f"{result['largest_y_over_q_peak']:.3f}), wheelset {at['wheelset']} {at['wheel']} at "
+            f"x = {at['x_m']:.4g} m"
+        )
         if result["wheel_loads_from"] != "static share":
-            line += (f"; smallest Q {result['smallest_wheel_load_n'] / 1e3:.1f} kN (wheelset {low['wheelset']} "
-                     f"{low['wheel']} at x = {low['x_m']:.4g} m)")
+            line += (
+                f"; smallest Q {result['smallest_wheel_load_n'] / 1e3:.1f} kN (wheelset {low['wheelset']} "
+                f"{low['wheel']} at x = {low['x_m']:.4g} m)"
+            )
         say(line)
     if "csv" in result:
         say(f"samples: {result['csv']}")
@@ -354,16 +391,20 @@ def _stability(layout: Layout, amplitude: float | None = None):
     try:
         return Stability(layout, amplitude)
     except ValueError as e:  # the model does not compile, or the amplitude is not for it
-        raise Failure(f"--amplitude: {e}" if amplitude is not None and "amplitude" in str(e) else str(e),
-                      EXIT_BAD_INPUT) from None
+        raise Failure(
+            f"--amplitude: {e}" if amplitude is not None and "amplitude" in str(e) else str(e), EXIT_BAD_INPUT
+        ) from None
 
 
 def _amplitude_option(command):
     """--amplitude: where a profiled contact is linearised."""
     return click.option(
-        "--amplitude", type=float, default=None,
+        "--amplitude",
+        type=float,
+        default=None,
         help="For a layout with [profiles]: linearise the contact at this lateral amplitude, mm, as "
-             "practitioners do (the equivalent conicity there, EN 15302)  [default: 3]")(command)
+        "practitioners do (the equivalent conicity there, EN 15302)  [default: 3]",
+    )(command)
 
 
 def _linearised(stability) -> str:
@@ -386,14 +427,19 @@ def eigen_cmd(layout, speed, as_json, amplitude):
     oscillatory = [m for m in modes if m.oscillatory]
     aperiodic = [m.eigenvalue.real for m in modes if not m.oscillatory]
     if as_json:
-        click.echo(json.dumps({
-            "speed_m_per_s": speed,
-            "stable": all(m.eigenvalue.real < 0 for m in modes),
-            "modes": [m.as_dict() for m in oscillatory],
-            "aperiodic_roots": aperiodic,
-            "amplitude_mm": stability.amplitude,
-            "equivalent_conicity": stability.equivalent_conicity,
-        }, indent=2))
+        click.echo(
+            json.dumps(
+                {
+                    "speed_m_per_s": speed,
+                    "stable": all(m.eigenvalue.real < 0 for m in modes),
+                    "modes": [m.as_dict() for m in oscillatory],
+                    "aperiodic_roots": aperiodic,
+                    "amplitude_mm": stability.amplitude,
+                    "equivalent_conicity": stability.equivalent_conicity,
+                },
+                indent=2,
+            )
+        )
         return
     if stability.amplitude is not None:
         click.echo(f"{lay.name}: {stability.describe()}")
@@ -401,8 +447,10 @@ def eigen_cmd(layout, speed, as_json, amplitude):
     for m in oscillatory:
         bodies = sorted(m.participation.items(), key=lambda kv: -kv[1])
         part = ", ".join(f"{b} {s:.0%}" for b, s in bodies if s >= 0.05)
-        click.echo(f"{m.name:<46} {m.frequency:>8.3f} {m.damping_ratio:>8.4f} {m.eigenvalue.real:>11.4f} "
-                   f"{m.eigenvalue.imag:>12.4f}  {part}")
+        click.echo(
+            f"{m.name:<46} {m.frequency:>8.3f} {m.damping_ratio:>8.4f} {m.eigenvalue.real:>11.4f} "
+            f"{m.eigenvalue.imag:>12.4f}  {part}"
+        )
     if aperiodic:
         click.echo(f"aperiodic roots (1/s): {', '.join(f'{r:.4g}' for r in sorted(aperiodic, reverse=True))}")
     unstable = [m.name for m in modes if m.eigenvalue.real >= 0]
@@ -423,16 +471,24 @@ def _check_step(step: float | None) -> float:
 
 @cli.command("critical-speed")
 @click.argument("layout", type=click.Path(dir_okay=False))
-@click.option("--method", type=click.Choice(["eigen", "time", "nonlinear"]), default="eigen", show_default=True,
-              help="eigen: where the least-damped root crosses zero; time: simulations from a small "
-                   "disturbance; nonlinear: lower the speed from hunting until the limit cycle dies "
-                   "(needs [flange] and a saturating creep law).")
+@click.option(
+    "--method",
+    type=click.Choice(["eigen", "time", "nonlinear"]),
+    default="eigen",
+    show_default=True,
+    help="eigen: where the least-damped root crosses zero; time: simulations from a small "
+    "disturbance; nonlinear: lower the speed from hunting until the limit cycle dies "
+    "(needs [flange] and a saturating creep law).",
+)
 @click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed searched, m/s.")
 @click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed searched, m/s.")
-@click.option("--step", type=float,
-              help="nonlinear: the speed step down the limit cycle, a fraction of the speed (the "
-                   "nonlinear critical speed is known to within it)  [default: 0.02, "
-                   "rail_mj.analysis.bifurcation.STEP]")
+@click.option(
+    "--step",
+    type=float,
+    help="nonlinear: the speed step down the limit cycle, a fraction of the speed (the "
+    "nonlinear critical speed is known to within it)  [default: 0.02, "
+    "rail_mj.analysis.bifurcation.STEP]",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @_amplitude_option
 def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
@@ -450,8 +506,7 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
             elif method == "nonlinear":
                 from rail_mj.analysis.bifurcation import nonlinear_critical_speed
 
-                result, _ = nonlinear_critical_speed(lay, vmin, vmax, step, progress=progress,
-                                                     amplitude=amplitude)
+                result, _ = nonlinear_critical_speed(lay, vmin, vmax, step, progress=progress, amplitude=amplitude)
             else:
                 from rail_mj.analysis.stability import time_critical_speed
 
@@ -467,9 +522,11 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
         if result.linear_critical_speed is not None:
             click.echo(f"linear critical speed: {result.linear_critical_speed:.2f} m/s")
     else:
-        click.echo(f"critical speed ({result.method}): {result.critical_speed:.2f} m/s "
-                   f"({result.critical_speed * 3.6:.1f} km/h), {result.frequency:.3f} Hz, {result.mode}"
-                   + (_linearised(stability) if result.method == "eigen" else ""))
+        click.echo(
+            f"critical speed ({result.method}): {result.critical_speed:.2f} m/s "
+            f"({result.critical_speed * 3.6:.1f} km/h), {result.frequency:.3f} Hz, {result.mode}"
+            + (_linearised(stability) if result.method == "eigen" else "")
+        )
         if result.linear_critical_speed is not None:
             click.echo(f"linear critical speed: {result.linear_critical_speed:.2f} m/s; {result.note}")
         if len(result.unstable_ranges) > 1 or (result.unstable_ranges and result.unstable_ranges[0][1] < vmax):
@@ -489,8 +546,9 @@ def _speeds(text: str) -> list[float]:
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option("--speeds", required=True, help="A:B:N, N speeds from A to B m/s.")
 @click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="The plot, PNG.")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
-              help="The data as CSV [default: the plot's name with .csv].")
+@click.option(
+    "--csv", "csv_path", type=click.Path(dir_okay=False), help="The data as CSV [default: the plot's name with .csv]."
+)
 @_amplitude_option
 def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
     """Frequency and damping of every mode of LAYOUT against speed, critical speed marked."""
@@ -498,8 +556,7 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
     vs = _speeds(speeds)
     csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
     if csv_path == STDOUT and out == STDOUT:
-        raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output",
-                      EXIT_BAD_INPUT)
+        raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output", EXIT_BAD_INPUT)
     _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.output.plots import locus_csv, root_locus, root_locus_png
 
@@ -516,8 +573,9 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
     err = _uses_stdout(out, csv_path)
     click.echo(f"plot: {out}\ndata: {csv_path}", err=err)
     if critical.critical_speed is not None:
-        click.echo(f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}{_linearised(stability)}",
-                   err=err)
+        click.echo(
+            f"critical speed {critical.critical_speed:.2f} m/s: {critical.mode}{_linearised(stability)}", err=err
+        )
     else:
         click.echo(critical.note, err=err)
 
@@ -525,14 +583,18 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
 @cli.command("bifurcation")
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="The diagram, PNG.")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
-              help="The data as CSV [default: the plot's name with .csv].")
+@click.option(
+    "--csv", "csv_path", type=click.Path(dir_okay=False), help="The data as CSV [default: the plot's name with .csv]."
+)
 @click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed, m/s.")
 @click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed, m/s.")
-@click.option("--step", type=float,
-              help="The speed step along both branches, a fraction of the speed: the same procedure "
-                   "and step as critical-speed --method nonlinear  [default: 0.02, "
-                   "rail_mj.analysis.bifurcation.STEP]")
+@click.option(
+    "--step",
+    type=float,
+    help="The speed step along both branches, a fraction of the speed: the same procedure "
+    "and step as critical-speed --method nonlinear  [default: 0.02, "
+    "rail_mj.analysis.bifurcation.STEP]",
+)
 @_amplitude_option
 def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
     """Limit-cycle amplitude of LAYOUT against speed: both branches, both critical speeds."""
@@ -541,8 +603,7 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
     step = _check_step(step)
     csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
     if csv_path == STDOUT and out == STDOUT:
-        raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output",
-                      EXIT_BAD_INPUT)
+        raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output", EXIT_BAD_INPUT)
     _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.analysis.bifurcation import bifurcation
     from rail_mj.output.plots import bifurcation_csv, bifurcation_png
@@ -566,31 +627,58 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     err = _uses_stdout(out, csv_path)
     click.echo(f"plot: {out}\ndata: {csv_path}", err=err)
-    nonlinear = (f"{critical.critical_speed:.2f} m/s (speed lowered in {step:.0%} steps)"
-                 if critical.critical_speed else f"none: {critical.note}")
+    nonlinear = (
+        f"{critical.critical_speed:.2f} m/s (speed lowered in {step:.0%} steps)"
+        if critical.critical_speed
+        else f"none: {critical.note}"
+    )
     click.echo(f"linear critical speed {critical.linear_critical_speed:.2f} m/s; nonlinear {nonlinear}", err=err)
 
 
 @cli.command("sweep")
 @click.argument("layout", type=click.Path(dir_okay=False))
-@click.option("--speeds", required=True,
-              help="A:B:N. run: every one of N speeds from A to B m/s is a case; eigen, time, nonlinear: "
-                   "the range the critical speed is searched in, N scan points.")
-@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
-              help="A layout key set for every case, e.g. creep.friction=0.2 (repeatable).")
-@click.option("--grid", "grids", multiple=True, metavar="KEY=A:B:N[:log]",
-              help="A layout key varied over N values, e.g. wheelset.conicity=0.05:0.3:6 (repeatable: "
-                   "every combination is a case).")
-@click.option("--method", type=click.Choice(["run", "eigen", "time", "nonlinear"]), default="run",
-              show_default=True, help="run: a simulation and its summary per case; eigen, time, nonlinear: "
-                                      "a critical speed per case (as critical-speed --method).")
+@click.option(
+    "--speeds",
+    required=True,
+    help="A:B:N. run: every one of N speeds from A to B m/s is a case; eigen, time, nonlinear: "
+    "the range the critical speed is searched in, N scan points.",
+)
+@click.option(
+    "--set",
+    "sets",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="A layout key set for every case, e.g. creep.friction=0.2 (repeatable).",
+)
+@click.option(
+    "--grid",
+    "grids",
+    multiple=True,
+    metavar="KEY=A:B:N[:log]",
+    help="A layout key varied over N values, e.g. wheelset.conicity=0.05:0.3:6 (repeatable: "
+    "every combination is a case).",
+)
+@click.option(
+    "--method",
+    type=click.Choice(["run", "eigen", "time", "nonlinear"]),
+    default="run",
+    show_default=True,
+    help="run: a simulation and its summary per case; eigen, time, nonlinear: "
+    "a critical speed per case (as critical-speed --method).",
+)
 @click.option("--distance", type=float, default=1000.0, show_default=True, help="run: distance of each run, m.")
 @click.option("--workers", type=int, help="Threads on this machine [default: every core].")
 @click.option("--scheduler", help="Address of a Dask distributed scheduler to run the cases on instead.")
-@click.option("--rrd-dir", type=click.Path(file_okay=False),
-              help="run: write a Rerun recording of each case into this folder.")
-@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
-              help="The table, .csv or .parquet. Run again, the same sweep keeps its finished rows.")
+@click.option(
+    "--rrd-dir", type=click.Path(file_okay=False), help="run: write a Rerun recording of each case into this folder."
+)
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="The table, .csv or .parquet. Run again, the same sweep keeps its finished rows.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print a summary as JSON.")
 def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler, rrd_dir, out, as_json):
     """Run LAYOUT over speeds and layout parameters: one row per case, in a table."""
@@ -606,13 +694,24 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler,
 
     try:
         with _status("sweep") as show:
+
             def progress(done, total, row):
                 if show is not None:
                     show(f"{done}/{total}, last: case {row['case']} {row['status']}")
 
-            table = sweep(layout, (a, b, n), sets=sets, grids=grids, method=method, distance=distance,
-                          workers=workers, scheduler=scheduler, out=out, recordings=rrd_dir,
-                          progress=progress)
+            table = sweep(
+                layout,
+                (a, b, n),
+                sets=sets,
+                grids=grids,
+                method=method,
+                distance=distance,
+                workers=workers,
+                scheduler=scheduler,
+                out=out,
+                recordings=rrd_dir,
+                progress=progress,
+            )
     except SweepError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     except OSError as e:
@@ -644,8 +743,7 @@ def _triple(option: str, text: str, unit: str) -> tuple[float, float, int]:
         a, b, n = text.split(":")
         return float(a), float(b), int(n)
     except ValueError:
-        raise Failure(f"{option} must be A:B:N (from A to B {unit} in N steps), got {text!r}",
-                      EXIT_BAD_INPUT) from None
+        raise Failure(f"{option} must be A:B:N (from A to B {unit} in N steps), got {text!r}", EXIT_BAD_INPUT) from None
 
 
 def _range(option: str, text: str) -> tuple[float, float, int]:
@@ -663,24 +761,30 @@ def _range(option: str, text: str) -> tuple[float, float, int]:
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option("--x", "x_axis", required=True, metavar="KEY=A:B:N[:log]", help="The parameter along x.")
 @click.option("--y", "y_axis", required=True, metavar="KEY=A:B:N[:log]", help="The parameter along y.")
-@click.option("--method", type=click.Choice(["eigen", "nonlinear"]), default="eigen", show_default=True,
-              help="The critical speed mapped: linear (eigen) or nonlinear.")
-@click.option("--speeds", default="5:150:60", show_default=True,
-              help="A:B:N, the speed range searched, m/s, with N scan points.")
+@click.option(
+    "--method",
+    type=click.Choice(["eigen", "nonlinear"]),
+    default="eigen",
+    show_default=True,
+    help="The critical speed mapped: linear (eigen) or nonlinear.",
+)
+@click.option(
+    "--speeds", default="5:150:60", show_default=True, help="A:B:N, the speed range searched, m/s, with N scan points."
+)
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="A layout key set everywhere.")
 @click.option("--workers", type=int, help="Threads on this machine [default: every core].")
 @click.option("--scheduler", help="Address of a Dask distributed scheduler to run the cells on instead.")
 @click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="The map, PNG.")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
-              help="The table as CSV [default: the map's name with .csv].")
+@click.option(
+    "--csv", "csv_path", type=click.Path(dir_okay=False), help="The table as CSV [default: the map's name with .csv]."
+)
 def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, out, csv_path):
     """The critical speed of LAYOUT as a map over two layout parameters."""
     lay = _layout(layout)
     a, b, n = _range("--speeds", speeds)
     csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
     if csv_path == STDOUT and out == STDOUT:
-        raise Failure("-o - needs --csv FILE: the map and the table cannot both go to standard output",
-                      EXIT_BAD_INPUT)
+        raise Failure("-o - needs --csv FILE: the map and the table cannot both go to standard output", EXIT_BAD_INPUT)
     _check_executor(workers, scheduler)
     _check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.output.plots import stability_map_png
@@ -691,24 +795,37 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
         if keys[0] == keys[1]:
             raise SweepError(f"--x and --y both vary {keys[0]}")
         with _status("map") as show:
+
             def progress(done, total, row):
                 if show is not None:
                     show(f"{done}/{total} cells")
 
-            table = sweep(layout, (a, b, n), sets=sets, grids=(x_axis, y_axis), method=method,
-                          workers=workers, scheduler=scheduler, progress=progress)
+            table = sweep(
+                layout,
+                (a, b, n),
+                sets=sets,
+                grids=(x_axis, y_axis),
+                method=method,
+                workers=workers,
+                scheduler=scheduler,
+                progress=progress,
+            )
     except SweepError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
-    import pyarrow.csv as pacsv
     import io
+
+    import pyarrow.csv as pacsv
 
     try:
         with staged([csv_path, out]) as (csv_tmp, png_tmp):
             buffer = io.BytesIO()
             pacsv.write_csv(table, buffer)
             csv_tmp.write_bytes(buffer.getvalue())
-            png_tmp.write_bytes(stability_map_png(table, keys[0], keys[1], x_axis.endswith(":log"),
-                                                  y_axis.endswith(":log"), method, lay.name))
+            png_tmp.write_bytes(
+                stability_map_png(
+                    table, keys[0], keys[1], x_axis.endswith(":log"), y_axis.endswith(":log"), method, lay.name
+                )
+            )
     except OSError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     err = _uses_stdout(out, csv_path)
@@ -719,8 +836,11 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
     other = len(rows) - len(found) - unstable - stable
     click.echo(f"map: {out}\ndata: {csv_path}", err=err)
     span = f"critical speed from {min(found):.1f} to {max(found):.1f} m/s" if found else "no critical speed"
-    click.echo(f"{span} over {len(rows)} cells; {unstable} unstable from {a:g} m/s, {stable} stable to "
-               f"{b:g} m/s, {other} other (see the table's status and note)", err=err)
+    click.echo(
+        f"{span} over {len(rows)} cells; {unstable} unstable from {a:g} m/s, {stable} stable to "
+        f"{b:g} m/s, {other} other (see the table's status and note)",
+        err=err,
+    )
 
 
 @cli.command("contact")
@@ -732,22 +852,28 @@ def contact_cmd(layout, as_json):
 
     lay = _layout(layout)
     if lay.profiles is not None:
-        raise Failure(f"{layout}: contact: on [profiles] each contact point has its own ellipse; "
-                      f"rail-mj contact-geometry tabulates the points", EXIT_BAD_INPUT)
+        raise Failure(
+            f"{layout}: contact: on [profiles] each contact point has its own ellipse; "
+            f"rail-mj contact-geometry tabulates the points",
+            EXIT_BAD_INPUT,
+        )
     if lay.contact is None:
-        raise Failure(f"{layout}: contact: no [contact] table; the layout gives f11..f33 itself",
-                      EXIT_BAD_INPUT)
+        raise Failure(f"{layout}: contact: no [contact] table; the layout gives f11..f33 itself", EXIT_BAD_INPUT)
     result = contact_patch_of(lay).as_dict()
     if as_json:
         click.echo(json.dumps(result, indent=2))
         return
     r = result
     click.echo(f"{lay.name}: wheel load {r['normal_load_n'] / 1e3:.2f} kN")
-    click.echo(f"Hertz ellipse: a = {r['a_m'] * 1e3:.3f} mm (rolling), b = {r['b_m'] * 1e3:.3f} mm, "
-               f"a/b = {r['a_over_b']:.4f}, peak pressure {r['peak_pressure_pa'] / 1e6:.0f} MPa")
+    click.echo(
+        f"Hertz ellipse: a = {r['a_m'] * 1e3:.3f} mm (rolling), b = {r['b_m'] * 1e3:.3f} mm, "
+        f"a/b = {r['a_over_b']:.4f}, peak pressure {r['peak_pressure_pa'] / 1e6:.0f} MPa"
+    )
     click.echo(f"Kalker: C11 {r['C11']:.3f}, C22 {r['C22']:.3f}, C23 {r['C23']:.3f}, C33 {r['C33']:.3f}")
-    click.echo(f"creep coefficients: f11 {r['f11'] / 1e6:.3f} MN, f22 {r['f22'] / 1e6:.3f} MN, "
-               f"f23 {r['f23'] / 1e3:.3f} kN m, f33 {r['f33']:.2f} N m^2")
+    click.echo(
+        f"creep coefficients: f11 {r['f11'] / 1e6:.3f} MN, f22 {r['f22'] / 1e6:.3f} MN, "
+        f"f23 {r['f23'] / 1e3:.3f} kN m, f33 {r['f33']:.2f} N m^2"
+    )
 
 
 # `rail-mj creep`: what a contact can be, and what it usually is (SI units).
@@ -758,16 +884,27 @@ MAX_SPIN = 1000.0  # rad/m: a radian per millimetre rolled
 
 
 @cli.command("creep")
-@click.option("--semi-axes", nargs=2, type=float, required=True, metavar="A B",
-              help="The contact ellipse's semi-axes, m: A along the rolling direction, B across it.")
+@click.option(
+    "--semi-axes",
+    nargs=2,
+    type=float,
+    required=True,
+    metavar="A B",
+    help="The contact ellipse's semi-axes, m: A along the rolling direction, B across it.",
+)
 @click.option("--normal-force", type=float, required=True, help="The wheel's normal load N, newtons.")
-@click.option("--creepages", nargs=3, type=float, required=True, metavar="XI ETA PHI",
-              help="Longitudinal and lateral creepage (dimensionless) and spin (rad/m).")
+@click.option(
+    "--creepages",
+    nargs=3,
+    type=float,
+    required=True,
+    metavar="XI ETA PHI",
+    help="Longitudinal and lateral creepage (dimensionless) and spin (rad/m).",
+)
 @click.option("--friction", type=float, help="The friction coefficient mu (every law but linear).")
 @click.option("--shear-modulus", type=float, required=True, help="G, Pa (steel: about 80e9).")
 @click.option("--poisson", type=float, required=True, help="Poisson's ratio, 0 to 0.5 (steel: about 0.28).")
-@click.option("--law", type=click.Choice(list(LAWS)), required=True,
-              help="The creep law (docs/creep.md).")
+@click.option("--law", type=click.Choice(list(LAWS)), required=True, help="The creep law (docs/creep.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poisson, law, as_json):
     """The creep force and spin moment of one contact ellipse, by a creep law: Fx, Fy (N)
@@ -787,15 +924,21 @@ def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poiss
     lo, hi = SEMI_AXIS_RANGE
     for value in (a, b):
         if not lo <= value <= hi:
-            raise Failure(f"--semi-axes must be between {lo:g} and {hi:g} m, got {value:g}; check the units (m)",
-                          EXIT_BAD_INPUT)
+            raise Failure(
+                f"--semi-axes must be between {lo:g} and {hi:g} m, got {value:g}; check the units (m)", EXIT_BAD_INPUT
+            )
     unusual = [f"{v:g}" for v in dict.fromkeys((a, b)) if not SEMI_AXIS_USUAL[0] <= v <= SEMI_AXIS_USUAL[1]]
     if unusual:
-        _warn(f"--semi-axes: {' and '.join(unusual)} m outside wheel-rail contacts, {SEMI_AXIS_USUAL[0]:g}-"
-              f"{SEMI_AXIS_USUAL[1]:g} m")
+        _warn(
+            f"--semi-axes: {' and '.join(unusual)} m outside wheel-rail contacts, {SEMI_AXIS_USUAL[0]:g}-"
+            f"{SEMI_AXIS_USUAL[1]:g} m"
+        )
     if not (abs(xi) <= MAX_CREEPAGE and abs(eta) <= MAX_CREEPAGE):
-        raise Failure(f"--creepages XI and ETA must be within +/-{MAX_CREEPAGE:g} (beyond, the surfaces slide "
-                      f"faster than they roll), got {xi:g} and {eta:g}", EXIT_BAD_INPUT)
+        raise Failure(
+            f"--creepages XI and ETA must be within +/-{MAX_CREEPAGE:g} (beyond, the surfaces slide "
+            f"faster than they roll), got {xi:g} and {eta:g}",
+            EXIT_BAD_INPUT,
+        )
     if not abs(phi) <= MAX_SPIN:
         raise Failure(f"--creepages PHI must be within +/-{MAX_SPIN:g} rad/m, got {phi:g}", EXIT_BAD_INPUT)
     _finite("--poisson", poisson)
@@ -806,8 +949,8 @@ def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poiss
             raise Failure(f"--friction: missing: the {law} law needs the friction coefficient", EXIT_BAD_INPUT)
     else:
         _positive("--friction", friction, "creep.friction")
-    from rail_mj.contact.hertz import ContactError, ellipse_patch
     from rail_mj.contact.creep import FASTSIM_ELEMENTS, FASTSIM_STRIPS, patch_forces
+    from rail_mj.contact.hertz import ContactError, ellipse_patch
 
     try:
         patch = ellipse_patch(normal_force, a, b, shear_modulus=shear_modulus, poisson_ratio=poisson)
@@ -819,10 +962,22 @@ def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poiss
     limit = None if friction is None else friction * normal_force
     coefficients = patch.creep_coefficients
     result = {
-        "law": law, "semi_axis_a_m": a, "semi_axis_b_m": b, "a_over_b": a / b, "normal_force_n": normal_force,
-        "friction": friction, "shear_modulus_pa": shear_modulus, "poisson_ratio": poisson,
-        "xi": xi, "eta": eta, "phi_rad_per_m": phi, **patch.C, **coefficients,
-        "fx_n": fx, "fy_n": fy, "mz_nm": mz,
+        "law": law,
+        "semi_axis_a_m": a,
+        "semi_axis_b_m": b,
+        "a_over_b": a / b,
+        "normal_force_n": normal_force,
+        "friction": friction,
+        "shear_modulus_pa": shear_modulus,
+        "poisson_ratio": poisson,
+        "xi": xi,
+        "eta": eta,
+        "phi_rad_per_m": phi,
+        **patch.C,
+        **coefficients,
+        "fx_n": fx,
+        "fy_n": fy,
+        "mz_nm": mz,
         "resultant_over_mu_n": None if limit is None else math.hypot(fx, fy) / limit,
     }
     if law == "fastsim":
@@ -831,13 +986,17 @@ def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poiss
         click.echo(json.dumps(result, indent=2))
         return
     mu = "" if friction is None else f", mu {friction:g} (mu*N {limit / 1e3:.4g} kN)"
-    click.echo(f"{law}: ellipse a = {a * 1e3:.4g} mm (rolling) x b = {b * 1e3:.4g} mm (a/b {a / b:.4g}), "
-               f"N = {normal_force / 1e3:.4g} kN{mu}, G = {shear_modulus / 1e9:.4g} GPa, nu = {poisson:g}")
+    click.echo(
+        f"{law}: ellipse a = {a * 1e3:.4g} mm (rolling) x b = {b * 1e3:.4g} mm (a/b {a / b:.4g}), "
+        f"N = {normal_force / 1e3:.4g} kN{mu}, G = {shear_modulus / 1e9:.4g} GPa, nu = {poisson:g}"
+    )
     click.echo(f"creepages: xi {xi:g}, eta {eta:g}, spin {phi:g} rad/m")
     c = coefficients
-    click.echo(f"Kalker: C11 {patch.C['C11']:.4g}, C22 {patch.C['C22']:.4g}, C23 {patch.C['C23']:.4g}, "
-               f"C33 {patch.C['C33']:.4g}; f11 {c['f11'] / 1e6:.4g} MN, f22 {c['f22'] / 1e6:.4g} MN, "
-               f"f23 {c['f23'] / 1e3:.4g} kN m, f33 {c['f33']:.4g} N m^2")
+    click.echo(
+        f"Kalker: C11 {patch.C['C11']:.4g}, C22 {patch.C['C22']:.4g}, C23 {patch.C['C23']:.4g}, "
+        f"C33 {patch.C['C33']:.4g}; f11 {c['f11'] / 1e6:.4g} MN, f22 {c['f22'] / 1e6:.4g} MN, "
+        f"f23 {c['f23'] / 1e3:.4g} kN m, f33 {c['f33']:.4g} N m^2"
+    )
     share = "" if limit is None else f"  (|(Fx, Fy)| = {result['resultant_over_mu_n']:.4g} mu*N)"
     click.echo(f"Fx = {fx:.6g} N, Fy = {fy:.6g} N, Mz = {mz:.6g} N m{share}")
 
@@ -850,11 +1009,19 @@ def _finite(option: str, *values: float) -> None:
 
 @cli.command("profile")
 @click.argument("profile", metavar="s1002|60e1|FILE")
-@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
-              help="The points as CSV (y_mm,z_mm; docs/profiles.md).")
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="The points as CSV (y_mm,z_mm; docs/profiles.md).",
+)
 @click.option("--png", type=click.Path(dir_okay=False), help="Draw the profile here.")
-@click.option("--kind", type=click.Choice(["wheel", "rail"]),
-              help="What a CSV file holds [default: a rail if its highest point is inside its span].")
+@click.option(
+    "--kind",
+    type=click.Choice(["wheel", "rail"]),
+    help="What a CSV file holds [default: a rail if its highest point is inside its span].",
+)
 def profile_cmd(profile, out, png, kind):
     """Write a wheel or rail profile as CSV, and draw it: the standard S1002 wheel (EN 13715)
     or 60E1 rail (EN 13674-1), or a measured one (.csv, SIMPACK .prw or .prr)."""
@@ -862,10 +1029,8 @@ def profile_cmd(profile, out, png, kind):
 
     is_standard = profile.lower() in ("s1002", "60e1")
     if not is_standard and Path(profile).suffix.lower() not in (".csv", ".prw", ".prr"):
-        raise Failure(f"{profile}: not s1002, 60e1 or a profile file (.csv, SIMPACK .prw or .prr)",
-                      EXIT_BAD_INPUT)
-    _check_outputs(None if is_standard else profile, [("-o", out), ("--png", png)],
-                   source="the profile file")
+        raise Failure(f"{profile}: not s1002, 60e1 or a profile file (.csv, SIMPACK .prw or .prr)", EXIT_BAD_INPUT)
+    _check_outputs(None if is_standard else profile, [("-o", out), ("--png", png)], source="the profile file")
     try:
         shape = profiles.standard(profile) if is_standard else profiles.read_profile(profile, kind)
     except profiles.ProfileError as e:
@@ -883,19 +1048,27 @@ def profile_cmd(profile, out, png, kind):
     except OSError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     err = _uses_stdout(out, png)
-    click.echo(f"{shape.name}: {shape.kind}, {len(shape.y)} points, y from {shape.y[0] * 1e3:.3f} to "
-               f"{shape.y[-1] * 1e3:.3f} mm", err=err)
+    click.echo(
+        f"{shape.name}: {shape.kind}, {len(shape.y)} points, y from {shape.y[0] * 1e3:.3f} to "
+        f"{shape.y[-1] * 1e3:.3f} mm",
+        err=err,
+    )
     click.echo(f"points: {out}" + (f"\nplot: {png}" if png else ""), err=err)
 
 
 @cli.command("conicity")
 @click.argument("layout", required=False, type=click.Path(dir_okay=False))
-@click.option("--delta-r", "delta_r_csv", type=click.Path(dir_okay=False),
-              help="The rolling-radius difference r_left - r_right against the lateral shift y, as CSV "
-                   "with the header y_mm,delta_r_mm, y increasing.")
-@click.option("--amplitudes",
-              help="A:B:N, N amplitudes from A to B mm  [default: 0.5 to 10 mm in 0.5 mm steps, "
-                   "as far as the data reach]")
+@click.option(
+    "--delta-r",
+    "delta_r_csv",
+    type=click.Path(dir_okay=False),
+    help="The rolling-radius difference r_left - r_right against the lateral shift y, as CSV "
+    "with the header y_mm,delta_r_mm, y increasing.",
+)
+@click.option(
+    "--amplitudes",
+    help="A:B:N, N amplitudes from A to B mm  [default: 0.5 to 10 mm in 0.5 mm steps, as far as the data reach]",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @click.option("--png", type=click.Path(dir_okay=False), help="Plot the equivalent conicity against amplitude here.")
 def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
@@ -914,7 +1087,13 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
         if png and png != STDOUT and Path(png).resolve() == Path(source).resolve():
             raise Failure(f"--png {png}: would overwrite the input {source}", EXIT_BAD_INPUT)
     _check_outputs(source, [("--png", png)])
-    from rail_mj.contact.conicity import DEFAULT_AMPLITUDES, QUOTED_AMPLITUDE, ConicityError, DeltaR, equivalent_conicity
+    from rail_mj.contact.conicity import (
+        DEFAULT_AMPLITUDES,
+        QUOTED_AMPLITUDE,
+        ConicityError,
+        DeltaR,
+        equivalent_conicity,
+    )
 
     try:
         if layout is not None:
@@ -932,15 +1111,21 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
         if wanted is None:
             wanted = [a for a in DEFAULT_AMPLITUDES if a <= largest * (1 + 1e-12)]
             if not wanted:
-                raise Failure(f"{source}: the data reach amplitudes up to {largest:.3g} mm only, below "
-                              f"{DEFAULT_AMPLITUDES[0]:g} mm: give --amplitudes", EXIT_BAD_INPUT)
+                raise Failure(
+                    f"{source}: the data reach amplitudes up to {largest:.3g} mm only, below "
+                    f"{DEFAULT_AMPLITUDES[0]:g} mm: give --amplitudes",
+                    EXIT_BAD_INPUT,
+                )
         elif max(wanted) > largest * (1 + 1e-12):
-            raise Failure(f"--amplitudes: {max(wanted):g} mm is beyond {source}: the motion about its centre "
-                          f"stays within y from {delta_r.y_min:g} to {delta_r.y_max:g} mm only up to "
-                          f"{largest:.4g} mm", EXIT_BAD_INPUT)
+            raise Failure(
+                f"--amplitudes: {max(wanted):g} mm is beyond {source}: the motion about its centre "
+                f"stays within y from {delta_r.y_min:g} to {delta_r.y_max:g} mm only up to "
+                f"{largest:.4g} mm",
+                EXIT_BAD_INPUT,
+            )
         values = equivalent_conicity(delta_r, wanted, e=spacing, r0=r0)
         quoted = None
-        if QUOTED_AMPLITUDE <= largest:
+        if largest >= QUOTED_AMPLITUDE:
             quoted = (QUOTED_AMPLITUDE, float(equivalent_conicity(delta_r, [QUOTED_AMPLITUDE], e=spacing, r0=r0)[0]))
         if png:
             from rail_mj.output.plots import conicity_png
@@ -958,13 +1143,11 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
     err = _uses_stdout(png)
     finite = [float(v) if math.isfinite(v) else None for v in values]
     if as_json:
-        click.echo(json.dumps({"amplitude_mm": [float(a) for a in wanted], "equivalent_conicity": finite}),
-                   err=err)
+        click.echo(json.dumps({"amplitude_mm": [float(a) for a in wanted], "equivalent_conicity": finite}), err=err)
         return
     a, b = delta_r.centre
     centre = f"centre y = {a:.4g} mm" if a == b else f"dead band y from {a:.4g} to {b:.4g} mm"
-    click.echo(f"equivalent conicity of {source} (EN 15302, integration of the Klingel equation); {centre}",
-               err=err)
+    click.echo(f"equivalent conicity of {source} (EN 15302, integration of the Klingel equation); {centre}", err=err)
     click.echo(f"{'amplitude_mm':>12}  equivalent_conicity", err=err)
     for amp, value in zip(wanted, finite):
         click.echo(f"{amp:12.4g}  {'none (no periodic motion)' if value is None else f'{value:.5f}'}", err=err)
@@ -993,11 +1176,19 @@ def _delta_r_of_profiles(lay: Layout):
 
 @cli.command("contact-geometry")
 @click.argument("layout", type=click.Path(dir_okay=False))
-@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
-              help="The table as CSV: y_m, r_left_m, r_right_m, delta_r_m, contact_angle_left_rad, "
-                   "contact_angle_right_rad, roll_rad, then more (docs/geometry.md).")
-@click.option("--png", type=click.Path(dir_okay=False),
-              help="Draw Δr(y), the contact angles and the contact points on the profiles here.")
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="The table as CSV: y_m, r_left_m, r_right_m, delta_r_m, contact_angle_left_rad, "
+    "contact_angle_right_rad, roll_rad, then more (docs/geometry.md).",
+)
+@click.option(
+    "--png",
+    type=click.Path(dir_okay=False),
+    help="Draw Δr(y), the contact angles and the contact points on the profiles here.",
+)
 def contact_geometry_cmd(layout, out, png):
     """The contact geometry of LAYOUT's wheel and rail profiles ([profiles]): a rigid
     wheelset shifted y from -10 to +10 mm at zero yaw, its roll, rolling radii and contact
@@ -1005,8 +1196,11 @@ def contact_geometry_cmd(layout, out, png):
     _check_outputs(layout, [("-o", out), ("--png", png)])
     lay = _layout(layout)
     if lay.profiles is None:
-        raise Failure(f"{layout}: profiles: no [profiles] table: contact geometry needs wheel and rail "
-                      f"profiles (docs/geometry.md)", EXIT_BAD_INPUT)
+        raise Failure(
+            f"{layout}: profiles: no [profiles] table: contact geometry needs wheel and rail "
+            f"profiles (docs/geometry.md)",
+            EXIT_BAD_INPUT,
+        )
     table = _contact_table(lay)
     outputs = [p for p in (out, png) if p]
     try:
@@ -1020,15 +1214,17 @@ def contact_geometry_cmd(layout, out, png):
     except OSError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     err = _uses_stdout(out, png)
-    import numpy as np
 
     from rail_mj.contact.geometry import flange_contact_shift
 
     shift = flange_contact_shift(table)
-    where = (f"flange contact from |y| = {shift * 1e3:.2f} mm" if shift is not None
-             else "no flange contact within the range")
-    click.echo(f"{lay.name}: {len(table.y)} lateral shifts from {table.y[0] * 1e3:g} to {table.y[-1] * 1e3:g} mm; "
-               f"{where}", err=err)
+    where = (
+        f"flange contact from |y| = {shift * 1e3:.2f} mm" if shift is not None else "no flange contact within the range"
+    )
+    click.echo(
+        f"{lay.name}: {len(table.y)} lateral shifts from {table.y[0] * 1e3:g} to {table.y[-1] * 1e3:g} mm; {where}",
+        err=err,
+    )
     click.echo(f"table: {out}" + (f"\nplot: {png}" if png else ""), err=err)
 
 
@@ -1047,8 +1243,9 @@ def _amplitudes(text: str) -> list[float]:
     from rail_mj.contact.conicity import MIN_AMPLITUDE
 
     if not (math.isfinite(a) and math.isfinite(b) and 0 < a <= b and 1 <= n <= 10_000 and (n > 1 or a == b)):
-        raise Failure(f"--amplitudes A:B:N needs 0 < A <= B and 1 <= N <= 10000 (N = 1: A = B), got {text!r}",
-                      EXIT_BAD_INPUT)
+        raise Failure(
+            f"--amplitudes A:B:N needs 0 < A <= B and 1 <= N <= 10000 (N = 1: A = B), got {text!r}", EXIT_BAD_INPUT
+        )
     if a < MIN_AMPLITUDE:
         raise Failure(f"--amplitudes: the smallest amplitude is {MIN_AMPLITUDE:g} mm, got {a:g}", EXIT_BAD_INPUT)
     return [a + (b - a) * k / (n - 1) for k in range(n)] if n > 1 else [a]
@@ -1075,10 +1272,13 @@ def main(argv: list[str] | None = None) -> int:
     except MemoryError:
         click.echo("rail-mj: error: out of memory: shorten --distance or use fewer speeds", err=True)
         return EXIT_RUN_FAILED
-    except Exception as e:  # noqa: BLE001 - the last line of defence: never a traceback
+    except Exception as e:
         why = " ".join(str(e).split()) or "no message"
-        click.echo(f"rail-mj: error: unexpected {type(e).__name__}: {why} (a bug in rail-mj: please "
-                   f"report it with the command line)", err=True)
+        click.echo(
+            f"rail-mj: error: unexpected {type(e).__name__}: {why} (a bug in rail-mj: please "
+            f"report it with the command line)",
+            err=True,
+        )
         return EXIT_RUN_FAILED
     return 0
 

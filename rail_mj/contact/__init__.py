@@ -16,9 +16,17 @@ The names of rail-mj 0.1's `rail_mj.contact` (Hertz and Kalker) are still found 
 from rail_mj import _lazy
 
 _EXPORTS = {
-    "ContactError": "hertz", "ContactPatch": "hertz", "contact_patch": "hertz", "ellipse_patch": "hertz",
-    "hertz_ellipse": "hertz", "kalker_coefficients": "hertz",
-    "equivalent_conicity": "conicity", "ContactParameters": "creep", "ContactForces": "creep",
-    "contact_forces": "creep", "wheelset_forces": "creep", "LAWS": "laws",
+    "ContactError": "hertz",
+    "ContactPatch": "hertz",
+    "contact_patch": "hertz",
+    "ellipse_patch": "hertz",
+    "hertz_ellipse": "hertz",
+    "kalker_coefficients": "hertz",
+    "equivalent_conicity": "conicity",
+    "ContactParameters": "creep",
+    "ContactForces": "creep",
+    "contact_forces": "creep",
+    "wheelset_forces": "creep",
+    "LAWS": "laws",
 }
 __getattr__, __dir__ = _lazy.exports(__name__, _EXPORTS, fallback="hertz")

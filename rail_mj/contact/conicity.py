@@ -27,8 +27,8 @@ Every problem with the input raises `ConicityError`, whose message is one line.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -56,8 +56,17 @@ class DeltaR:
     or `from_function`.
     """
 
-    def __init__(self, value: Callable, integral: Callable, y_min: float, y_max: float,
-                 grid=None, source: str = "Δr", lines=None, knots=()):
+    def __init__(
+        self,
+        value: Callable,
+        integral: Callable,
+        y_min: float,
+        y_max: float,
+        grid=None,
+        source: str = "Δr",
+        lines=None,
+        knots=(),
+    ):
         if not (math.isfinite(y_min) and math.isfinite(y_max) and y_min < y_max):
             raise ConicityError(f"{source}: needs y_min < y_max, got {y_min} and {y_max}")
         self.value = value
@@ -73,7 +82,7 @@ class DeltaR:
     # --- construction -------------------------------------------------------------------
 
     @classmethod
-    def from_points(cls, y, dr, source: str = "Δr", lines=None) -> "DeltaR":
+    def from_points(cls, y, dr, source: str = "Δr", lines=None) -> DeltaR:
         """Δr through the points (y, Δr), mm, interpolated by a monotone cubic (PCHIP).
         `lines`: each point's line in `source`, for the messages."""
         from scipy.interpolate import PchipInterpolator
@@ -89,31 +98,37 @@ class DeltaR:
             if not (math.isfinite(y[k]) and math.isfinite(dr[k])):
                 raise ConicityError(f"{where(k)}: not a finite number")
             if k and not y[k] > y[k - 1]:
-                raise ConicityError(f"{where(k)}: y = {y[k]:g} mm does not increase "
-                                    f"(the line before has {y[k - 1]:g} mm)")
+                raise ConicityError(
+                    f"{where(k)}: y = {y[k]:g} mm does not increase (the line before has {y[k - 1]:g} mm)"
+                )
         shape = PchipInterpolator(y, dr, extrapolate=False)
         area = shape.antiderivative()
         return cls(shape, area, y[0], y[-1], grid=y, source=source, lines=lines, knots=y)
 
     @classmethod
-    def read_csv(cls, path) -> "DeltaR":
+    def read_csv(cls, path) -> DeltaR:
         """Δr from a CSV file with the header `y_mm,delta_r_mm`, one point a line, y increasing.
         Blank lines and lines starting with # are skipped."""
         y, dr, lines = read_delta_r_csv(path)
         return cls.from_points(y, dr, source=str(path), lines=lines)
 
     @classmethod
-    def cone(cls, conicity: float, half_range: float = 20.0, centre: float = 0.0) -> "DeltaR":
+    def cone(cls, conicity: float, half_range: float = 20.0, centre: float = 0.0) -> DeltaR:
         """A cone: Δr = 2λ(y − centre) on centre ± half_range (a centre off 0: wheels of
         unequal diameters)."""
         lam, c = float(conicity), float(centre)
-        return cls(lambda y: 2.0 * lam * (np.asarray(y, float) - c),
-                   lambda y: lam * (np.asarray(y, float) - c) ** 2,
-                   c - half_range, c + half_range, source=f"cone {lam:g}")
+        return cls(
+            lambda y: 2.0 * lam * (np.asarray(y, float) - c),
+            lambda y: lam * (np.asarray(y, float) - c) ** 2,
+            c - half_range,
+            c + half_range,
+            source=f"cone {lam:g}",
+        )
 
     @classmethod
-    def from_function(cls, value: Callable, y_min: float, y_max: float,
-                      integral: Callable | None = None, source: str = "Δr", knots=()) -> "DeltaR":
+    def from_function(
+        cls, value: Callable, y_min: float, y_max: float, integral: Callable | None = None, source: str = "Δr", knots=()
+    ) -> DeltaR:
         """Δr from a function of y (mm); `integral`, an antiderivative, or None to integrate
         `value` numerically; `knots`, where it has kinks (for the harmonic linearisation)."""
         if integral is None:
@@ -149,13 +164,16 @@ class DeltaR:
         positive = np.flatnonzero(values > 0)
         if len(negative) == 0 or len(positive) == 0:
             sign = "negative" if len(negative) == 0 else "positive"
-            raise ConicityError(f"{self.source}: Δr is never {sign} for y from {grid[0]:g} to {grid[-1]:g} mm: "
-                                f"the centre of the motion, where Δr vanishes, is not within the data")
+            raise ConicityError(
+                f"{self.source}: Δr is never {sign} for y from {grid[0]:g} to {grid[-1]:g} mm: "
+                f"the centre of the motion, where Δr vanishes, is not within the data"
+            )
         if positive[0] < negative[-1]:
             raise ConicityError(
                 f"{self.source}: Δr must go from negative to positive once as y grows (a stable centre), "
                 f"but it is positive at {at(int(positive[0]))} and negative at {at(int(negative[-1]))} "
-                f"(Δr = r_left - r_right, y to the left)")
+                f"(Δr = r_left - r_right, y to the left)"
+            )
         i, j = int(negative[-1]), int(positive[0])
         a = self._edge(grid[i], grid[i + 1], lambda y: self._at(y) < 0)
         b = self._edge(grid[j - 1], grid[j], lambda y: not self._at(y) > 0)
@@ -218,12 +236,12 @@ class DeltaR:
             raise ConicityError(
                 f"{self.source}: amplitude {amplitude:g} mm is beyond the data: the motion about the centre "
                 f"(y = {0.5 * (a + b):g} mm) stays within y from {self.y_min:g} to {self.y_max:g} mm only up "
-                f"to {largest:.4g} mm")
+                f"to {largest:.4g} mm"
+            )
         if amplitude >= largest:
             level = top
         else:
-            level = brentq(lambda p: self._swing(p)[2] - amplitude, 0.0, top,
-                           xtol=1e-15 * top, rtol=1e-15)
+            level = brentq(lambda p: self._swing(p)[2] - amplitude, 0.0, top, xtol=1e-15 * top, rtol=1e-15)
         lo, hi, found = self._swing(level)
         if abs(found - amplitude) > 1e-9 * max(amplitude, 1.0):
             # No motion has this amplitude: Δr vanishes again beyond the centre and the
@@ -260,11 +278,11 @@ class DeltaR:
                 return 0.0 if gap == 0.0 else math.inf
             return abs(span) * math.cos(theta) / math.sqrt(2.0 * drop)
 
-        value, error, info = quad(integrand, 0.0, math.pi / 2, epsabs=0.0, epsrel=1e-12, limit=500,
-                                  full_output=1)[:3]
+        value, error, _info = quad(integrand, 0.0, math.pi / 2, epsabs=0.0, epsrel=1e-12, limit=500, full_output=1)[:3]
         if not (math.isfinite(value) and error <= 1e-8 * value):
-            raise ConicityError(f"{self.source}: the period did not converge near y = {turn:g} mm "
-                                f"(Δr vanishes at the turning point)")
+            raise ConicityError(
+                f"{self.source}: the period did not converge near y = {turn:g} mm (Δr vanishes at the turning point)"
+            )
         return value
 
 
@@ -279,8 +297,10 @@ def _amplitude(value) -> float:
     if not (math.isfinite(value) and value > 0.0):
         raise ConicityError(f"an amplitude must be a positive number of mm, got {value:g}")
     if value < MIN_AMPLITUDE:
-        raise ConicityError(f"an amplitude must be at least {MIN_AMPLITUDE:g} mm (below it the energy level "
-                            f"is lost in round-off), got {value:g}")
+        raise ConicityError(
+            f"an amplitude must be at least {MIN_AMPLITUDE:g} mm (below it the energy level "
+            f"is lost in round-off), got {value:g}"
+        )
     return value
 
 
@@ -291,8 +311,9 @@ def wavelength(delta_r: DeltaR, amplitude: float, e: float = E, r0: float = R0) 
     return 2.0 * math.sqrt(e * r0) * delta_r.half_period(amplitude)
 
 
-def equivalent_conicity(delta_r: DeltaR, amplitudes, method: str = "integration",
-                        e: float = E, r0: float = R0) -> np.ndarray:
+def equivalent_conicity(
+    delta_r: DeltaR, amplitudes, method: str = "integration", e: float = E, r0: float = R0
+) -> np.ndarray:
     """λe at each amplitude (mm): `integration` (EN 15302's reference method; λe = (2π/L)²·e·r0/2
     from the wavelength L of the nonlinear Klingel motion) or `harmonic` (harmonic
     linearisation, a cross-check). NaN where no periodic motion has the amplitude (a Δr that
@@ -306,8 +327,11 @@ def equivalent_conicity(delta_r: DeltaR, amplitudes, method: str = "integration"
             out.append(harmonic_conicity(delta_r, amplitude))
             continue
         length = wavelength(delta_r, amplitude, e, r0)
-        out.append((2.0 * math.pi / length) ** 2 * e * r0 / 2.0 if math.isfinite(length)
-                   else (math.nan if math.isnan(length) else 0.0))
+        out.append(
+            (2.0 * math.pi / length) ** 2 * e * r0 / 2.0
+            if math.isfinite(length)
+            else (math.nan if math.isnan(length) else 0.0)
+        )
     return np.array(out)
 
 
@@ -319,8 +343,10 @@ def harmonic_conicity(delta_r: DeltaR, amplitude: float) -> float:
     amp = _amplitude(amplitude)
     lo, hi = delta_r.y_min + amp, delta_r.y_max - amp
     if lo > hi:
-        raise ConicityError(f"{delta_r.source}: amplitude {amp:g} mm is beyond the data "
-                            f"(y from {delta_r.y_min:g} to {delta_r.y_max:g} mm)")
+        raise ConicityError(
+            f"{delta_r.source}: amplitude {amp:g} mm is beyond the data "
+            f"(y from {delta_r.y_min:g} to {delta_r.y_max:g} mm)"
+        )
 
     def bias(c: float) -> float:
         phi, weight = _cycle(delta_r.knots, c, amp)
@@ -328,8 +354,10 @@ def harmonic_conicity(delta_r: DeltaR, amplitude: float) -> float:
 
     b_lo, b_hi = bias(lo), bias(hi)
     if b_lo > 0 or b_hi < 0:
-        raise ConicityError(f"{delta_r.source}: amplitude {amp:g} mm is beyond the data: no centre within "
-                            f"y from {delta_r.y_min:g} to {delta_r.y_max:g} mm balances Δr over a cycle")
+        raise ConicityError(
+            f"{delta_r.source}: amplitude {amp:g} mm is beyond the data: no centre within "
+            f"y from {delta_r.y_min:g} to {delta_r.y_max:g} mm balances Δr over a cycle"
+        )
     c = lo if b_lo == 0 else hi if b_hi == 0 else brentq(bias, lo, hi, xtol=1e-14 * amp, rtol=1e-15)
     phi, weight = _cycle(delta_r.knots, c, amp)
     return float(weight @ (delta_r.many(c + amp * np.sin(phi)) * np.sin(phi))) / (math.pi * amp)
@@ -356,8 +384,9 @@ def _cycle(knots, c: float, amp: float) -> tuple[np.ndarray, np.ndarray]:
     return phi, weight
 
 
-def klingel_ode(delta_r: DeltaR, release: float, e: float = E, r0: float = R0,
-                rtol: float = 1e-12) -> tuple[float, float]:
+def klingel_ode(
+    delta_r: DeltaR, release: float, e: float = E, r0: float = R0, rtol: float = 1e-12
+) -> tuple[float, float]:
     """(amplitude, wavelength), mm: the wheelset let go at rest at y = `release` (mm, beyond
     the centre on either side) and y'' = −Δr(y)/(e·r0) stepped in distance (DOP853) through
     one period, from turning point to turning point and back. A check of `wavelength`."""
@@ -372,6 +401,7 @@ def klingel_ode(delta_r: DeltaR, release: float, e: float = E, r0: float = R0,
     def turned(direction):
         def event(_x, s):
             return s[1]
+
         event.terminal = True
         event.direction = direction
         return event
@@ -380,8 +410,9 @@ def klingel_ode(delta_r: DeltaR, release: float, e: float = E, r0: float = R0,
     state, points, length = [float(release), 0.0], [float(release)], 0.0
     span = 100.0 * math.pi * math.sqrt(e * r0)  # far beyond any period of interest
     for direction in (first, -first):
-        run = solve_ivp(rhs, (0.0, span), state, method="DOP853", rtol=rtol,
-                        atol=rtol * scale * 1e-3, events=turned(direction))
+        run = solve_ivp(
+            rhs, (0.0, span), state, method="DOP853", rtol=rtol, atol=rtol * scale * 1e-3, events=turned(direction)
+        )
         if not run.t_events[0].size:
             raise ConicityError(f"{delta_r.source}: no turning point within {span:g} mm of running")
         length += float(run.t_events[0][0])
@@ -411,8 +442,10 @@ def read_delta_r_csv(path) -> tuple[list[float], list[float], list[int]]:
         fields = [f.strip() for f in line.split(",")]
         if not header:
             if tuple(f.strip('"').lower() for f in fields) != HEADER:
-                raise ConicityError(f"{path}:{number}: expected the header {','.join(HEADER)} "
-                                    f"(y and Δr = r_left - r_right, in mm), got {line[:60]!r}")
+                raise ConicityError(
+                    f"{path}:{number}: expected the header {','.join(HEADER)} "
+                    f"(y and Δr = r_left - r_right, in mm), got {line[:60]!r}"
+                )
             header = True
             continue
         if len(fields) != 2:

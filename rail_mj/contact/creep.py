@@ -30,8 +30,8 @@ import numba
 import numpy as np
 
 from rail_mj import numerics as _t
+from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS
 from rail_mj.units import M_PER_MM, N_PER_KN, PA_PER_GPA
-from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,20 +88,62 @@ class ContactParameters:
         return np.ascontiguousarray(np.stack(rows))
 
     @classmethod
-    def broadcast(cls, n: int, *, r0, b, conicity, f11, f22, f23=0.0, f33=0.0,
-                  friction_limit=np.inf, falling_friction_ratio=1.0, falling_friction_rate=0.0,
-                  law=LINEAR, clearance=0.008, flange_stiffness=0.0, flange_damping=0.0,
-                  flange_slope=None, semi_axis_a=0.0, semi_axis_b=0.0, normal_force=0.0,
-                  shear_modulus=0.0, c11=0.0, c22=0.0, c23=0.0, geometry=None):
+    def broadcast(
+        cls,
+        n: int,
+        *,
+        r0,
+        b,
+        conicity,
+        f11,
+        f22,
+        f23=0.0,
+        f33=0.0,
+        friction_limit=np.inf,
+        falling_friction_ratio=1.0,
+        falling_friction_rate=0.0,
+        law=LINEAR,
+        clearance=0.008,
+        flange_stiffness=0.0,
+        flange_damping=0.0,
+        flange_slope=None,
+        semi_axis_a=0.0,
+        semi_axis_b=0.0,
+        normal_force=0.0,
+        shear_modulus=0.0,
+        c11=0.0,
+        c22=0.0,
+        c23=0.0,
+        geometry=None,
+    ):
         full = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy()  # noqa: E731
         flange = flange_slope is not None
-        return cls(full(r0), full(b), full(conicity), full(f11), full(f22), full(f23), full(f33),
-                   full(friction_limit), full(falling_friction_ratio), full(falling_friction_rate),
-                   full(clearance), full(flange_stiffness),
-                   full(flange_damping), full(flange_slope if flange else conicity),
-                   full(semi_axis_a), full(semi_axis_b), full(normal_force), full(shear_modulus),
-                   full(c11), full(c22), full(c23), int(law), flange,
-                   NO_GEOMETRY if geometry is None else np.ascontiguousarray(geometry, dtype=np.float64))
+        return cls(
+            full(r0),
+            full(b),
+            full(conicity),
+            full(f11),
+            full(f22),
+            full(f23),
+            full(f33),
+            full(friction_limit),
+            full(falling_friction_ratio),
+            full(falling_friction_rate),
+            full(clearance),
+            full(flange_stiffness),
+            full(flange_damping),
+            full(flange_slope if flange else conicity),
+            full(semi_axis_a),
+            full(semi_axis_b),
+            full(normal_force),
+            full(shear_modulus),
+            full(c11),
+            full(c22),
+            full(c23),
+            int(law),
+            flange,
+            NO_GEOMETRY if geometry is None else np.ascontiguousarray(geometry, dtype=np.float64),
+        )
 
 
 NO_GEOMETRY = np.zeros((0, _t.COLUMNS))
@@ -110,14 +152,32 @@ NO_GEOMETRY = np.zeros((0, _t.COLUMNS))
 # and 8e10 Pa would take a flangeway clearance of 0.008 m with it.
 
 
-
 from rail_mj.numerics import _FASTSIM_ROWS, _ROWS, ROWS  # noqa: E402,F401  (re-exported)
 
 _FASTSIM_NEEDS = ("friction_limit", *_FASTSIM_ROWS)
 from rail_mj.numerics import (  # noqa: E402
-    _B, _C11, _C22, _C23, _C_FLANGE, _CLEARANCE, _F11, _F22, _F23, _F33, _FALL_RATE, _FALL_RATIO, _K_FLANGE, _LAM,
-    _LIMIT, _NORMAL, _R0, _SEMI_A, _SEMI_B, _SHEAR, _SLOPE)
-
+    _B,
+    _C11,
+    _C22,
+    _C23,
+    _C_FLANGE,
+    _CLEARANCE,
+    _F11,
+    _F22,
+    _F23,
+    _F33,
+    _FALL_RATE,
+    _FALL_RATIO,
+    _K_FLANGE,
+    _LAM,
+    _LIMIT,
+    _NORMAL,
+    _R0,
+    _SEMI_A,
+    _SEMI_B,
+    _SHEAR,
+    _SLOPE,
+)
 
 # The scalar laws are compiled functions for the kernel (`_saturation`, ...), each with an
 # element-wise numpy version under the public name. numba.njit caches on disk; numba's
@@ -250,20 +310,41 @@ def _fastsim(a, b, normal_force, friction, shear_modulus, c11, c22, c23, xi, eta
     return fx, fy, mz
 
 
-def fastsim(a, b, normal_force, friction, shear_modulus, c11, c22, c23, xi, eta, phi,
-            n_strips: int = FASTSIM_STRIPS, n_elements: int = FASTSIM_ELEMENTS):
+def fastsim(
+    a,
+    b,
+    normal_force,
+    friction,
+    shear_modulus,
+    c11,
+    c22,
+    c23,
+    xi,
+    eta,
+    phi,
+    n_strips: int = FASTSIM_STRIPS,
+    n_elements: int = FASTSIM_ELEMENTS,
+):
     """Kalker's FASTSIM (see `_fastsim`) element-wise over numpy arrays (broadcast):
     (Fx, Fy, Mz) in N and N m, the rail's force and spin moment on the wheel."""
-    for name, value in (("a", a), ("b", b), ("normal_force", normal_force), ("friction", friction),
-                        ("shear_modulus", shear_modulus), ("c11", c11), ("c22", c22), ("c23", c23)):
+    for name, value in (
+        ("a", a),
+        ("b", b),
+        ("normal_force", normal_force),
+        ("friction", friction),
+        ("shear_modulus", shear_modulus),
+        ("c11", c11),
+        ("c22", c22),
+        ("c23", c23),
+    ):
         value = np.asarray(value, dtype=float)
         if not np.all(np.isfinite(value) & (value > 0.0)):
             raise ValueError(f"fastsim: {name} must be a positive number, got {value}")
     if not (int(n_strips) == n_strips >= 1 and int(n_elements) == n_elements >= 1):
-        raise ValueError(f"fastsim: n_strips and n_elements must be positive integers, got {n_strips}, "
-                         f"{n_elements}")
-    return _FASTSIM_ELEMENTWISE(a, b, normal_force, friction, shear_modulus, c11, c22, c23, xi, eta, phi,
-                                int(n_strips), int(n_elements))
+        raise ValueError(f"fastsim: n_strips and n_elements must be positive integers, got {n_strips}, {n_elements}")
+    return _FASTSIM_ELEMENTWISE(
+        a, b, normal_force, friction, shear_modulus, c11, c22, c23, xi, eta, phi, int(n_strips), int(n_elements)
+    )
 
 
 _FASTSIM_ELEMENTWISE = np.vectorize(_fastsim, otypes=[np.float64] * 3)
@@ -283,8 +364,19 @@ def patch_forces(patch, law, xi: float, eta: float, phi: float, friction: float 
     if law != LINEAR and not (friction is not None and friction > 0.0):
         raise ValueError(f"the {_LAW_NAMES[law]} law needs a friction coefficient > 0, got {friction}")
     if law == FASTSIM:
-        forces = fastsim(patch.a, patch.b, patch.normal_load, friction, patch.shear_modulus, patch.C["C11"],
-                         patch.C["C22"], patch.C["C23"], xi, eta, phi)
+        forces = fastsim(
+            patch.a,
+            patch.b,
+            patch.normal_load,
+            friction,
+            patch.shear_modulus,
+            patch.C["C11"],
+            patch.C["C22"],
+            patch.C["C23"],
+            xi,
+            eta,
+            phi,
+        )
     else:
         f = patch.creep_coefficients
         fx, fy, mz = -f["f11"] * xi, -f["f22"] * eta - f["f23"] * phi, f["f23"] * eta - f["f33"] * phi
@@ -419,10 +511,10 @@ def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_l
     if law != LINEAR:
         limit_left, limit_right = p[_LIMIT] * q_left, p[_LIMIT] * q_right
         if falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
-            limit_left = _falling_friction(limit_left, p[_FALL_RATIO], p[_FALL_RATE],
-                                           speed * math.hypot(xi_left, xi_y))
-            limit_right = _falling_friction(limit_right, p[_FALL_RATIO], p[_FALL_RATE],
-                                            speed * math.hypot(xi_right, xi_y))
+            limit_left = _falling_friction(limit_left, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_left, xi_y))
+            limit_right = _falling_friction(
+                limit_right, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_right, xi_y)
+            )
         # Fx, Fy and the spin moment of a wheel all saturate by one factor (a common
         # simplification: Kalker's full theory saturates the moment its own way). An unloaded
         # wheel (limit 0) carries nothing.
@@ -446,8 +538,21 @@ def _fastsim_wheel(p, xi_x, xi_y, xi_sp, q):
     if q <= 0.0:
         return 0.0, 0.0, 0.0
     grow = 1.0 if q == 1.0 else q ** (1.0 / 3.0)
-    return _fastsim(p[_SEMI_A] * grow, p[_SEMI_B] * grow, p[_NORMAL] * q, p[_LIMIT] / p[_NORMAL], p[_SHEAR] * PA_PER_GPA,
-                    p[_C11], p[_C22], p[_C23], xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS)
+    return _fastsim(
+        p[_SEMI_A] * grow,
+        p[_SEMI_B] * grow,
+        p[_NORMAL] * q,
+        p[_LIMIT] / p[_NORMAL],
+        p[_SHEAR] * PA_PER_GPA,
+        p[_C11],
+        p[_C22],
+        p[_C23],
+        xi_x,
+        xi_y,
+        xi_sp,
+        FASTSIM_STRIPS,
+        FASTSIM_ELEMENTS,
+    )
 
 
 @numba.njit(cache=True)
@@ -493,8 +598,22 @@ def cone_gravity_forces(lam, b, y, wheel_left, wheel_right):
 
 
 @numba.njit(cache=True)
-def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0,
-                     nominal=math.nan, spin_inertia=0.0, cone_gravity=False):
+def wheelset_contact(
+    p,
+    law,
+    flange,
+    falling,
+    y,
+    psi,
+    y_dot,
+    psi_dot,
+    speed,
+    load=math.nan,
+    moment=0.0,
+    nominal=math.nan,
+    spin_inertia=0.0,
+    cone_gravity=False,
+):
     """The rails' forces on one wheelset, by origin: (creep lateral, flange lateral, creep
     couple, spin moment, flange moment), N and N m (see `ContactForces`), then each wheel's
     vertical load Q and lateral force Y (Q_left, Q_right, Y_left, Y_right). `p`: its column
@@ -538,8 +657,9 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, loa
         couple = p[_B] * (fx_right - fx_left)  # Fx_left at y = +b
         spin = mz_left + mz_right
     else:
-        creep_lateral, couple, spin, y_left, y_right = _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y,
-                                                                        xi_sp, speed, q_left, q_right)
+        creep_lateral, couple, spin, y_left, y_right = _kalker_wheelset(
+            p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_left, q_right
+        )
     flange_lateral = flange_moment = 0.0
     if flange:
         flange_lateral = _flange_force(y, y_dot, p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
@@ -555,8 +675,18 @@ def wheelset_contact(p, law, flange, falling, y, psi, y_dot, psi_dot, speed, loa
         y_left += pushed_left
         y_right += pushed_right
         flange_lateral += pushed_left + pushed_right
-    return (creep_lateral, flange_lateral, couple, spin, flange_moment, wheel_left, wheel_right, y_left, y_right,
-            gyro_yaw)
+    return (
+        creep_lateral,
+        flange_lateral,
+        couple,
+        spin,
+        flange_moment,
+        wheel_left,
+        wheel_right,
+        y_left,
+        y_right,
+        gyro_yaw,
+    )
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -623,8 +753,7 @@ NADAL_PASSES = 4
 
 
 @numba.njit(cache=True, error_model="numpy")
-def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0,
-                     spin_inertia=0.0):
+def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0, spin_inertia=0.0):
     """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
     them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
     its contact table (rail_mj.contact.tables), interpolated linearly in y and held at its end rows
@@ -664,10 +793,12 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
         roll_rate = (hi[_t.ROLL] - lo[_t.ROLL]) / (hi[_t.Y] - lo[_t.Y]) * y_dot
         gyro_yaw, gyro_roll = gyroscopic(spin_inertia, speed / r0, roll_rate, psi_dot)
         moment -= gyro_roll
-    n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load if spatial else axle_load, r0,
-                                                     moment if spatial else 0.0, spatial)
-    f = _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning,
-                n_left, n_right)
+    n_left, n_right, v_left, v_right = _normal_loads(
+        lo, hi, t, load if spatial else axle_load, r0, moment if spatial else 0.0, spatial
+    )
+    f = _points(
+        lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right
+    )
     # Nadal's balance (a spatial vehicle): the creep forces' vertical parts (large on a steep
     # flange) belong in the wheelset's equilibrium, and they grow with the loads they act under.
     # Taken per unit normal load from a first evaluation, they enter the balance once more: exact
@@ -685,8 +816,9 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
         if creep_left == (0.0, 0.0) and creep_right == (0.0, 0.0):
             break
         n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load, r0, moment, True, creep_left, creep_right)
-        f = _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning,
-                    n_left, n_right)
+        f = _points(
+            lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right
+        )
         vertical = n_left * v_left + n_right * v_right
         if creep_left != (0.0, 0.0):
             vertical += f[7]
@@ -705,8 +837,7 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left,
-            n_right):
+def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right):
     """Every contact point's forces under the wheels' normal loads (`profiled_contact`): (creep
     lateral, normal lateral, couple, spin, lead moment, Y_left, Y_right, and per wheel the creep
     forces' vertical force and roll moment about the rail level under the wheelset's centre:
@@ -739,8 +870,9 @@ def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r
             xi_sp = psi_dot * cos_g / speed - s * sin_g / r0 if spinning else 0.0
             scale = 1.0
             if law == FASTSIM:  # this point's ellipse through Kalker's FASTSIM
-                fx, fy, mz = _fastsim(a, b, normal, mu, shear, c11, c22, c23, xi_x, xi_y, xi_sp,
-                                      FASTSIM_STRIPS, FASTSIM_ELEMENTS)
+                fx, fy, mz = _fastsim(
+                    a, b, normal, mu, shear, c11, c22, c23, xi_x, xi_y, xi_sp, FASTSIM_STRIPS, FASTSIM_ELEMENTS
+                )
             else:
                 f23 = f33 = 0.0
                 if spinning:
@@ -752,8 +884,7 @@ def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r
                 if law != LINEAR:
                     limit = mu * normal
                     if falling:
-                        limit = _falling_friction(limit, p[_FALL_RATIO], p[_FALL_RATE],
-                                                  speed * math.hypot(xi_x, xi_y))
+                        limit = _falling_friction(limit, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_x, xi_y))
                     scale = _saturation_factor(law, fx, fy, limit)
             lateral = scale * fy * cos_g
             pushed = -s * normal * sin_g if gravity else 0.0
@@ -774,12 +905,39 @@ def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r
             # Where the point lies along the track: a yawed wheel touches a straight rail
             # ahead of its axle by r*tan(g) (see _flange_lead), its centre sits l*psi behind.
             lead_moment += psi * (s * r * math.tan(g) - lever) * (lateral + pushed)
-    return creep_lateral, normal_lateral, couple, spin, lead_moment, y_left, y_right, fz_left, fz_right, mx_left, mx_right
+    return (
+        creep_lateral,
+        normal_lateral,
+        couple,
+        spin,
+        lead_moment,
+        y_left,
+        y_right,
+        fz_left,
+        fz_right,
+        mx_left,
+        mx_right,
+    )
 
 
 @numba.njit(cache=True, nogil=True)  # summaries on one thread while another steps
-def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed, load, moment, nominal,
-            spin_inertia, cone_gravity):
+def _kernel(
+    table,
+    geometry,
+    law,
+    flange,
+    falling,
+    y,
+    psi,
+    y_dot,
+    psi_dot,
+    speed,
+    load,
+    moment,
+    nominal,
+    spin_inertia,
+    cone_gravity,
+):
     """`contact_forces` over flat, contiguous state arrays: the last axis of the original
     shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
     ContactForces, in order. A non-empty `geometry` is the wheelsets' contact table."""
@@ -788,11 +946,37 @@ def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed
     profiled = geometry.shape[0] > 0
     for k in range(y.size):
         if profiled:
-            forces = profiled_contact(geometry, table[:, k % n], law, falling, y[k], psi[k], y_dot[k],
-                                      psi_dot[k], speed, load[k], moment[k], spin_inertia)
+            forces = profiled_contact(
+                geometry,
+                table[:, k % n],
+                law,
+                falling,
+                y[k],
+                psi[k],
+                y_dot[k],
+                psi_dot[k],
+                speed,
+                load[k],
+                moment[k],
+                spin_inertia,
+            )
         else:
-            forces = wheelset_contact(table[:, k % n], law, flange, falling, y[k], psi[k], y_dot[k],
-                                      psi_dot[k], speed, load[k], moment[k], nominal, spin_inertia, cone_gravity)
+            forces = wheelset_contact(
+                table[:, k % n],
+                law,
+                flange,
+                falling,
+                y[k],
+                psi[k],
+                y_dot[k],
+                psi_dot[k],
+                speed,
+                load[k],
+                moment[k],
+                nominal,
+                spin_inertia,
+                cone_gravity,
+            )
         for row in range(5):
             out[row, k] = forces[row]
         out[5, k] = out[0, k] + out[1, k]
@@ -804,8 +988,19 @@ def _kernel(table, geometry, law, flange, falling, y, psi, y_dot, psi_dot, speed
     return out
 
 
-def _evaluate(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
-              nominal: float | None = None, spin_inertia: float = 0.0, cone_gravity: bool = False):
+def _evaluate(
+    p: ContactParameters,
+    y,
+    psi,
+    y_dot,
+    psi_dot,
+    speed: float,
+    load=None,
+    moment=None,
+    nominal: float | None = None,
+    spin_inertia: float = 0.0,
+    cone_gravity: bool = False,
+):
     """The kernel's rows, each shaped like the states."""
     shape = np.shape(y)
     flat = [np.ascontiguousarray(v, dtype=np.float64).reshape(-1) for v in (y, psi, y_dot, psi_dot)]
@@ -813,14 +1008,34 @@ def _evaluate(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=N
         loads = [np.full(flat[0].size, np.nan), np.zeros(flat[0].size)]
     else:
         loads = [np.ascontiguousarray(np.broadcast_to(v, shape), dtype=np.float64).reshape(-1) for v in (load, moment)]
-    return _kernel(p.table, p.geometry, p.law, p.flange, p.falling, *flat, float(speed), *loads,
-                   np.nan if nominal is None else float(nominal), float(spin_inertia),
-                   bool(cone_gravity)).reshape((FORCE_ROWS,) + shape)
+    return _kernel(
+        p.table,
+        p.geometry,
+        p.law,
+        p.flange,
+        p.falling,
+        *flat,
+        float(speed),
+        *loads,
+        np.nan if nominal is None else float(nominal),
+        float(spin_inertia),
+        bool(cone_gravity),
+    ).reshape((FORCE_ROWS,) + shape)
 
 
-def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
-                   nominal: float | None = None, spin_inertia: float = 0.0,
-                   cone_gravity: bool = False) -> ContactForces:
+def contact_forces(
+    p: ContactParameters,
+    y,
+    psi,
+    y_dot,
+    psi_dot,
+    speed: float,
+    load=None,
+    moment=None,
+    nominal: float | None = None,
+    spin_inertia: float = 0.0,
+    cone_gravity: bool = False,
+) -> ContactForces:
     """The rails' forces on each wheelset, by origin: see `ContactForces`. States are
     arrays of one shape whose last axis is the wheelsets.
 
@@ -837,12 +1052,24 @@ def contact_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, l
     scaled to its load; without `load` both wheels carry it); `spin_inertia` and `cone_gravity`:
     the gyroscopic terms and the gravitational stiffness on cones (`wheelset_contact`).
     """
-    return ContactForces(*_evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal, spin_inertia,
-                                    cone_gravity))
+    return ContactForces(
+        *_evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal, spin_inertia, cone_gravity)
+    )
 
 
-def wheelset_forces(p: ContactParameters, y, psi, y_dot, psi_dot, speed: float, load=None, moment=None,
-                    nominal: float | None = None, spin_inertia: float = 0.0, cone_gravity: bool = False):
+def wheelset_forces(
+    p: ContactParameters,
+    y,
+    psi,
+    y_dot,
+    psi_dot,
+    speed: float,
+    load=None,
+    moment=None,
+    nominal: float | None = None,
+    spin_inertia: float = 0.0,
+    cone_gravity: bool = False,
+):
     """Lateral force Fy (N) and yaw moment Mz (N m) of the rails on each wheelset: the
     sums of `contact_forces`. On the tread, with the linear law and f23 = f33 = 0, this is
     exactly

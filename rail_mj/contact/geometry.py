@@ -35,21 +35,28 @@ import numpy as np
 from rail_mj.contact import profiles as _p
 
 # Columns of `ContactTable.to_csv`: the contract first, then the rest.
-LEADING_COLUMNS = ("y_m", "r_left_m", "r_right_m", "delta_r_m", "contact_angle_left_rad",
-                   "contact_angle_right_rad", "roll_rad")
+LEADING_COLUMNS = (
+    "y_m",
+    "r_left_m",
+    "r_right_m",
+    "delta_r_m",
+    "contact_angle_left_rad",
+    "contact_angle_right_rad",
+    "roll_rad",
+)
 DEFAULT_YS = np.round(np.arange(-200, 201) * 0.05e-3, 12)  # m: -10 to +10 mm in 0.05 mm steps
-TWO_POINT_GAP = 1e-5   # m: a second local minimum of the gap this close to 0 is a second contact
+TWO_POINT_GAP = 1e-5  # m: a second local minimum of the gap this close to 0 is a second contact
 # m: a second local minimum this close is recorded (r2_*, ... gap2_*): under load the elastic
 # approach of wheel and rail, ~0.05-0.1 mm for a 50-100 kN wheel, closes such a gap, and the
 # dynamics share the wheel's load between the two points (rail_mj.contact.tables).
 NEAR_GAP = 1e-4
-_SECOND_APART = 1e-3   # m: ... and at least this far across the wheel from the first
-_COARSE = 0.1e-3       # m between wheel points in the first search of the gap
-_FINE = 201           # points across two steps of the last grid, at each refinement
-_HERMITE = 2e-6        # m between the tabulated points of an exact wheel
+_SECOND_APART = 1e-3  # m: ... and at least this far across the wheel from the first
+_COARSE = 0.1e-3  # m between wheel points in the first search of the gap
+_FINE = 201  # points across two steps of the last grid, at each refinement
+_HERMITE = 2e-6  # m between the tabulated points of an exact wheel
 _RAIL_POINTS = 40_001  # along an exact (standard) rail, evenly in arc length
 _CURVATURE_STEP = (1e-5, 5e-4)  # m: three-point curvature on exact / sampled profiles
-_ROLL_BRACKET = 0.02   # rad: the roll is searched within +/- this first
+_ROLL_BRACKET = 0.02  # rad: the roll is searched within +/- this first
 
 
 class GeometryError(ValueError):
@@ -121,8 +128,10 @@ class _Placed:
         level = top - _p.GAUGE_DEPTH
         above = np.flatnonzero(z >= level)
         if len(above) == 0 or above[0] == 0:
-            raise GeometryError(f"{r.name}: the rail profile does not reach {_p.GAUGE_DEPTH * 1e3:g} mm below "
-                                f"its top on the gauge side, where the gauge is measured")
+            raise GeometryError(
+                f"{r.name}: the rail profile does not reach {_p.GAUGE_DEPTH * 1e3:g} mm below "
+                f"its top on the gauge side, where the gauge is measured"
+            )
         k = int(above[0])
         q_gauge = q[k - 1] + (level - z[k - 1]) * (q[k] - q[k - 1]) / (z[k] - z[k - 1])
         self.rail_centre = track.track_gauge / 2 - q_gauge  # the head centreline's q
@@ -131,9 +140,9 @@ class _Placed:
         self.delta = delta
         # The wheel from its lowest point (the flange tip) out to its outer face.
         lo = float(w.y[int(np.argmin(w.z))])
-        n = max(3, int(math.ceil((w.y[-1] - lo) / _COARSE)) + 1)
+        n = max(3, math.ceil((w.y[-1] - lo) / _COARSE) + 1)
         if w.exact is not None:  # the published curve, tabulated finely for cubic Hermite
-            grid = np.linspace(lo, float(w.y[-1]), int(math.ceil((w.y[-1] - lo) / _HERMITE)) + 1)
+            grid = np.linspace(lo, float(w.y[-1]), math.ceil((w.y[-1] - lo) / _HERMITE) + 1)
             self._table = (grid, np.asarray(w.height(grid), float), np.asarray(w.slope(grid), float))
         else:
             self._table = None
@@ -156,8 +165,12 @@ class _Placed:
         k = np.clip(((s - grid[0]) / h).astype(int), 0, len(grid) - 2)
         t = (s - grid[k]) / h
         t2, t3 = t * t, t * t * t
-        out = ((2 * t3 - 3 * t2 + 1) * z[k] + (t3 - 2 * t2 + t) * h * dz[k]
-               + (-2 * t3 + 3 * t2) * z[k + 1] + (t3 - t2) * h * dz[k + 1])
+        out = (
+            (2 * t3 - 3 * t2 + 1) * z[k]
+            + (t3 - 2 * t2 + t) * h * dz[k]
+            + (-2 * t3 + 3 * t2) * z[k + 1]
+            + (t3 - t2) * h * dz[k + 1]
+        )
         return np.where((s >= grid[0]) & (s <= grid[-1]), out, np.nan)
 
     def points(self, eta, psi, s, zw=None):
@@ -182,8 +195,10 @@ class _Placed:
         [(gap, s), ...], at least _SECOND_APART apart."""
         g = self.gap(eta, psi, self.s, self.zw)
         if not np.any(np.isfinite(g)):
-            raise GeometryError("the wheel is beside its rail: no contact (check track_gauge and "
-                                "flange_back_spacing, and the profiles' units)")
+            raise GeometryError(
+                "the wheel is beside its rail: no contact (check track_gauge and "
+                "flange_back_spacing, and the profiles' units)"
+            )
         lowest = float(np.min(g))
         inner = (g[1:-1] <= g[:-2]) & (g[1:-1] <= g[2:])
         k = np.flatnonzero(np.concatenate([[g[0] <= g[1]], inner, [g[-1] <= g[-2]]]))
@@ -289,27 +304,43 @@ class ContactTable:
 
 # Column key -> CSV name, in CSV order.
 _CSV_ORDER = (
-    ("y", "y_m"), ("r_left", "r_left_m"), ("r_right", "r_right_m"), ("delta_r", "delta_r_m"),
-    ("contact_angle_left", "contact_angle_left_rad"), ("contact_angle_right", "contact_angle_right_rad"),
-    ("roll", "roll_rad"), ("z", "z_m"),
-    ("contact_y_left", "contact_y_left_m"), ("contact_y_right", "contact_y_right_m"),
-    ("wheel_s_left", "wheel_s_left_m"), ("wheel_s_right", "wheel_s_right_m"),
-    ("rail_u_left", "rail_u_left_m"), ("rail_u_right", "rail_u_right_m"),
-    ("wheel_curvature_left", "wheel_curvature_left_per_m"), ("wheel_curvature_right", "wheel_curvature_right_per_m"),
-    ("rail_curvature_left", "rail_curvature_left_per_m"), ("rail_curvature_right", "rail_curvature_right_per_m"),
-    ("two_point_left", "two_point_left"), ("two_point_right", "two_point_right"),
-    ("r2_left", "r2_left_m"), ("r2_right", "r2_right_m"),
-    ("contact_angle2_left", "contact_angle2_left_rad"), ("contact_angle2_right", "contact_angle2_right_rad"),
-    ("contact_y2_left", "contact_y2_left_m"), ("contact_y2_right", "contact_y2_right_m"),
-    ("gap2_left", "gap2_left_m"), ("gap2_right", "gap2_right_m"),
-    ("wheel_s2_left", "wheel_s2_left_m"), ("wheel_s2_right", "wheel_s2_right_m"),
+    ("y", "y_m"),
+    ("r_left", "r_left_m"),
+    ("r_right", "r_right_m"),
+    ("delta_r", "delta_r_m"),
+    ("contact_angle_left", "contact_angle_left_rad"),
+    ("contact_angle_right", "contact_angle_right_rad"),
+    ("roll", "roll_rad"),
+    ("z", "z_m"),
+    ("contact_y_left", "contact_y_left_m"),
+    ("contact_y_right", "contact_y_right_m"),
+    ("wheel_s_left", "wheel_s_left_m"),
+    ("wheel_s_right", "wheel_s_right_m"),
+    ("rail_u_left", "rail_u_left_m"),
+    ("rail_u_right", "rail_u_right_m"),
+    ("wheel_curvature_left", "wheel_curvature_left_per_m"),
+    ("wheel_curvature_right", "wheel_curvature_right_per_m"),
+    ("rail_curvature_left", "rail_curvature_left_per_m"),
+    ("rail_curvature_right", "rail_curvature_right_per_m"),
+    ("two_point_left", "two_point_left"),
+    ("two_point_right", "two_point_right"),
+    ("r2_left", "r2_left_m"),
+    ("r2_right", "r2_right_m"),
+    ("contact_angle2_left", "contact_angle2_left_rad"),
+    ("contact_angle2_right", "contact_angle2_right_rad"),
+    ("contact_y2_left", "contact_y2_left_m"),
+    ("contact_y2_right", "contact_y2_right_m"),
+    ("gap2_left", "gap2_left_m"),
+    ("gap2_right", "gap2_right_m"),
+    ("wheel_s2_left", "wheel_s2_left_m"),
+    ("wheel_s2_right", "wheel_s2_right_m"),
     ("wheel_curvature2_left", "wheel_curvature2_left_per_m"),
     ("wheel_curvature2_right", "wheel_curvature2_right_per_m"),
     ("rail_curvature2_left", "rail_curvature2_left_per_m"),
     ("rail_curvature2_right", "rail_curvature2_right_per_m"),
 )
 CSV_COLUMNS = tuple(name for _, name in _CSV_ORDER)
-assert CSV_COLUMNS[:len(LEADING_COLUMNS)] == LEADING_COLUMNS
+assert CSV_COLUMNS[: len(LEADING_COLUMNS)] == LEADING_COLUMNS
 
 
 def solve_roll(placed: _Placed, y: float) -> tuple[float, float]:
@@ -447,8 +478,11 @@ def delta_r(table: ContactTable):
     """Δr(y) of the table as a conicity.DeltaR (mm)."""
     from rail_mj.contact.conicity import DeltaR
 
-    return DeltaR.from_points(table.y * 1e3, table.delta_r * 1e3, source=f"contact geometry "
-                              f"({table.track.wheel.name} on {table.track.rail.name})")
+    return DeltaR.from_points(
+        table.y * 1e3,
+        table.delta_r * 1e3,
+        source=f"contact geometry ({table.track.wheel.name} on {table.track.rail.name})",
+    )
 
 
 def equivalent_conicity(table: ContactTable, amplitude: float = 3.0) -> float:

@@ -24,34 +24,101 @@ from scipy.special import ellipe, ellipk
 # semi-axis ratio, columns Poisson's ratio 0, 0.25, 0.5. `a` is the semi-axis along
 # the rolling direction. The rows run a/b = 0.1 ... 1.0, then b/a = 0.9 ... 0.1; they
 # are indexed here by s = a/b for a <= b and s = 2 - b/a for a > b, one axis 0.1-1.9.
-KALKER_S = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0,
-                     1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9])
+KALKER_S = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9])
 KALKER_NU = (0.0, 0.25, 0.5)
 KALKER = {  # name -> (19 rows, 3 columns)
-    "C11": np.array([
-        [2.51, 3.31, 4.85], [2.59, 3.37, 4.81], [2.68, 3.44, 4.80], [2.78, 3.53, 4.82],
-        [2.88, 3.62, 4.83], [2.98, 3.72, 4.91], [3.09, 3.81, 4.97], [3.19, 3.91, 5.05],
-        [3.29, 4.01, 5.12], [3.40, 4.12, 5.20], [3.51, 4.22, 5.30], [3.65, 4.36, 5.42],
-        [3.82, 4.54, 5.58], [4.06, 4.78, 5.80], [4.37, 5.10, 6.11], [4.84, 5.57, 6.57],
-        [5.57, 6.34, 7.34], [6.96, 7.78, 8.82], [10.7, 11.7, 12.9]]),
-    "C22": np.array([
-        [2.51, 2.52, 2.53], [2.59, 2.63, 2.66], [2.68, 2.75, 2.81], [2.78, 2.88, 2.98],
-        [2.88, 3.01, 3.14], [2.98, 3.14, 3.31], [3.09, 3.28, 3.48], [3.19, 3.41, 3.65],
-        [3.29, 3.54, 3.82], [3.40, 3.67, 3.98], [3.51, 3.81, 4.16], [3.65, 3.99, 4.39],
-        [3.82, 4.21, 4.67], [4.06, 4.50, 5.04], [4.37, 4.90, 5.56], [4.84, 5.48, 6.31],
-        [5.57, 6.40, 7.51], [6.96, 8.14, 9.79], [10.7, 12.8, 16.0]]),
-    "C23": np.array([
-        [.334, .473, .731], [.483, .603, .809], [.607, .715, .889], [.720, .823, .977],
-        [.827, .929, 1.07], [.930, 1.03, 1.18], [1.03, 1.14, 1.29], [1.13, 1.25, 1.40],
-        [1.23, 1.36, 1.51], [1.33, 1.47, 1.63], [1.44, 1.59, 1.77], [1.58, 1.75, 1.94],
-        [1.76, 1.95, 2.18], [2.01, 2.23, 2.50], [2.35, 2.62, 2.96], [2.88, 3.24, 3.70],
-        [3.79, 4.32, 5.01], [5.72, 6.63, 7.89], [12.2, 14.6, 18.0]]),
-    "C33": np.array([
-        [6.42, 8.28, 11.7], [3.46, 4.27, 5.66], [2.49, 2.96, 3.72], [2.02, 2.32, 2.77],
-        [1.74, 1.93, 2.22], [1.56, 1.68, 1.86], [1.43, 1.50, 1.60], [1.34, 1.37, 1.42],
-        [1.27, 1.27, 1.27], [1.21, 1.19, 1.16], [1.16, 1.11, 1.06], [1.10, 1.04, 0.95],
-        [1.05, 0.97, 0.85], [1.01, 0.89, 0.75], [0.96, 0.82, 0.65], [0.91, 0.75, 0.55],
-        [0.87, 0.67, 0.45], [0.83, 0.60, 0.34], [0.80, 0.53, 0.23]]),
+    "C11": np.array(
+        [
+            [2.51, 3.31, 4.85],
+            [2.59, 3.37, 4.81],
+            [2.68, 3.44, 4.80],
+            [2.78, 3.53, 4.82],
+            [2.88, 3.62, 4.83],
+            [2.98, 3.72, 4.91],
+            [3.09, 3.81, 4.97],
+            [3.19, 3.91, 5.05],
+            [3.29, 4.01, 5.12],
+            [3.40, 4.12, 5.20],
+            [3.51, 4.22, 5.30],
+            [3.65, 4.36, 5.42],
+            [3.82, 4.54, 5.58],
+            [4.06, 4.78, 5.80],
+            [4.37, 5.10, 6.11],
+            [4.84, 5.57, 6.57],
+            [5.57, 6.34, 7.34],
+            [6.96, 7.78, 8.82],
+            [10.7, 11.7, 12.9],
+        ]
+    ),
+    "C22": np.array(
+        [
+            [2.51, 2.52, 2.53],
+            [2.59, 2.63, 2.66],
+            [2.68, 2.75, 2.81],
+            [2.78, 2.88, 2.98],
+            [2.88, 3.01, 3.14],
+            [2.98, 3.14, 3.31],
+            [3.09, 3.28, 3.48],
+            [3.19, 3.41, 3.65],
+            [3.29, 3.54, 3.82],
+            [3.40, 3.67, 3.98],
+            [3.51, 3.81, 4.16],
+            [3.65, 3.99, 4.39],
+            [3.82, 4.21, 4.67],
+            [4.06, 4.50, 5.04],
+            [4.37, 4.90, 5.56],
+            [4.84, 5.48, 6.31],
+            [5.57, 6.40, 7.51],
+            [6.96, 8.14, 9.79],
+            [10.7, 12.8, 16.0],
+        ]
+    ),
+    "C23": np.array(
+        [
+            [0.334, 0.473, 0.731],
+            [0.483, 0.603, 0.809],
+            [0.607, 0.715, 0.889],
+            [0.720, 0.823, 0.977],
+            [0.827, 0.929, 1.07],
+            [0.930, 1.03, 1.18],
+            [1.03, 1.14, 1.29],
+            [1.13, 1.25, 1.40],
+            [1.23, 1.36, 1.51],
+            [1.33, 1.47, 1.63],
+            [1.44, 1.59, 1.77],
+            [1.58, 1.75, 1.94],
+            [1.76, 1.95, 2.18],
+            [2.01, 2.23, 2.50],
+            [2.35, 2.62, 2.96],
+            [2.88, 3.24, 3.70],
+            [3.79, 4.32, 5.01],
+            [5.72, 6.63, 7.89],
+            [12.2, 14.6, 18.0],
+        ]
+    ),
+    "C33": np.array(
+        [
+            [6.42, 8.28, 11.7],
+            [3.46, 4.27, 5.66],
+            [2.49, 2.96, 3.72],
+            [2.02, 2.32, 2.77],
+            [1.74, 1.93, 2.22],
+            [1.56, 1.68, 1.86],
+            [1.43, 1.50, 1.60],
+            [1.34, 1.37, 1.42],
+            [1.27, 1.27, 1.27],
+            [1.21, 1.19, 1.16],
+            [1.16, 1.11, 1.06],
+            [1.10, 1.04, 0.95],
+            [1.05, 0.97, 0.85],
+            [1.01, 0.89, 0.75],
+            [0.96, 0.82, 0.65],
+            [0.91, 0.75, 0.55],
+            [0.87, 0.67, 0.45],
+            [0.83, 0.60, 0.34],
+            [0.80, 0.53, 0.23],
+        ]
+    ),
 }
 
 
@@ -74,21 +141,36 @@ class ContactPatch:
     def creep_coefficients(self) -> dict:
         """f11, f22 (N), f23 (N m), f33 (N m^2): G*ab*C11, G*ab*C22, G*(ab)^1.5*C23, G*(ab)^2*C33."""
         ab, G = self.a * self.b, self.shear_modulus
-        return {"f11": float(G * ab * self.C["C11"]), "f22": float(G * ab * self.C["C22"]),
-                "f23": float(G * ab**1.5 * self.C["C23"]), "f33": float(G * ab**2 * self.C["C33"])}
+        return {
+            "f11": float(G * ab * self.C["C11"]),
+            "f22": float(G * ab * self.C["C22"]),
+            "f23": float(G * ab**1.5 * self.C["C23"]),
+            "f33": float(G * ab**2 * self.C["C33"]),
+        }
 
     def as_dict(self) -> dict:
-        return {"normal_load_n": self.normal_load, "a_m": self.a, "b_m": self.b,
-                "a_over_b": self.a / self.b, "peak_pressure_pa": self.p0, **self.C,
-                **self.creep_coefficients}
+        return {
+            "normal_load_n": self.normal_load,
+            "a_m": self.a,
+            "b_m": self.b,
+            "a_over_b": self.a / self.b,
+            "peak_pressure_pa": self.p0,
+            **self.C,
+            **self.creep_coefficients,
+        }
 
 
 def _curvature(radius: float | None) -> float:
     return 0.0 if radius is None or math.isinf(radius) else 1.0 / radius
 
 
-def hertz_ellipse(normal_load: float, curvature_sum_rolling: float, curvature_sum_lateral: float,
-                  young_modulus: float, poisson_ratio: float) -> tuple[float, float]:
+def hertz_ellipse(
+    normal_load: float,
+    curvature_sum_rolling: float,
+    curvature_sum_lateral: float,
+    young_modulus: float,
+    poisson_ratio: float,
+) -> tuple[float, float]:
     """Semi-axes (a along the rolling direction, b across), m, of the Hertz ellipse.
 
     With A the curvature sum along the rolling direction and B across, the longer
@@ -133,10 +215,16 @@ def kalker_coefficients(a_over_b: float, poisson_ratio: float) -> dict:
     return out
 
 
-def contact_patch(normal_load: float, wheel_rolling_radius: float, rail_transverse_radius: float,
-                  *, young_modulus: float, poisson_ratio: float,
-                  wheel_transverse_radius: float | None = None,
-                  rail_longitudinal_radius: float | None = None) -> ContactPatch:
+def contact_patch(
+    normal_load: float,
+    wheel_rolling_radius: float,
+    rail_transverse_radius: float,
+    *,
+    young_modulus: float,
+    poisson_ratio: float,
+    wheel_transverse_radius: float | None = None,
+    rail_longitudinal_radius: float | None = None,
+) -> ContactPatch:
     """Hertz ellipse and Kalker coefficients of a wheel on a rail (same material).
 
     Curvature sums: A = (1/R_wheel_rolling + 1/R_rail_longitudinal)/2,
@@ -146,12 +234,14 @@ def contact_patch(normal_load: float, wheel_rolling_radius: float, rail_transver
     A = (_curvature(wheel_rolling_radius) + _curvature(rail_longitudinal_radius)) / 2
     B = (_curvature(wheel_transverse_radius) + _curvature(rail_transverse_radius)) / 2
     a, b = hertz_ellipse(normal_load, A, B, young_modulus, poisson_ratio)
-    return ellipse_patch(normal_load, a, b, shear_modulus=young_modulus / (2.0 * (1.0 + poisson_ratio)),
-                         poisson_ratio=poisson_ratio)
+    return ellipse_patch(
+        normal_load, a, b, shear_modulus=young_modulus / (2.0 * (1.0 + poisson_ratio)), poisson_ratio=poisson_ratio
+    )
 
 
-def ellipse_patch(normal_load: float, a: float, b: float, *, shear_modulus: float,
-                  poisson_ratio: float) -> ContactPatch:
+def ellipse_patch(
+    normal_load: float, a: float, b: float, *, shear_modulus: float, poisson_ratio: float
+) -> ContactPatch:
     """The contact patch of a given ellipse (a along the rolling direction, b across, m):
     Kalker's coefficients at a/b and nu, Hertz's peak pressure 3*N/(2*pi*a*b)."""
     C = kalker_coefficients(a / b, poisson_ratio)

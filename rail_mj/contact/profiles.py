@@ -42,8 +42,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -54,12 +54,12 @@ CSV_HEADER = "y_mm,z_mm"
 
 # Standard track (EN 13715 and EN 13674-1 profiles on standard gauge): for the docs and
 # for placing profiles on a track.
-GAUGE = 1.435                 # m, between the heads' inner faces ...
-GAUGE_DEPTH = 0.014           # m ... measured this far below the top of the rails
-RAIL_INCLINATION = 1 / 40     # rails lean towards the track centre
-BACK_TO_BACK = 1.360          # m, between the flange backs
+GAUGE = 1.435  # m, between the heads' inner faces ...
+GAUGE_DEPTH = 0.014  # m ... measured this far below the top of the rails
+RAIL_INCLINATION = 1 / 40  # rails lean towards the track centre
+BACK_TO_BACK = 1.360  # m, between the flange backs
 TAPING_LINE_FROM_BACK = 0.070  # m, from a flange back to its taping line (1.5 m apart)
-NOMINAL_RADIUS = 0.46         # m, at the taping line
+NOMINAL_RADIUS = 0.46  # m, at the taping line
 
 # A profile spans a few centimetres: far outside this, the units are wrong.
 _SPAN_MIN, _SPAN_MAX = 0.005, 0.4  # m
@@ -74,10 +74,10 @@ class Profile:
     """A wheel or rail profile: points (y, z) in metres, in the module's convention."""
 
     name: str
-    kind: str          # "wheel" or "rail"
-    y: np.ndarray      # m, strictly increasing, positive towards the field side
-    z: np.ndarray      # m, up (a wheel: -(r - r0))
-    source: str = ""   # the standard or the file it comes from
+    kind: str  # "wheel" or "rail"
+    y: np.ndarray  # m, strictly increasing, positive towards the field side
+    z: np.ndarray  # m, up (a wheel: -(r - r0))
+    source: str = ""  # the standard or the file it comes from
     # The exact surface and its slope, for the standard profiles (y in m -> z in m).
     exact: Callable[[np.ndarray], np.ndarray] | None = dataclasses.field(default=None, repr=False)
     exact_slope: Callable[[np.ndarray], np.ndarray] | None = dataclasses.field(default=None, repr=False)
@@ -121,10 +121,27 @@ class Profile:
 # The published coefficients (mm): F(S) is the radius above the nominal one, S the lateral
 # position from the taping line, positive towards the outer face.
 _AA, _BA = 1.364323640, 0.066666667
-_B = (0.0, 3.358537058e-2, 1.565681624e-3, 2.810427944e-5, 5.844240864e-8, 1.562379023e-8,
-      5.309217349e-15, 5.957839843e-12, 2.646656573e-13)  # AB..IB, signs alternate
-_C = (4.320221063e3, 1.038384026e3, 1.065501873e2, 6.051367875, 2.054332446e-1, 4.169739389e-3,
-      4.687195829e-5, 2.252755540e-7)  # AC..HC, all subtracted
+_B = (
+    0.0,
+    3.358537058e-2,
+    1.565681624e-3,
+    2.810427944e-5,
+    5.844240864e-8,
+    1.562379023e-8,
+    5.309217349e-15,
+    5.957839843e-12,
+    2.646656573e-13,
+)  # AB..IB, signs alternate
+_C = (
+    4.320221063e3,
+    1.038384026e3,
+    1.065501873e2,
+    6.051367875,
+    2.054332446e-1,
+    4.169739389e-3,
+    4.687195829e-5,
+    2.252755540e-7,
+)  # AC..HC, all subtracted
 _AD, _BD, _CD = 16.446, 13.0, 26.210665
 _AE, _BE = 93.576667419, 2.747477419
 _AF, _BF, _CF = 8.834924130, 20.0, 58.558326413
@@ -137,7 +154,7 @@ def _root(r, u):
 
 
 def _poly(coefficients, s, signs):
-    return sum(sign * c * s ** k for k, (c, sign) in enumerate(zip(coefficients, signs)))
+    return sum(sign * c * s**k for k, (c, sign) in enumerate(zip(coefficients, signs)))
 
 
 def _dpoly(coefficients, s, signs):
@@ -149,8 +166,7 @@ _MINUS = [-1] * 8
 
 
 def _circle_up(a, r, c):  # a + sqrt(r^2 - (S + c)^2): the top of a circle
-    return (lambda s: a + _root(r, s + c),
-            lambda s: -(s + c) / _root(r, s + c))
+    return (lambda s: a + _root(r, s + c), lambda s: -(s + c) / _root(r, s + c))
 
 
 # (name, S from, S to, F(S), dF/dS), from the outer face inwards. Adjacent sections meet
@@ -160,8 +176,7 @@ S1002_SECTIONS = (
     ("A", 60.0, 32.15796, lambda s: _AA - _BA * s, lambda s: np.full_like(s, -_BA)),
     ("B", 32.15796, -26.0, lambda s: _poly(_B, s, _ALTERNATE), lambda s: _dpoly(_B, s, _ALTERNATE)),
     ("C", -26.0, -35.0, lambda s: _poly(_C, s, _MINUS), lambda s: _dpoly(_C, s, _MINUS)),
-    ("D", -35.0, -38.426669071, lambda s: _AD - _root(_BD, s + _CD),
-     lambda s: (s + _CD) / _root(_BD, s + _CD)),
+    ("D", -35.0, -38.426669071, lambda s: _AD - _root(_BD, s + _CD), lambda s: (s + _CD) / _root(_BD, s + _CD)),
     ("E", -38.426669071, -39.764473993, lambda s: -_AE - _BE * s, lambda s: np.full_like(s, -_BE)),
     ("F", -39.764473993, -49.662510381, *_circle_up(_AF, _BF, _CF)),
     ("G", -49.662510381, -62.764705882, *_circle_up(_AG, _BG, _CG)),
@@ -222,11 +237,11 @@ def s1002(points: int = 1001) -> Profile:
     def exact_slope(y):
         return -np.asarray(s1002_radius_slope(np.asarray(y) * 1e3))
 
-    return Profile("S1002", WHEEL, s * 1e-3, 0.0 - s1002_radius(s) * 1e-3, "EN 13715 S1002",
-                   exact, exact_slope)
+    return Profile("S1002", WHEEL, s * 1e-3, 0.0 - s1002_radius(s) * 1e-3, "EN 13715 S1002", exact, exact_slope)
 
 
 # --- 60E1 (EN 13674-1) ----------------------------------------------------------------
+
 
 @dataclasses.dataclass(frozen=True)
 class _RailHead:
@@ -237,8 +252,8 @@ class _RailHead:
     r1: float = 300.0
     r2: float = 80.0
     r3: float = 13.0
-    y1: float = 10.228     # where the 300 mm arc gives way to the 80 mm one
-    y2: float = 26.0265    # where the 80 mm arc gives way to the 13 mm one
+    y1: float = 10.228  # where the 300 mm arc gives way to the 80 mm one
+    y2: float = 26.0265  # where the 80 mm arc gives way to the 13 mm one
     flank: float = 1 / 20  # the side, from the vertical
 
     def __post_init__(self):
@@ -262,8 +277,11 @@ class _RailHead:
         return c[0] + r * math.sin(phi), c[1] + r * math.cos(phi)
 
     def arcs(self):
-        return ((self.c1, self.r1, 0.0, self.phi1), (self.c2, self.r2, self.phi1, self.phi2),
-                (self.c3, self.r3, self.phi2, self.phi3))
+        return (
+            (self.c1, self.r1, 0.0, self.phi1),
+            (self.c2, self.r2, self.phi1, self.phi2),
+            (self.c3, self.r3, self.phi2, self.phi3),
+        )
 
     def height(self, y):
         """z (mm) at |y| (mm), NaN beyond the flank's end at `depth` below the top."""
@@ -311,8 +329,7 @@ def rail_60e1(points: int = 801, depth_mm: float = 40.0) -> Profile:
     points evenly spread along the profile; `height` and `slope` evaluate the definition."""
     _check_points(points)
     if not (-_RAIL.z3 < depth_mm <= 60.0):
-        raise ValueError(f"depth_mm must be above {-_RAIL.z3:.2f} (the flank's top) and at most "
-                         f"60, got {depth_mm}")
+        raise ValueError(f"depth_mm must be above {-_RAIL.z3:.2f} (the flank's top) and at most 60, got {depth_mm}")
     hy, hz = _RAIL.half(depth_mm, 4001)
     keep = np.concatenate([[True], np.diff(hy) > 0])  # arcs share their end points
     hy, hz = hy[keep], hz[keep]
@@ -349,6 +366,7 @@ def rail_60e1_head():
 
 # --- Files ----------------------------------------------------------------------------
 
+
 def write_csv(profile: Profile) -> bytes:
     """The profile as CSV: `y_mm,z_mm`, then one point per line, increasing y."""
     lines = [CSV_HEADER] + [f"{y * 1e3:.10g},{z * 1e3:.10g}" for y, z in zip(profile.y, profile.z)]
@@ -365,8 +383,10 @@ def read_profile(path, kind: str | None = None) -> Profile:
         raise ValueError(f"kind must be 'wheel' or 'rail', got {kind!r}")
     suffix = path.suffix.lower()
     if suffix not in (".csv", ".prw", ".prr"):
-        raise ProfileError(f"{path}: unknown profile format {path.suffix or '(no suffix)'!r}: "
-                           f"expected .csv, .prw (SIMPACK wheel) or .prr (SIMPACK rail)")
+        raise ProfileError(
+            f"{path}: unknown profile format {path.suffix or '(no suffix)'!r}: "
+            f"expected .csv, .prw (SIMPACK wheel) or .prr (SIMPACK rail)"
+        )
     try:
         text = path.read_bytes().decode("utf-8-sig")
     except UnicodeDecodeError as e:
@@ -419,9 +439,20 @@ def _parse_csv(path: Path, text: str):
 
 
 # SIMPACK's header flags rail-mj honours, and their values when absent (identity).
-_FLAGS = {"mirror.y": 0.0, "mirror.z": 0.0, "inversion": 0.0, "shift.y": 0.0, "shift.z": 0.0,
-          "rotate": 0.0, "units.len.f": 1.0, "units.ang.f": 1.0,
-          "bound.y.min": 1.0, "bound.y.max": 0.0, "bound.z.min": 1.0, "bound.z.max": 0.0}
+_FLAGS = {
+    "mirror.y": 0.0,
+    "mirror.z": 0.0,
+    "inversion": 0.0,
+    "shift.y": 0.0,
+    "shift.z": 0.0,
+    "rotate": 0.0,
+    "units.len.f": 1.0,
+    "units.ang.f": 1.0,
+    "bound.y.min": 1.0,
+    "bound.y.max": 0.0,
+    "bound.z.min": 1.0,
+    "bound.z.max": 0.0,
+}
 
 
 def _parse_simpack(path: Path, text: str, kind: str):
@@ -447,13 +478,14 @@ def _parse_simpack(path: Path, text: str, kind: str):
             end = n
         elif in_points:
             if word.endswith((".begin", ".end")):  # another section: the points never ended
-                raise ProfileError(f"{path}, line {begin}: point.begin without point.end "
-                                   f"(line {n} is {word})")
+                raise ProfileError(f"{path}, line {begin}: point.begin without point.end (line {n} is {word})")
             parts = line.split()
             values = [_number(p) for p in parts]
             if len(parts) not in (2, 3) or None in values:
-                raise ProfileError(f"{path}, line {n}: expected two numbers y z (and an optional weight) "
-                                   f"between point.begin and point.end, got {_show(line)}")
+                raise ProfileError(
+                    f"{path}, line {n}: expected two numbers y z (and an optional weight) "
+                    f"between point.begin and point.end, got {_show(line)}"
+                )
             ys.append(values[0])
             zs.append(values[1])
             lines.append(n)
@@ -463,27 +495,33 @@ def _parse_simpack(path: Path, text: str, kind: str):
             key, value = (part.strip().strip("'\"") for part in line.split("=", 1))
             key = key.lower()
             if in_header and key == "type" and value in ("0", "1") and (value == "1") != (kind == WHEEL):
-                raise ProfileError(f"{path}, line {n}: type = {value} declares a "
-                                   f"{'wheel' if value == '1' else 'rail'} profile in a {path.suffix} "
-                                   f"({kind}) file")
+                raise ProfileError(
+                    f"{path}, line {n}: type = {value} declares a "
+                    f"{'wheel' if value == '1' else 'rail'} profile in a {path.suffix} "
+                    f"({kind}) file"
+                )
             if key in _FLAGS:
                 flags[key] = _flag(path, n, key, value)
     if begin is None:
-        raise ProfileError(f"{path}: no point.begin line: a SIMPACK profile lists its points "
-                           f"between point.begin and point.end")
+        raise ProfileError(
+            f"{path}: no point.begin line: a SIMPACK profile lists its points between point.begin and point.end"
+        )
     if end is None:
         raise ProfileError(f"{path}, line {begin}: point.begin without point.end")
     if len(ys) < 2:
-        raise ProfileError(f"{path}, line {begin}: {len(ys)} point(s) between point.begin (line {begin}) "
-                           f"and point.end (line {end}): a profile needs at least 2")
+        raise ProfileError(
+            f"{path}, line {begin}: {len(ys)} point(s) between point.begin (line {begin}) "
+            f"and point.end (line {end}): a profile needs at least 2"
+        )
     y, z, lines = np.array(ys), np.array(zs), np.array(lines)
     # 1. shift, in the file's length unit
     y, z = y + flags["shift.y"], z + flags["shift.z"]
     # 2. rotate about x (right-handed in SIMPACK's frame), in the file's angle unit
     angle = flags["rotate"] / flags["units.ang.f"]
     if not math.isfinite(angle):
-        raise ProfileError(f"{path}: rotate / units.ang.f is not a finite angle "
-                           f"({flags['rotate']:g} / {flags['units.ang.f']:g})")
+        raise ProfileError(
+            f"{path}: rotate / units.ang.f is not a finite angle ({flags['rotate']:g} / {flags['units.ang.f']:g})"
+        )
     if angle:
         c, s = math.cos(angle), math.sin(angle)
         y, z = c * y - s * z, s * y + c * z
@@ -492,8 +530,9 @@ def _parse_simpack(path: Path, text: str, kind: str):
         keep = (y >= flags["bound.y.min"]) & (y <= flags["bound.y.max"])
         y, z, lines = y[keep], z[keep], lines[keep]
         if len(y) < 2:
-            raise ProfileError(f"{path}: {len(y)} point(s) left within bound.y.min..bound.y.max: "
-                               f"a profile needs at least 2")
+            raise ProfileError(
+                f"{path}: {len(y)} point(s) left within bound.y.min..bound.y.max: a profile needs at least 2"
+            )
     if flags["bound.z.min"] < flags["bound.z.max"]:
         z = np.clip(z, flags["bound.z.min"], flags["bound.z.max"])
     # 4. mirror
@@ -536,18 +575,27 @@ def _finish(path: Path, y, z, lines, kind: str | None, ordered: bool) -> Profile
         k = int(np.argmax(step <= 0)) + 1
         what = "the same y as" if step[k - 1] == 0 else "a y before that of"
         direction = "increasing" if ordered else "in one direction along"
-        raise ProfileError(f"{path}, line {lines[k]}: y = {y[k] * 1e3:.6g} mm is {what} the point on line "
-                           f"{lines[k - 1]} ({y[k - 1] * 1e3:.6g} mm): points must run {direction} y, "
-                           f"each y once")
+        raise ProfileError(
+            f"{path}, line {lines[k]}: y = {y[k] * 1e3:.6g} mm is {what} the point on line "
+            f"{lines[k - 1]} ({y[k - 1] * 1e3:.6g} mm): points must run {direction} y, "
+            f"each y once"
+        )
     span = y[-1] - y[0]
     if not (_SPAN_MIN <= span <= _SPAN_MAX):
-        hint = ("the CSV is in millimetres" if ordered else
-                "units.len.f is the number of the file's length units in a metre: 1000 for mm")
-        raise ProfileError(f"{path}: the points span {span * 1e3:.6g} mm across, not a wheel or rail "
-                           f"profile (a few centimetres): {hint}")
+        hint = (
+            "the CSV is in millimetres"
+            if ordered
+            else "units.len.f is the number of the file's length units in a metre: 1000 for mm"
+        )
+        raise ProfileError(
+            f"{path}: the points span {span * 1e3:.6g} mm across, not a wheel or rail "
+            f"profile (a few centimetres): {hint}"
+        )
     if not (np.all(np.isfinite(z)) and np.ptp(z) <= _SPAN_MAX):
-        raise ProfileError(f"{path}: the heights span {np.ptp(z) * 1e3:.6g} mm, not a wheel or rail profile "
-                           f"(a few centimetres): check the units and the points")
+        raise ProfileError(
+            f"{path}: the heights span {np.ptp(z) * 1e3:.6g} mm, not a wheel or rail profile "
+            f"(a few centimetres): check the units and the points"
+        )
     if kind is None:
         top = int(np.argmax(z))
         kind = RAIL if 0 < top < len(z) - 1 else WHEEL

@@ -38,11 +38,35 @@ import math
 
 import numpy as np
 
-from rail_mj.numerics import (  # noqa: E402,F401  (the table's layout, re-exported)
-    ANGLE, C11, C22, C23, C33, COLUMNS, FIRST_POINT, HEADER_AXLE_LOAD, HEADER_DY, HEADER_FRICTION, HEADER_GRAVITY,
-    HEADER_R0, HEADER_ROWS, HEADER_SHEAR_MODULUS, HEADER_SPIN, HEADER_Y0, LEVER, POINT, RADIUS, ROLL, SEMI_A, SEMI_B,
-    SLOTS, WEIGHT, Y, point_column)
-from rail_mj.units import M_PER_MM, N_PER_KN, PA_PER_GPA, RAD_PER_MRAD  # noqa: E402
+from rail_mj.numerics import (  # noqa: F401  (the table's layout, re-exported)
+    ANGLE,
+    C11,
+    C22,
+    C23,
+    C33,
+    COLUMNS,
+    FIRST_POINT,
+    HEADER_AXLE_LOAD,
+    HEADER_DY,
+    HEADER_FRICTION,
+    HEADER_GRAVITY,
+    HEADER_R0,
+    HEADER_ROWS,
+    HEADER_SHEAR_MODULUS,
+    HEADER_SPIN,
+    HEADER_Y0,
+    LEVER,
+    POINT,
+    RADIUS,
+    ROLL,
+    SEMI_A,
+    SEMI_B,
+    SLOTS,
+    WEIGHT,
+    Y,
+    point_column,
+)
+from rail_mj.units import M_PER_MM, N_PER_KN, PA_PER_GPA, RAD_PER_MRAD
 
 _JUMP = 2e-3  # m across the wheel: a contact point moving further between two rows is a new one
 
@@ -79,8 +103,7 @@ def _share(points, load, young, poisson):
     coeff = [_hertz_per_unit_load(A, B, young, poisson)[3] for _, _, A, B in points]
 
     def normal(zeta):
-        return [max((zeta - g) * math.cos(gamma), 0.0) ** 1.5 / c**1.5
-                for (g, gamma, _, _), c in zip(points, coeff)]
+        return [max((zeta - g) * math.cos(gamma), 0.0) ** 1.5 / c**1.5 for (g, gamma, _, _), c in zip(points, coeff)]
 
     def excess(zeta):
         return sum(n * math.cos(p[1]) for n, p in zip(normal(zeta), points)) - load
@@ -95,13 +118,29 @@ def _share(points, load, young, poisson):
 
 def _side_points(cols, side: str, i: int):
     """The contact points of one side at row i: [(gap, s, r, angle, y, kw, kr), ...]."""
-    out = [(0.0, cols[f"wheel_s_{side}"][i], cols[f"r_{side}"][i], cols[f"contact_angle_{side}"][i],
-            cols[f"contact_y_{side}"][i], cols[f"wheel_curvature_{side}"][i],
-            cols[f"rail_curvature_{side}"][i])]
+    out = [
+        (
+            0.0,
+            cols[f"wheel_s_{side}"][i],
+            cols[f"r_{side}"][i],
+            cols[f"contact_angle_{side}"][i],
+            cols[f"contact_y_{side}"][i],
+            cols[f"wheel_curvature_{side}"][i],
+            cols[f"rail_curvature_{side}"][i],
+        )
+    ]
     if np.isfinite(cols[f"r2_{side}"][i]):
-        out.append((max(cols[f"gap2_{side}"][i], 0.0), cols[f"wheel_s2_{side}"][i], cols[f"r2_{side}"][i],
-                    cols[f"contact_angle2_{side}"][i], cols[f"contact_y2_{side}"][i],
-                    cols[f"wheel_curvature2_{side}"][i], cols[f"rail_curvature2_{side}"][i]))
+        out.append(
+            (
+                max(cols[f"gap2_{side}"][i], 0.0),
+                cols[f"wheel_s2_{side}"][i],
+                cols[f"r2_{side}"][i],
+                cols[f"contact_angle2_{side}"][i],
+                cols[f"contact_y2_{side}"][i],
+                cols[f"wheel_curvature2_{side}"][i],
+                cols[f"rail_curvature2_{side}"][i],
+            )
+        )
     return out
 
 
@@ -160,8 +199,17 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
     rows = len(ys)
     table = np.zeros((rows + 1, COLUMNS))
     r0 = 0.5 * float(np.interp(0.0, ys, cols["r_left"]) + np.interp(0.0, ys, cols["r_right"]))
-    table[0, :9] = (ys[0] / M_PER_MM, steps[0] / M_PER_MM, rows, axle_load / N_PER_KN, young / (2.0 * (1.0 + poisson)) / PA_PER_GPA,
-                    friction, r0 / M_PER_MM, 1.0, 1.0)
+    table[0, :9] = (
+        ys[0] / M_PER_MM,
+        steps[0] / M_PER_MM,
+        rows,
+        axle_load / N_PER_KN,
+        young / (2.0 * (1.0 + poisson)) / PA_PER_GPA,
+        friction,
+        r0 / M_PER_MM,
+        1.0,
+        1.0,
+    )
     body = table[1:]
     body[:, Y] = ys / M_PER_MM
     body[:, ROLL] = np.asarray(cols["roll"], float) / RAD_PER_MRAD
@@ -172,18 +220,28 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
         filled = np.zeros((rows, SLOTS), bool)
         for i in range(rows):
             shapes = []
-            for gap, s, r, gamma, y_c, kw, kr in points[i]:
+            for gap, _s, r, gamma, _y_c, kw, kr in points[i]:
                 A = math.cos(gamma) / (2.0 * r)  # the wheel's circumferential curvature (Meusnier)
                 B = 0.5 * (kw + kr)
                 shapes.append((gap, gamma, A, B))
             weights = [1.0] if len(shapes) == 1 else _share(shapes, axle_load / 2.0, young, poisson)
-            for (gap, s, r, gamma, y_c, kw, kr), (_, _, A, B), w, slot in zip(points[i], shapes, weights, slots[i]):
+            for (_gap, _s, r, gamma, y_c, _kw, _kr), (_, _, A, B), w, slot in zip(points[i], shapes, weights, slots[i]):
                 a, b, C, _ = _hertz_per_unit_load(A, B, young, poisson)
                 per_kn = N_PER_KN ** (1.0 / 3.0) / M_PER_MM  # m/N^(1/3) -> mm/kN^(1/3)
-                values = (w, (r - r0) / M_PER_MM, gamma, (y_c - ys[i]) / M_PER_MM, a * per_kn, b * per_kn,
-                          C["C11"], C["C22"], C["C23"], C["C33"])
+                values = (
+                    w,
+                    (r - r0) / M_PER_MM,
+                    gamma,
+                    (y_c - ys[i]) / M_PER_MM,
+                    a * per_kn,
+                    b * per_kn,
+                    C["C11"],
+                    C["C22"],
+                    C["C23"],
+                    C["C33"],
+                )
                 c = point_column(k, slot, 0)
-                body[i, c:c + POINT] = values
+                body[i, c : c + POINT] = values
                 filled[i, slot] = True
         # An empty slot keeps its own nearest point at no load, so that between two rows a
         # slot's load fades while its geometry stays its own point's.
@@ -192,7 +250,9 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
             c = point_column(k, slot, 0)
             for i in np.flatnonzero(~filled[:, slot]):
                 source = (have[np.argmin(np.abs(have - i))], slot) if len(have) else (i, 1 - slot)
-                body[i, c:c + POINT] = body[source[0], point_column(k, source[1], 0):point_column(k, source[1], 0) + POINT]
+                body[i, c : c + POINT] = body[
+                    source[0], point_column(k, source[1], 0) : point_column(k, source[1], 0) + POINT
+                ]
                 body[i, c + WEIGHT] = 0.0
     if not np.all(np.isfinite(table)):
         raise TableError("the contact table has undefined entries (a profile's curvature at its end?)")
@@ -213,16 +273,19 @@ def _one_point_per_wheel(table: np.ndarray) -> np.ndarray:
         total = np.sum(w, axis=0)
         share = w / np.where(total > 0, total, 1.0)
 
-        def field(f):
+        def field(f, side=side):
             return np.stack([body[:, point_column(side, k, f)] for k in range(SLOTS)])
 
         ab = field(SEMI_A) * field(SEMI_B)
         merged_ab = np.sum(share ** (2 / 3) * ab, axis=0)
         ratio = np.sum(share * field(SEMI_A) / field(SEMI_B), axis=0)
         merged = {
-            WEIGHT: np.ones(len(body)), RADIUS: np.sum(share * field(RADIUS), axis=0),
-            ANGLE: np.sum(share * field(ANGLE), axis=0), LEVER: np.sum(share * field(LEVER), axis=0),
-            SEMI_A: np.sqrt(merged_ab * ratio), SEMI_B: np.sqrt(merged_ab / ratio),
+            WEIGHT: np.ones(len(body)),
+            RADIUS: np.sum(share * field(RADIUS), axis=0),
+            ANGLE: np.sum(share * field(ANGLE), axis=0),
+            LEVER: np.sum(share * field(LEVER), axis=0),
+            SEMI_A: np.sqrt(merged_ab * ratio),
+            SEMI_B: np.sqrt(merged_ab / ratio),
             C11: np.sum(share ** (2 / 3) * ab * field(C11), axis=0) / merged_ab,
             C22: np.sum(share ** (2 / 3) * ab * field(C22), axis=0) / merged_ab,
             C23: np.sum(share * ab**1.5 * field(C23), axis=0) / merged_ab**1.5,
@@ -231,7 +294,7 @@ def _one_point_per_wheel(table: np.ndarray) -> np.ndarray:
         for f, values in merged.items():
             body[:, point_column(side, 0, f)] = values
         c = point_column(side, 1, 0)
-        body[:, c:c + POINT] = body[:, point_column(side, 0, 0):point_column(side, 0, 0) + POINT]
+        body[:, c : c + POINT] = body[:, point_column(side, 0, 0) : point_column(side, 0, 0) + POINT]
         body[:, c + WEIGHT] = 0.0
     return out
 
@@ -284,12 +347,15 @@ def table_for(profiles, wheelset, contact, law: str, friction, amplitude: float 
     from rail_mj.contact import geometry as g
 
     if wheelset.wheel_load is None:
-        raise TableError("wheelset.wheel_load: missing: the contact on profiles needs the wheel load, and a "
-                         "fixed car body without mass gives no weight to share; give it in N")
+        raise TableError(
+            "wheelset.wheel_load: missing: the contact on profiles needs the wheel load, and a "
+            "fixed car body without mass gives no weight to share; give it in N"
+        )
     amplitude = profiles.linearised_at if amplitude is None else amplitude
     geo = g.default_table(_geometry_key(profiles), wheelset.rolling_radius)
-    young, poisson = (contact.young_modulus, contact.poisson_ratio) if contact \
-        else (STEEL_YOUNG_MODULUS, STEEL_POISSON_RATIO)
+    young, poisson = (
+        (contact.young_modulus, contact.poisson_ratio) if contact else (STEEL_YOUNG_MODULUS, STEEL_POISSON_RATIO)
+    )
     mu = friction if law != "linear" and friction is not None else 0.0
     table = _build(geo, 2.0 * wheelset.wheel_load, young, poisson, mu)
     table = table if amplitude is None else linearised(table, geo, amplitude)

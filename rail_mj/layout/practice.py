@@ -50,57 +50,60 @@ class Range:
         lo, hi = self.usual
         if lo <= value <= hi:
             return None
-        return (f"{value:g} {self.unit} is outside railway practice, {lo:g}-{hi:g} {self.unit} "
-                f"({self.practice})")
+        return f"{value:g} {self.unit} is outside railway practice, {lo:g}-{hi:g} {self.unit} ({self.practice})"
 
 
 RANGES = {
     # The wheel-on-rail speed record is 159.7 m/s (574.8 km/h, TGV V150, 2007); twice it
     # is far beyond any wheel-rail contact the creep laws were measured for.
-    "speed": Range((0.0, 320.0), (0.0, 160.0), "m/s",
-                   "twice the wheel-on-rail record of 160 m/s", "up to the 160 m/s speed record"),
+    "speed": Range(
+        (0.0, 320.0), (0.0, 160.0), "m/s", "twice the wheel-on-rail record of 160 m/s", "up to the 160 m/s speed record"
+    ),
     # 20 mm wheels are smaller than any roller-rig scale model; 3 m wheels larger than
     # any built (the largest steam drivers were 2.3 m). Practice: 330 mm (piggyback
     # wagons) to 1250 mm (locomotives) in diameter.
-    "wheelset.rolling_radius": Range((0.01, 1.5), (0.16, 0.65), "m",
-                                     "wheels of 20 mm to 3 m diameter",
-                                     "wheels of 330-1300 mm diameter"),
+    "wheelset.rolling_radius": Range(
+        (0.01, 1.5), (0.16, 0.65), "m", "wheels of 20 mm to 3 m diameter", "wheels of 330-1300 mm diameter"
+    ),
     # Half the distance between the contact points, about half the gauge plus a few cm:
     # 2b from 0.1 m (scale rigs) to 4 m. Practice: 600 mm to 1676 mm gauges.
-    "wheelset.contact_half_spacing": Range((0.05, 2.0), (0.28, 0.9), "m",
-                                           "contact points 0.1 m to 4 m apart",
-                                           "gauges of 600-1676 mm"),
+    "wheelset.contact_half_spacing": Range(
+        (0.05, 2.0), (0.28, 0.9), "m", "contact points 0.1 m to 4 m apart", "gauges of 600-1676 mm"
+    ),
     # Practice: light-rail wheelsets of a few hundred kg to locomotive wheelsets with
     # gears and brake discs.
-    "wheelset.mass": Range((0.0, math.inf), (300.0, 4000.0), "kg", "a mass",
-                           "light-rail to locomotive wheelsets"),
+    "wheelset.mass": Range((0.0, math.inf), (300.0, 4000.0), "kg", "a mass", "light-rail to locomotive wheelsets"),
     # The flange must meet the rail before the wheel leaves it. Practice: new S1002
     # wheels on nominal standard gauge have (1435 - 1360 - 2*32.5)/2 = 5 mm a side,
     # worn flanges on widened gauge up to about 25 mm.
-    "wheelset.flangeway_clearance": Range((0.0, DERAILMENT_LATERAL), (0.001, 0.025), "m",
-                                          f"the wheel leaves a rail head {DERAILMENT_LATERAL * 1e3:g} mm wide",
-                                          "new to worn flanges on standard gauge"),
+    "wheelset.flangeway_clearance": Range(
+        (0.0, DERAILMENT_LATERAL),
+        (0.001, 0.025),
+        "m",
+        f"the wheel leaves a rail head {DERAILMENT_LATERAL * 1e3:g} mm wide",
+        "new to worn flanges on standard gauge",
+    ),
     # Practice: 2 t to 40 t (heavy-haul) axle loads.
-    "wheelset.wheel_load": Range((0.0, math.inf), (10e3, 200e3), "N", "a load",
-                                 "axle loads of 2-40 t"),
+    "wheelset.wheel_load": Range((0.0, math.inf), (10e3, 200e3), "N", "a load", "axle loads of 2-40 t"),
     # Equivalent conicities of new and worn wheels on real track (EN 15302 practice:
     # 0.02 to about 0.4; above 0.5 the small-angle contact model does not hold).
-    "wheelset.conicity": Range((0.0, 0.5), (0.01, 0.4), "",
-                               "the small-angle contact model", "new and worn wheel-rail pairs"),
+    "wheelset.conicity": Range(
+        (0.0, 0.5), (0.01, 0.4), "", "the small-angle contact model", "new and worn wheel-rail pairs"
+    ),
     # Dry rail 0.3-0.5, wet 0.1-0.2, leaves and grease down to 0.05; sand raises it.
-    "creep.friction": Range((0.0, 2.0), (0.05, 0.6), "", "a friction coefficient",
-                            "contaminated to sanded rail"),
+    "creep.friction": Range((0.0, 2.0), (0.05, 0.6), "", "a friction coefficient", "contaminated to sanded rail"),
     # The frame and what it carries: a light-rail frame of half a tonne to a Co-Co
     # locomotive's three-axle bogie with its traction motors, 25-30 t.
-    "bogie.mass": Range((0.0, math.inf), (500.0, 30000.0), "kg", "a mass",
-                        "light-rail frames to locomotive bogies with their motors"),
-    "carbody.mass": Range((0.0, math.inf), (1000.0, 150000.0), "kg", "a mass",
-                          "tram modules to locomotive bodies"),
+    "bogie.mass": Range(
+        (0.0, math.inf), (500.0, 30000.0), "kg", "a mass", "light-rail frames to locomotive bogies with their motors"
+    ),
+    "carbody.mass": Range((0.0, math.inf), (1000.0, 150000.0), "kg", "a mass", "tram modules to locomotive bodies"),
     # A spatial vehicle's springs, their mean static deflection under the weight (its hard bound,
     # the spring's height above the rail, is checked in rail_mj.layout). Practice: stiff
     # freight primaries of a few mm to soft coil or air secondaries of about 250 mm.
-    "spatial.static_deflection": Range((0.0, math.inf), (0.002, 0.3), "m", "a deflection",
-                                       "freight primaries to soft secondary suspensions"),
+    "spatial.static_deflection": Range(
+        (0.0, math.inf), (0.002, 0.3), "m", "a deflection", "freight primaries to soft secondary suspensions"
+    ),
 }
 
 

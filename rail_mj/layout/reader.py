@@ -35,9 +35,6 @@ MAX_MAGNITUDE = 1e15  # any number in SI units
 MAX_POSITION = 1000.0  # m from the body centre
 
 
-
-
-
 class LayoutError(ValueError):
     """A layout file that cannot describe a vehicle; the message is one line."""
 
@@ -114,7 +111,7 @@ class Spring:
 
     def planar(self) -> Suspension:
         """The pair's planar equivalent (docs/manchester-coach.md): lateral 2*ky, yaw 2*kx*d^2."""
-        d2 = self.spacing ** 2
+        d2 = self.spacing**2
         return Suspension(2 * self.ky, 2 * self.kx * d2, 2 * self.cy, 2 * self.cx * d2)
 
 
@@ -364,8 +361,9 @@ class _Table:
             out.append(_float(v))
         a, b, c = sorted(out)
         if a + b < c * (1 - 1e-9):  # a rigid body's principal moments: each <= the sum of the others
-            self.fail(key, f"is not a rigid body's inertia: the largest, {c:g}, exceeds the sum "
-                           f"of the other two, {a + b:g}")
+            self.fail(
+                key, f"is not a rigid body's inertia: the largest, {c:g}, exceeds the sum of the other two, {a + b:g}"
+            )
         return tuple(out)
 
     def positions(self, key, min_spacing: float, what: str, *, required=True):
@@ -385,8 +383,7 @@ class _Table:
             if front - back < min_spacing:
                 self.fail(
                     key,
-                    f"{what}s at x = {front:g} and {back:g} m overlap: they must be at least "
-                    f"{min_spacing:g} m apart",
+                    f"{what}s at x = {front:g} and {back:g} m overlap: they must be at least {min_spacing:g} m apart",
                 )
         return tuple(xs)
 
@@ -405,9 +402,7 @@ def _float(value: int | float) -> float:
 
 
 def _kind(value: Any) -> str:
-    return {dict: "a table", list: "a list", str: "a string", bool: "a boolean"}.get(
-        type(value), repr(value)
-    )
+    return {dict: "a table", list: "a list", str: "a string", bool: "a boolean"}.get(type(value), repr(value))
 
 
 def _suspension(table: _Table) -> Suspension:
@@ -451,9 +446,12 @@ def _inertia_fits(table: _Table, mass: float, inertia, radius: float, what: str)
     for axis, moment in zip("xyz", inertia):
         gyration = math.sqrt(moment / mass)
         if gyration > radius:
-            table.fail("inertia", f"{moment:g} kg m^2 about {axis} needs a radius of gyration of "
-                                  f"{gyration:.3g} m in a {mass:g} kg {what}, which fits within about "
-                                  f"{radius:.3g} m: check the mass and the units (kg, kg m^2)")
+            table.fail(
+                "inertia",
+                f"{moment:g} kg m^2 about {axis} needs a radius of gyration of "
+                f"{gyration:.3g} m in a {mass:g} kg {what}, which fits within about "
+                f"{radius:.3g} m: check the mass and the units (kg, kg m^2)",
+            )
 
 
 def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
@@ -479,10 +477,16 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         wheel_load=t.positive("wheel_load", required=False),
     )
     t.done()
-    _practice(t, warnings, rolling_radius=wheelset.rolling_radius,
-              contact_half_spacing=wheelset.contact_half_spacing,
-              flangeway_clearance=wheelset.flangeway_clearance, mass=wheelset.mass,
-              conicity=wheelset.conicity, wheel_load=wheelset.wheel_load)
+    _practice(
+        t,
+        warnings,
+        rolling_radius=wheelset.rolling_radius,
+        contact_half_spacing=wheelset.contact_half_spacing,
+        flangeway_clearance=wheelset.flangeway_clearance,
+        mass=wheelset.mass,
+        conicity=wheelset.conicity,
+        wheel_load=wheelset.wheel_load,
+    )
     if wheelset.rolling_radius >= wheelset.contact_half_spacing * 2:
         t.fail("rolling_radius", "is not smaller than the track gauge: check the units (m)")
     r0, b = wheelset.rolling_radius, wheelset.contact_half_spacing
@@ -492,52 +496,64 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if has_profiles:
         profiles, conicity, shift = _profiles(_Table(source, "profiles", top.get("profiles")), wheelset)
         if "flangeway_clearance" in (top.get("wheelset") or {}):
-            warnings.append(f"{source}: wheelset.flangeway_clearance is not used with [profiles]: their "
-                            f"flanges touch at {shift * 1e3:.2f} mm")
+            warnings.append(
+                f"{source}: wheelset.flangeway_clearance is not used with [profiles]: their "
+                f"flanges touch at {shift * 1e3:.2f} mm"
+            )
         wheelset = dataclasses.replace(wheelset, flangeway_clearance=shift)
         if wheelset.conicity is None:
             wheelset = dataclasses.replace(wheelset, conicity=conicity)
             _practice(_Table(source, "wheelset", {}), warnings, conicity=conicity)
         else:
-            warnings.append(f"{source}: wheelset.conicity is not used by the dynamics: a layout with [profiles] "
-                            f"runs on their contact tables (equivalent conicity at 3 mm: {conicity:.4g})")
+            warnings.append(
+                f"{source}: wheelset.conicity is not used by the dynamics: a layout with [profiles] "
+                f"runs on their contact tables (equivalent conicity at 3 mm: {conicity:.4g})"
+            )
 
     has_contact = top.get("contact", None, required=False) is not None
     t = _Table(source, "creep", top.get("creep", {} if has_contact else ...))
     if has_contact:
         given = sorted({"f11", "f22", "f23", "f33"} & set(t.data))
         if given:
-            t.fail(given[0], "given with [contact]: the creep coefficients come from the contact; "
-                             "give one of them")
+            t.fail(given[0], "given with [contact]: the creep coefficients come from the contact; give one of them")
         coefficients = None
     elif has_profiles and not {"f11", "f22", "f23", "f33"} & set(t.data):
         coefficients = None  # each contact point's own, from Hertz and Kalker (below)
     else:
-        coefficients = dict(f11=t.positive("f11"), f22=t.positive("f22"),
-                            f23=t.non_negative("f23", 0.0), f33=t.non_negative("f33", 0.0))
+        coefficients = dict(
+            f11=t.positive("f11"), f22=t.positive("f22"), f23=t.non_negative("f23", 0.0), f33=t.non_negative("f33", 0.0)
+        )
     law = t.get("law", "linear")
     if law not in LAWS:
         t.fail("law", f"must be one of {', '.join(LAWS)}, got {law!r}")
     if law == "fastsim" and not (has_contact or has_profiles):
         # FASTSIM works on the contact ellipse itself, which f11..f33 do not give (docs/creep.md).
-        t.fail("law", "\"fastsim\" needs a [contact] table: FASTSIM works on the Hertz contact ellipse, "
-                      "which f11..f33 alone do not give (docs/creep.md)")
+        t.fail(
+            "law",
+            '"fastsim" needs a [contact] table: FASTSIM works on the Hertz contact ellipse, '
+            "which f11..f33 alone do not give (docs/creep.md)",
+        )
     friction = t.number("friction", low=0.0, low_open=True, high=2.0, required=law != "linear")
     _practice(t, warnings, friction=friction)
     falling = {k: t.get(k, None, required=False) for k in ("falling_friction_ratio", "falling_friction_rate")}
     if any(v is not None for v in falling.values()):
         if law != "polach":
-            t.fail(next(k for k, v in falling.items() if v is not None),
-                   f"falling friction belongs to the polach law, not {law!r}")
-        falling = dict(falling_friction_ratio=t.number("falling_friction_ratio", low=0.0, low_open=True, high=1.0),
-                       falling_friction_rate=t.positive("falling_friction_rate"))
+            t.fail(
+                next(k for k, v in falling.items() if v is not None),
+                f"falling friction belongs to the polach law, not {law!r}",
+            )
+        falling = dict(
+            falling_friction_ratio=t.number("falling_friction_ratio", low=0.0, low_open=True, high=1.0),
+            falling_friction_rate=t.positive("falling_friction_rate"),
+        )
     else:
         falling = {}
     creep_table = t
 
     is_spatial = top.get("spatial", None, required=False) is not None
-    primary, primary_spring = _suspension_or_elements(_Table(source, "primary", top.get("primary")), "axlebox",
-                                                      is_spatial)
+    primary, primary_spring = _suspension_or_elements(
+        _Table(source, "primary", top.get("primary")), "axlebox", is_spatial
+    )
 
     # Two wheels cannot be closer than their diameter: that is the overlap check.
     wheel_diameter = 2.0 * wheelset.rolling_radius
@@ -560,7 +576,8 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             top.fail("secondary", "missing: a layout with [bogie] needs [secondary]")
         secondary_data, secondary_elements = _secondary_elements(source, top.get("secondary"), is_spatial)
         secondary, secondary_spring = _suspension_or_elements(
-            _Table(source, "secondary", secondary_data), "spring", is_spatial)
+            _Table(source, "secondary", secondary_data), "spring", is_spatial
+        )
         secondary = _planar_dampers(secondary, secondary_elements)
     elif top.get("secondary", None, required=False) is not None:
         top.fail("secondary", "given without [bogie]: secondary suspension joins bogies to the body")
@@ -569,8 +586,10 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     if top.get("train", None, required=False) is not None:
         carbody, train = _train(top, source, warnings, bogie, wheel_diameter, r0, b, is_spatial)
     elif top.get("car", None, required=False) is not None or top.get("coupling", None, required=False) is not None:
-        top.fail("car" if "car" in top.data else "coupling", "given without [train]: [[car]] and [[coupling]] "
-                 "describe the car bodies of a train")
+        top.fail(
+            "car" if "car" in top.data else "coupling",
+            "given without [train]: [[car]] and [[coupling]] describe the car bodies of a train",
+        )
     else:
         t = _Table(source, "carbody", top.get("carbody"))
         fixed = t.get("fixed", False)
@@ -583,7 +602,9 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
                 t.fail("wheelset_positions", "not allowed with [bogie]: wheelsets hang from the bogies")
             extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
             carbody = CarBody(
-                fixed, carbody_mass, carbody_inertia,
+                fixed,
+                carbody_mass,
+                carbody_inertia,
                 bogie_positions=t.positions("bogie_positions", extent, "bogie"),
                 wheelset_positions=None,
             )
@@ -591,7 +612,9 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             if "bogie_positions" in t.data:
                 t.fail("bogie_positions", "given without a [bogie] table")
             carbody = CarBody(
-                fixed, carbody_mass, carbody_inertia,
+                fixed,
+                carbody_mass,
+                carbody_inertia,
                 bogie_positions=None,
                 wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
             )
@@ -607,26 +630,32 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         # wheel's own for a symmetric vehicle. (A spatial vehicle's wheels carry their own static
         # loads, from its suspension: rail_mj.vehicle.loads.) fsum of equal masses is n times one, exactly.
         n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
-            bogie.wheelset_positions)
+            bogie.wheelset_positions
+        )
         masses = [d.mass for d in designs] or ([bogie.mass] * len(carbody.bogie_positions) if bogie else [])
         mass = carbody.mass + (math.fsum(masses) if bogie else 0.0)
-        wheelset = dataclasses.replace(
-            wheelset, wheel_load=GRAVITY * (mass / n_wheelsets + wheelset.mass) / 2)
+        wheelset = dataclasses.replace(wheelset, wheel_load=GRAVITY * (mass / n_wheelsets + wheelset.mass) / 2)
     needs_load = "[contact]" if has_contact else f"creep law {law!r}" if law != "linear" else None
     if needs_load and wheelset.wheel_load is None:
-        top.fail("wheelset.wheel_load", f"missing: {needs_load} needs the wheel load, and a fixed car "
-                                         f"body without mass gives no weight to share; give it in N")
+        top.fail(
+            "wheelset.wheel_load",
+            f"missing: {needs_load} needs the wheel load, and a fixed car "
+            f"body without mass gives no weight to share; give it in N",
+        )
     contact = None
     if has_contact:
-        contact, coefficients = _contact(_Table(source, "contact", top.get("contact")), wheelset,
-                                         profiled=has_profiles)
+        contact, coefficients = _contact(_Table(source, "contact", top.get("contact")), wheelset, profiled=has_profiles)
     if has_profiles and wheelset.wheel_load is not None:
         if coefficients is not None and not has_contact:
-            warnings.append(f"{source}: creep.f11..f33 are not used by the dynamics: with [profiles] each "
-                            f"contact point has its own, from Hertz and Kalker")
+            warnings.append(
+                f"{source}: creep.f11..f33 are not used by the dynamics: with [profiles] each "
+                f"contact point has its own, from Hertz and Kalker"
+            )
         if law == "linear":
-            warnings.append(f"{source}: creep.law \"linear\" on profiles: on the flanges the creep forces "
-                            f"grow without bound; choose a saturating law for runs")
+            warnings.append(
+                f'{source}: creep.law "linear" on profiles: on the flanges the creep forces '
+                f"grow without bound; choose a saturating law for runs"
+            )
         from rail_mj.contact.tables import TableError, centred_coefficients
 
         try:
@@ -634,8 +663,11 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         except TableError as e:
             top.fail("profiles", str(e))
     elif has_profiles and coefficients is None:
-        top.fail("wheelset.wheel_load", "missing: the contact on profiles needs the wheel load, and a fixed car "
-                                        "body without mass gives no weight to share; give it in N")
+        top.fail(
+            "wheelset.wheel_load",
+            "missing: the contact on profiles needs the wheel load, and a fixed car "
+            "body without mass gives no weight to share; give it in N",
+        )
     creep_table.done()
     creep = Creep(**coefficients, law=law, friction=friction, **falling)
     flange = None
@@ -646,29 +678,49 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         if law == "linear":
             # On the flange the rolling radius rises by tan(70 deg) per metre: unbounded
             # linear creep turns a millimetre of flange contact into hundreds of kN.
-            t.fail(None, "flange contact needs a saturating creep law: set creep.law to "
-                         "\"shen-hedrick-elkins\", \"polach\" or \"fastsim\" and creep.friction")
+            t.fail(
+                None,
+                "flange contact needs a saturating creep law: set creep.law to "
+                '"shen-hedrick-elkins", "polach" or "fastsim" and creep.friction',
+            )
         default = Flange()
         flange = Flange(
             stiffness=t.positive("stiffness", default.stiffness),
             damping=t.non_negative("damping", default.damping),
-            angle=t.number("angle", default.angle, low=wheelset.conicity, low_open=True,
-                           high=math.radians(89.0)),
+            angle=t.number("angle", default.angle, low=wheelset.conicity, low_open=True, high=math.radians(89.0)),
         )
         t.done()
     spatial = None
     if is_spatial:
-        spatial = _spatial(_Table(source, "spatial", top.get("spatial")), top, carbody, bogie, train, primary_spring,
-                           secondary_spring if bogie else None, r0)
+        spatial = _spatial(
+            _Table(source, "spatial", top.get("spatial")),
+            top,
+            carbody,
+            bogie,
+            train,
+            primary_spring,
+            secondary_spring if bogie else None,
+            r0,
+        )
         spatial = dataclasses.replace(spatial, **secondary_elements, bogies=designs)
         if train is not None:
             train = _spatial_train(top, train, spatial)
         _static_sags(source, warnings, spatial, carbody, train)
     top.done()
     return Layout(
-        name=name, wheelset=wheelset, creep=creep, primary=primary, carbody=carbody,
-        bogie=bogie, secondary=secondary, contact=contact, flange=flange, profiles=profiles, train=train,
-        spatial=spatial, source=source,
+        name=name,
+        wheelset=wheelset,
+        creep=creep,
+        primary=primary,
+        carbody=carbody,
+        bogie=bogie,
+        secondary=secondary,
+        contact=contact,
+        flange=flange,
+        profiles=profiles,
+        train=train,
+        spatial=spatial,
+        source=source,
         warnings=tuple(warnings),
     )
 
@@ -689,8 +741,10 @@ def _suspension_or_elements(t: _Table, element: str, is_spatial: bool) -> tuple[
         return _suspension(t), None
     planar = sorted(set(t.data) - {element})
     if planar:
-        t.fail(planar[0], f"not used with [spatial]: give the elements as [{t.section}.{element}] "
-                          f"({', '.join(SPRING_KEYS)})")
+        t.fail(
+            planar[0],
+            f"not used with [spatial]: give the elements as [{t.section}.{element}] ({', '.join(SPRING_KEYS)})",
+        )
     spring = _spring(_Table(t.source, f"{t.section}.{element}", t.get(element)))
     t.done()
     return spring.planar(), spring
@@ -699,13 +753,16 @@ def _suspension_or_elements(t: _Table, element: str, is_spatial: bool) -> tuple[
 def _spring(e: _Table, default: Spring | None = None) -> Spring:
     """An element table (SPRING_KEYS), checked. Each key it leaves out is `default`'s; with no
     default kx, ky, kz, spacing and height are required and the dampings 0."""
+
     def inherited(key: str, fallback: Any = ...) -> Any:
         return fallback if default is None else getattr(default, key)
 
     spring = Spring(
-        kx=e.non_negative("kx", inherited("kx")), ky=e.non_negative("ky", inherited("ky")),
+        kx=e.non_negative("kx", inherited("kx")),
+        ky=e.non_negative("ky", inherited("ky")),
         kz=e.positive("kz", inherited("kz")),
-        cx=e.non_negative("cx", inherited("cx", 0.0)), cy=e.non_negative("cy", inherited("cy", 0.0)),
+        cx=e.non_negative("cx", inherited("cx", 0.0)),
+        cy=e.non_negative("cy", inherited("cy", 0.0)),
         cz=e.non_negative("cz", inherited("cz", 0.0)),
         spacing=e.number("spacing", inherited("spacing"), low=0.0, low_open=True, high=MAX_SPACING),
         height=e.number("height", inherited("height"), low=0.0, low_open=True, high=MAX_HEIGHT),
@@ -717,16 +774,26 @@ def _spring(e: _Table, default: Spring | None = None) -> Spring:
 BOGIE_NUMBER = re.compile(r"^[1-9][0-9]*$")
 
 
-def _bogie_designs(top: _Table, warnings: list[str], bogie: Bogie | None, primary: Spring | None,
-                   carbody: CarBody, is_spatial: bool, wheel_diameter: float, r0: float,
-                   b: float) -> tuple[BogieDesign, ...]:
+def _bogie_designs(
+    top: _Table,
+    warnings: list[str],
+    bogie: Bogie | None,
+    primary: Spring | None,
+    carbody: CarBody,
+    is_spatial: bool,
+    wheel_diameter: float,
+    r0: float,
+    b: float,
+) -> tuple[BogieDesign, ...]:
     """[bogies.N] (docs/spatial.md), checked: each bogie's design, leading first, [bogie] and
     [primary.axlebox] with bogie N's overrides of mass, inertia, wheelset_positions and
     [bogies.N.axlebox]. () for a planar layout, which refuses the table."""
     data = top.get("bogies", None, required=False)
     if data is not None and not is_spatial:
-        top.fail("bogies", "needs [spatial]: different bogies under one car body belong to a spatial vehicle "
-                           "(docs/spatial.md)")
+        top.fail(
+            "bogies",
+            "needs [spatial]: different bogies under one car body belong to a spatial vehicle (docs/spatial.md)",
+        )
     if not is_spatial or bogie is None:
         if data is not None:
             top.fail("bogies", "given without [bogie]: [bogies.N] changes [bogie]'s design for bogie N")
@@ -737,8 +804,11 @@ def _bogie_designs(top: _Table, warnings: list[str], bogie: Bogie | None, primar
         t = _Table(top.source, "bogies", data)
         for key, value in data.items():
             if not BOGIE_NUMBER.fullmatch(key) or int(key) > n:
-                t.fail(key, f"no such bogie: N in [bogies.N] is a bogie's number in carbody.bogie_positions, "
-                            f"1 (leading) to {n}")
+                t.fail(
+                    key,
+                    f"no such bogie: N in [bogies.N] is a bogie's number in carbody.bogie_positions, "
+                    f"1 (leading) to {n}",
+                )
             given[int(key)] = value
             t.used.add(key)
         t.done()
@@ -752,9 +822,12 @@ def _bogie_designs(top: _Table, warnings: list[str], bogie: Bogie | None, primar
         inertia = e.vector3("inertia", required=False) or bogie.inertia
         positions = e.positions("wheelset_positions", wheel_diameter, "wheelset", required=False)
         if positions is not None and len(positions) != len(bogie.wheelset_positions):
-            e.fail("wheelset_positions", f"gives {len(positions)} wheelsets, [bogie] {len(bogie.wheelset_positions)}: "
-                                         f"every bogie must have [bogie]'s number of wheelsets (a limitation: "
-                                         f"wheelsets are numbered per bogie)")
+            e.fail(
+                "wheelset_positions",
+                f"gives {len(positions)} wheelsets, [bogie] {len(bogie.wheelset_positions)}: "
+                f"every bogie must have [bogie]'s number of wheelsets (a limitation: "
+                f"wheelsets are numbered per bogie)",
+            )
         positions = positions or bogie.wheelset_positions
         axlebox = e.get("axlebox", None, required=False)
         if axlebox is not None:
@@ -770,8 +843,11 @@ def _bogie_designs(top: _Table, warnings: list[str], bogie: Bogie | None, primar
         front = xs[k - 1] + min(designs[k - 1].wheelset_positions)
         back = xs[k] + max(designs[k].wheelset_positions)
         if front - back < wheel_diameter:
-            top.fail("bogies", f"the wheelsets of bogies {k} and {k + 1} at x = {front:g} and {back:g} m overlap: "
-                               f"they must be at least {wheel_diameter:g} m apart")
+            top.fail(
+                "bogies",
+                f"the wheelsets of bogies {k} and {k + 1} at x = {front:g} and {back:g} m overlap: "
+                f"they must be at least {wheel_diameter:g} m apart",
+            )
     return tuple(designs)
 
 
@@ -788,8 +864,11 @@ def _secondary_elements(source: str, data: Any, is_spatial: bool) -> tuple[Any, 
     t = _Table(source, "secondary", data)
     given = [k for k in SECONDARY_ELEMENTS if k in data]
     if given and not is_spatial:
-        t.fail(given[0], "needs [spatial]: per-element dampers, anti-roll bars and bump stops belong to a "
-                         "spatial vehicle (docs/spatial.md)")
+        t.fail(
+            given[0],
+            "needs [spatial]: per-element dampers, anti-roll bars and bump stops belong to a "
+            "spatial vehicle (docs/spatial.md)",
+        )
     if is_spatial:  # a misspelt element table would otherwise read as a stray planar key
         for key, value in data.items():
             if isinstance(value, dict) and key not in ("spring", *SECONDARY_ELEMENTS):
@@ -805,8 +884,10 @@ def _secondary_elements(source: str, data: Any, is_spatial: bool) -> tuple[Any, 
         else:
             yaw = key == "yaw_damper"
             elements[key] = Damper(
-                c=e.positive("c"), height=e.number("height", low=0.0, low_open=True, high=MAX_HEIGHT),
-                spacing=e.number("spacing", low=0.0, low_open=True, high=MAX_SPACING) if yaw else 0.0)
+                c=e.positive("c"),
+                height=e.number("height", low=0.0, low_open=True, high=MAX_HEIGHT),
+                spacing=e.number("spacing", low=0.0, low_open=True, high=MAX_SPACING) if yaw else 0.0,
+            )
         e.done()
     return {k: v for k, v in data.items() if k not in SECONDARY_ELEMENTS}, elements
 
@@ -843,12 +924,23 @@ def _planar_dampers(s: Suspension, elements: dict) -> Suspension:
     """The planar equivalent with the secondary dampers added: the lateral damper's c, and the yaw
     dampers' 2 c d^2 (as Spring.planar's), so that what reads Layout.secondary sees them."""
     lateral, yaw = elements.get("lateral_damper"), elements.get("yaw_damper")
-    return dataclasses.replace(s, lateral_damping=s.lateral_damping + (lateral.c if lateral else 0.0),
-                               yaw_damping=s.yaw_damping + (2 * yaw.c * yaw.spacing ** 2 if yaw else 0.0))
+    return dataclasses.replace(
+        s,
+        lateral_damping=s.lateral_damping + (lateral.c if lateral else 0.0),
+        yaw_damping=s.yaw_damping + (2 * yaw.c * yaw.spacing**2 if yaw else 0.0),
+    )
 
 
-def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, train, primary: Spring,
-             secondary: Spring | None, r0: float) -> Spatial:
+def _spatial(
+    t: _Table,
+    top: _Table,
+    carbody: CarBody,
+    bogie: Bogie | None,
+    train,
+    primary: Spring,
+    secondary: Spring | None,
+    r0: float,
+) -> Spatial:
     """[spatial], checked: a free car body on bogies, the heights of the centres of mass."""
     if bogie is None:
         top.fail("spatial", "needs [bogie]: a spatial vehicle is a car body on bogies")
@@ -857,13 +949,18 @@ def _spatial(t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, trai
     spatial = Spatial(
         carbody_height=t.number("carbody_height", low=0.0, low_open=True, high=MAX_HEIGHT),
         bogie_height=t.number("bogie_height", low=0.0, low_open=True, high=MAX_HEIGHT),
-        primary=primary, secondary=secondary, gravity=t.flag("gravity", True),
-        gravitational_stiffness=t.flag("gravitational_stiffness", True), gyroscopic=t.flag("gyroscopic", True),
+        primary=primary,
+        secondary=secondary,
+        gravity=t.flag("gravity", True),
+        gravitational_stiffness=t.flag("gravitational_stiffness", True),
+        gyroscopic=t.flag("gyroscopic", True),
     )
     t.done()
     if spatial.carbody_height < spatial.bogie_height:  # equal: the planar limit (docs/spatial.md)
-        t.fail("carbody_height", f"must not be below bogie_height ({spatial.bogie_height:g} m), "
-                                 f"got {spatial.carbody_height:g} m")
+        t.fail(
+            "carbody_height",
+            f"must not be below bogie_height ({spatial.bogie_height:g} m), got {spatial.carbody_height:g} m",
+        )
     return spatial
 
 
@@ -890,15 +987,20 @@ def _static_sags(source: str, warnings: list[str], spatial: Spatial, carbody: Ca
     for section, height, sag in checks:
         t = _Table(source, section, {})
         if sag >= height:
-            t.fail("kz", f"the static deflection under the weight, {sag:.3g} m, is more than the spring's "
-                         f"height above the rail ({height:g} m); check kz's units (N/m) and the masses (kg)")
+            t.fail(
+                "kz",
+                f"the static deflection under the weight, {sag:.3g} m, is more than the spring's "
+                f"height above the rail ({height:g} m); check kz's units (N/m) and the masses (kg)",
+            )
         if not any(w.startswith(f"{source}: {section}.static_deflection") for w in warnings):
             _practice(t, warnings, ranges="spatial", static_deflection=sag)
     for i, d in enumerate(spatial.bogies, start=1):  # a legal but odd stack: noted
         if d.axlebox.height > e.height:
             section = "primary.axlebox" if d.axlebox == spatial.primary else f"bogies.{i}.axlebox"
-            note = (f"{source}: {section}.height: {d.axlebox.height:g} m is above the secondary springs "
-                    f"({e.height:g} m); bogie frames carry their primary springs below their secondary ones")
+            note = (
+                f"{source}: {section}.height: {d.axlebox.height:g} m is above the secondary springs "
+                f"({e.height:g} m); bogie frames carry their primary springs below their secondary ones"
+            )
             if note not in warnings:
                 warnings.append(note)
     if spatial.gravitational_stiffness:
@@ -907,17 +1009,21 @@ def _static_sags(source: str, warnings: list[str], spatial: Spatial, carbody: Ca
             height = getattr(car, "height", None) or spatial.carbody_height
             n = len(car.bogies) if train is not None else n_bogies
             overturning = car.mass * GRAVITY * (height - e.height)
-            roll = n * (2 * e.kz * e.spacing ** 2 + (spatial.anti_roll_bar or 0.0))
+            roll = n * (2 * e.kz * e.spacing**2 + (spatial.anti_roll_bar or 0.0))
             if train is not None:  # a Jacobs bogie's springs are shared by its two bodies
-                roll = sum((2 * e.kz * e.spacing ** 2 + (spatial.anti_roll_bar or 0.0)) / len(train.cars_on(b))
-                           for b in car.bogies)
+                roll = sum(
+                    (2 * e.kz * e.spacing**2 + (spatial.anti_roll_bar or 0.0)) / len(train.cars_on(b))
+                    for b in car.bogies
+                )
             if overturning >= roll:
                 name = "carbody" if train is None else f"car[{k}]"
                 _Table(source, "spatial", {}).fail(
-                    "carbody_height", f"{name} tips over on its springs: its weight's overturning moment "
+                    "carbody_height",
+                    f"{name} tips over on its springs: its weight's overturning moment "
                     f"m*g*h = {overturning:.3g} N m/rad (h = {height - e.height:.3g} m above the secondary "
                     f"springs) exceeds their roll stiffness {roll:.3g} N m/rad; lower the centre of mass, "
-                    f"stiffen or spread the springs, or fit an anti-roll bar")
+                    f"stiffen or spread the springs, or fit an anti-roll bar",
+                )
 
 
 def _spatial_train(t: _Table, train: Train, spatial: Spatial) -> Train:
@@ -927,17 +1033,28 @@ def _spatial_train(t: _Table, train: Train, spatial: Spatial) -> Train:
     for k, car in enumerate(train.cars, start=1):
         height = spatial.carbody_height if car.height is None else car.height
         if height < spatial.bogie_height:
-            t.fail(f"car[{k}].height" if car.height is not None else "spatial.carbody_height",
-                   f"must not be below spatial.bogie_height ({spatial.bogie_height:g} m), got {height:g} m")
+            t.fail(
+                f"car[{k}].height" if car.height is not None else "spatial.carbody_height",
+                f"must not be below spatial.bogie_height ({spatial.bogie_height:g} m), got {height:g} m",
+            )
         cars.append(dataclasses.replace(car, height=height))
     return dataclasses.replace(train, cars=tuple(cars))
+
 
 # Two body ends nearer than this overlap (m): an articulated set's ends meet over the Jacobs bogie.
 END_TOLERANCE = 1e-6
 
 
-def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, wheel_diameter: float,
-           r0: float, b: float, is_spatial: bool = False) -> tuple[CarBody, Train]:
+def _train(
+    top: _Table,
+    source: str,
+    warnings: list[str],
+    bogie: Bogie | None,
+    wheel_diameter: float,
+    r0: float,
+    b: float,
+    is_spatial: bool = False,
+) -> tuple[CarBody, Train]:
     """[train], [[car]] and [[coupling]], checked (docs/trains.md): the train's bogies and the cars
     they carry, one clear line for each bad topology."""
     if bogie is None:
@@ -976,28 +1093,41 @@ def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, w
             t.fail("bogies", f"must list the leading bogie first, got {carried}")
         for i in carried:
             if abs(bogie_x[i - 1] - position) > length / 2 + END_TOLERANCE:
-                t.fail("bogies", f"bogie {i} at x = {bogie_x[i - 1]:g} m is not under this {length:g} m body "
-                                 f"centred at x = {position:g} m")
+                t.fail(
+                    "bogies",
+                    f"bogie {i} at x = {bogie_x[i - 1]:g} m is not under this {length:g} m body "
+                    f"centred at x = {position:g} m",
+                )
         t.done()
         _practice(_Table(source, "carbody", {}), warnings, mass=mass)
         _inertia_fits(t, mass, inertia, math.hypot(length / 2, 2.0), "car body")
         cars.append(Car(mass, inertia, position, length, tuple(carried), height))
     for k, (front, rear) in enumerate(zip(cars, cars[1:]), start=1):
         if rear.position >= front.position:
-            top.fail(f"car[{k + 1}].position", f"cars must be listed leading first (x decreasing): "
-                                               f"{rear.position:g} m is not behind car {k} at {front.position:g} m")
+            top.fail(
+                f"car[{k + 1}].position",
+                f"cars must be listed leading first (x decreasing): "
+                f"{rear.position:g} m is not behind car {k} at {front.position:g} m",
+            )
         gap = (front.position - front.length / 2) - (rear.position + rear.length / 2)
         if gap < -END_TOLERANCE:
-            top.fail(f"car[{k + 1}]", f"car bodies {k} and {k + 1} overlap by {-gap:g} m: the rear end of one "
-                                      f"must not pass the front end of the next")
+            top.fail(
+                f"car[{k + 1}]",
+                f"car bodies {k} and {k + 1} overlap by {-gap:g} m: the rear end of one "
+                f"must not pass the front end of the next",
+            )
     for i in range(1, len(bogie_x) + 1):
         on = [k for k, car in enumerate(cars, start=1) if i in car.bogies]
         if not on:
-            top.fail("train.bogie_positions", f"bogie {i} at x = {bogie_x[i - 1]:g} m carries no car body: "
-                                              f"no [[car]] lists it in bogies")
+            top.fail(
+                "train.bogie_positions",
+                f"bogie {i} at x = {bogie_x[i - 1]:g} m carries no car body: no [[car]] lists it in bogies",
+            )
         if len(on) > 2 or (len(on) == 2 and on[1] != on[0] + 1):
-            top.fail("train.bogie_positions", f"bogie {i} is listed by cars {on}: a (Jacobs) bogie carries the "
-                                              f"ends of at most two adjacent cars")
+            top.fail(
+                "train.bogie_positions",
+                f"bogie {i} is listed by cars {on}: a (Jacobs) bogie carries the ends of at most two adjacent cars",
+            )
     couplings = []
     coupling_data = top.get("coupling", [], required=False) or []
     if not isinstance(coupling_data, list):
@@ -1005,36 +1135,47 @@ def _train(top: _Table, source: str, warnings: list[str], bogie: Bogie | None, w
     for k, data in enumerate(coupling_data, start=1):
         t = _Table(source, f"coupling[{k}]", data)
         pair = t.get("cars")
-        if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(i, int) and not isinstance(i, bool)
-                                                                  for i in pair)):
+        if not (
+            isinstance(pair, list)
+            and len(pair) == 2
+            and all(isinstance(i, int) and not isinstance(i, bool) for i in pair)
+        ):
             t.fail("cars", f"must be two car numbers [k, k + 1], got {_kind(pair)}")
         if pair[1] != pair[0] + 1 or not 1 <= pair[0] < len(cars):
             t.fail("cars", f"must be two adjacent cars [k, k + 1] of the {len(cars)}, got {pair}")
         if any(c.cars == tuple(pair) for c in couplings):
             t.fail("cars", f"cars {pair} are coupled twice: give one [[coupling]] per pair")
-        couplings.append(Coupling(tuple(pair), t.non_negative("lateral_stiffness", 0.0),
-                                  t.non_negative("yaw_stiffness", 0.0), t.non_negative("lateral_damping", 0.0),
-                                  t.non_negative("yaw_damping", 0.0)))
+        couplings.append(
+            Coupling(
+                tuple(pair),
+                t.non_negative("lateral_stiffness", 0.0),
+                t.non_negative("yaw_stiffness", 0.0),
+                t.non_negative("lateral_damping", 0.0),
+                t.non_negative("yaw_damping", 0.0),
+            )
+        )
         t.done()
     total = sum(car.mass for car in cars)
     carbody = CarBody(False, total, cars[0].inertia, bogie_positions=bogie_x, wheelset_positions=None)
     return carbody, Train(tuple(cars), tuple(couplings))
 
 
-
 def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, float]:
     """[profiles], checked: the files read, the wheelset stood on its rails; the shift at
     which a flange touches (the profiles' flangeway clearance, m) and with wheelset.conicity
     omitted, the profiles' equivalent conicity at 3 mm."""
-    from rail_mj.contact import profiles as p# numpy: only for layouts that need it
+    from rail_mj.contact import profiles as p  # numpy: only for layouts that need it
 
     base = Path(t.source).parent if t.source != "<layout>" else Path(".")
     names = {}
     for kind in ("wheel", "rail"):
         value = t.get(kind)
         if not isinstance(value, str) or not value.strip():
-            t.fail(kind, f"must be a standard {kind} ({', '.join(STANDARD_PROFILES[kind])}) or a profile "
-                         f"file's path, got {_kind(value)}")
+            t.fail(
+                kind,
+                f"must be a standard {kind} ({', '.join(STANDARD_PROFILES[kind])}) or a profile "
+                f"file's path, got {_kind(value)}",
+            )
         if value.lower() in STANDARD_PROFILES[kind]:
             names[kind] = value.lower()
             continue
@@ -1043,13 +1184,17 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, fl
             t.fail(kind, f"{value!r} is a standard {other} profile, not a {kind}")
         path = (base / value) if not Path(value).is_absolute() else Path(value)
         if path.suffix.lower() not in (".csv", ".prw", ".prr"):
-            t.fail(kind, f"must be {', '.join(STANDARD_PROFILES[kind])} or a profile file (.csv, SIMPACK .prw "
-                         f"or .prr), got {value!r}")
+            t.fail(
+                kind,
+                f"must be {', '.join(STANDARD_PROFILES[kind])} or a profile file (.csv, SIMPACK .prw "
+                f"or .prr), got {value!r}",
+            )
         if not path.is_file():
             t.fail(kind, f"{path}: no such file (paths are relative to the layout file)")
         names[kind] = str(path)
     profiles = Profiles(
-        wheel=names["wheel"], rail=names["rail"],
+        wheel=names["wheel"],
+        rail=names["rail"],
         rail_inclination=t.number("rail_inclination", p.RAIL_INCLINATION, low=0.0, high=0.1),
         track_gauge=t.number("track_gauge", p.GAUGE, low=0.5, high=2.0),
         flange_back_spacing=t.positive("flange_back_spacing", p.BACK_TO_BACK),
@@ -1059,8 +1204,10 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, fl
     t.done()
     gauge, back = profiles.track_gauge, profiles.flange_back_spacing
     if not gauge - 0.2 < back < gauge:
-        t.fail("flange_back_spacing", f"must be below track_gauge ({gauge:g} m) by less than 0.2 m (the flanges "
-                                      f"and their play), got {back:g} m")
+        t.fail(
+            "flange_back_spacing",
+            f"must be below track_gauge ({gauge:g} m) by less than 0.2 m (the flanges and their play), got {back:g} m",
+        )
     for key, other in (("wheel", "rail"), ("rail", "wheel")):  # one at a time: an error names its key
         try:
             read_profiles(dataclasses.replace(profiles, **{other: STANDARD_PROFILES[other][0]}))
@@ -1075,8 +1222,11 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, fl
     except GeometryError as e:
         t.fail(None, str(e))
     if wheelset.conicity is None and not (conicity is not None and 0.0 < conicity <= 0.5):
-        t.fail(None, f"the profiles' equivalent conicity at 3 mm is {conicity:.4g}, outside (0, 0.5]: give "
-                     f"wheelset.conicity for the dynamics")
+        t.fail(
+            None,
+            f"the profiles' equivalent conicity at 3 mm is {conicity:.4g}, outside (0, 0.5]: give "
+            f"wheelset.conicity for the dynamics",
+        )
     if shift is None:  # flangeless wheels (a test cone): held only where the table ends
         from rail_mj.contact.geometry import DEFAULT_YS
 
@@ -1109,15 +1259,18 @@ def _profiles_conicity(profiles: Profiles, r0: float, _stamp) -> tuple[float, fl
         if abs(s) > TREAD_HALF_WIDTH:
             raise geometry.GeometryError(
                 f"centred, the {side} wheel touches its rail {s * 1e3:.1f} mm from its taping line, off its "
-                f"tread: check flange_back_spacing, track_gauge and rail_inclination")
+                f"tread: check flange_back_spacing, track_gauge and rail_inclination"
+            )
         if abs(angle) > TREAD_ANGLE:
             raise geometry.GeometryError(
                 f"centred, the {side} wheel touches its rail at {angle:.3g} rad (s = {s * 1e3:.1f} mm), not on "
-                f"its tread: check flange_back_spacing, track_gauge and rail_inclination")
+                f"its tread: check flange_back_spacing, track_gauge and rail_inclination"
+            )
         if not lo + 0.001 < s < hi - 0.001:
             raise geometry.GeometryError(
                 f"centred, the {side} wheel touches its rail at the edge of its profile (s = {s * 1e3:.1f} mm): "
-                f"check flange_back_spacing, track_gauge and rail_inclination")
+                f"check flange_back_spacing, track_gauge and rail_inclination"
+            )
     table = geometry.default_table(profiles, r0)
     shift = geometry.flange_contact_shift(table)
     try:
@@ -1146,8 +1299,11 @@ def _contact(t: _Table, wheelset: Wheelset, profiled: bool = False):
 
     try:
         patch = contact_patch(
-            wheelset.wheel_load, wheelset.rolling_radius, contact.rail_transverse_radius,
-            young_modulus=contact.young_modulus, poisson_ratio=contact.poisson_ratio,
+            wheelset.wheel_load,
+            wheelset.rolling_radius,
+            contact.rail_transverse_radius,
+            young_modulus=contact.young_modulus,
+            poisson_ratio=contact.poisson_ratio,
             wheel_transverse_radius=contact.wheel_transverse_radius,
         )
     except ContactError as e:
@@ -1160,9 +1316,14 @@ def contact_patch_of(layout: Layout):
     from rail_mj.contact.hertz import contact_patch
 
     c = layout.contact
-    return contact_patch(layout.wheelset.wheel_load, layout.wheelset.rolling_radius, c.rail_transverse_radius,
-                         young_modulus=c.young_modulus, poisson_ratio=c.poisson_ratio,
-                         wheel_transverse_radius=c.wheel_transverse_radius)
+    return contact_patch(
+        layout.wheelset.wheel_load,
+        layout.wheelset.rolling_radius,
+        c.rail_transverse_radius,
+        young_modulus=c.young_modulus,
+        poisson_ratio=c.poisson_ratio,
+        wheel_transverse_radius=c.wheel_transverse_radius,
+    )
 
 
 def load_layout(path: str | Path) -> Layout:

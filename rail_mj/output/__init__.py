@@ -1,7 +1,7 @@
 """Files a person opens: Rerun recordings, run tables and figures.
 
-    recording.py   the Rerun recording of a run
-    plots.py       root loci, bifurcation diagrams, stability maps, profiles (matplotlib)
+recording.py   the Rerun recording of a run
+plots.py       root loci, bifurcation diagrams, stability maps, profiles (matplotlib)
 """
 
 from rail_mj import _lazy

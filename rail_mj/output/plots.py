@@ -17,21 +17,22 @@ Example:
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import matplotlib
 
 matplotlib.use("Agg")  # headless: files only, no screen needed
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from rail_mj.files import atomic_write  # noqa: E402
+from rail_mj.files import atomic_write
 
 if TYPE_CHECKING:  # annotations only: `rail-mj profile` draws without loading MuJoCo
-    from rail_mj.contact.profiles import Profile
     from rail_mj.analysis.stability import CriticalSpeed, Stability
+    from rail_mj.contact.profiles import Profile
 
 CSV_COLUMNS = ("speed_m_per_s", "mode", "frequency_hz", "damping_ratio", "real", "imag")
 
@@ -45,11 +46,16 @@ def root_locus(stability: Stability, speeds, progress: Callable[[str], None] | N
             progress(f"{float(v):.2f} m/s ({k + 1}/{len(speeds)})")
         for m in stability.modes(float(v)):
             if m.oscillatory:
-                rows.append({
-                    "speed_m_per_s": float(v), "mode": m.name, "frequency_hz": m.frequency,
-                    "damping_ratio": m.damping_ratio, "real": m.eigenvalue.real,
-                    "imag": m.eigenvalue.imag,
-                })
+                rows.append(
+                    {
+                        "speed_m_per_s": float(v),
+                        "mode": m.name,
+                        "frequency_hz": m.frequency,
+                        "damping_ratio": m.damping_ratio,
+                        "real": m.eigenvalue.real,
+                        "imag": m.eigenvalue.imag,
+                    }
+                )
     return rows
 
 
@@ -71,8 +77,7 @@ def plot_root_locus(rows: list[dict], critical: CriticalSpeed | None, path, titl
 def root_locus_png(rows: list[dict], critical: CriticalSpeed | None, title: str) -> bytes:
     """Frequency and damping ratio against speed, and the complex plane, coloured by mode
     name (as named at each speed: a mode can change character, and name, with speed)."""
-    names = sorted({r["mode"] for r in rows}, key=lambda n: min(
-        r["frequency_hz"] for r in rows if r["mode"] == n))
+    names = sorted({r["mode"] for r in rows}, key=lambda n: min(r["frequency_hz"] for r in rows if r["mode"] == n))
     colours = plt.colormaps["tab10" if len(names) <= 10 else "tab20"]
     fig, (ax_f, ax_z, ax_c) = plt.subplots(1, 3, figsize=(17, 6.5), layout="constrained")
     v_all = np.array([r["speed_m_per_s"] for r in rows]) if rows else np.zeros(1)
@@ -88,8 +93,11 @@ def root_locus_png(rows: list[dict], critical: CriticalSpeed | None, title: str)
     ax_f.set(xlabel="speed V (m/s)", ylabel="frequency f (Hz)", title="Frequency of each mode")
     ax_z.set(xlabel="speed V (m/s)", ylabel="damping ratio ζ (-)", title="Damping ratio (ζ < 0: unstable)")
     ax_z.axhline(0.0, color="black", linewidth=0.8)
-    ax_c.set(xlabel="real part σ (1/s)", ylabel="imaginary part ω (rad/s)",
-             title="Complex plane (marker size grows with speed)")
+    ax_c.set(
+        xlabel="real part σ (1/s)",
+        ylabel="imaginary part ω (rad/s)",
+        title="Complex plane (marker size grows with speed)",
+    )
     ax_c.axvline(0.0, color="black", linewidth=0.8)
     if rows:
         # Roots damped faster than the fastest oscillation are off to the left: they are
@@ -100,13 +108,22 @@ def root_locus_png(rows: list[dict], critical: CriticalSpeed | None, title: str)
     if critical is not None and critical.critical_speed is not None:
         for ax in (ax_f, ax_z):
             ax.axvline(critical.critical_speed, color="red", linestyle="--", linewidth=1.2)
-        ax_z.annotate(f"critical speed {critical.critical_speed:.1f} m/s\n{critical.mode}",
-                      (critical.critical_speed, 0.0), xytext=(6, 12), textcoords="offset points",
-                      color="red", fontsize=9)
+        ax_z.annotate(
+            f"critical speed {critical.critical_speed:.1f} m/s\n{critical.mode}",
+            (critical.critical_speed, 0.0),
+            xytext=(6, 12),
+            textcoords="offset points",
+            color="red",
+            fontsize=9,
+        )
     for ax in (ax_f, ax_z, ax_c):
         ax.grid(alpha=0.3)
-    fig.legend(loc="outside lower center", ncol=min(4, max(len(names), 1)), fontsize=9,
-               title="mode (named from its eigenvector at each speed)")
+    fig.legend(
+        loc="outside lower center",
+        ncol=min(4, max(len(names), 1)),
+        fontsize=9,
+        title="mode (named from its eigenvector at each speed)",
+    )
     fig.suptitle(f"Root locus: {title}")
     png = io.BytesIO()
     fig.savefig(png, format="png", dpi=110)
@@ -127,19 +144,28 @@ def bifurcation_png(critical: CriticalSpeed, down, up, clearance: float, title: 
     """Limit-cycle amplitude against speed: the branch followed down from hunting and the
     one followed up from a small disturbance, with both critical speeds marked."""
     fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
-    for branch, marker, label in ((down, "o-", "speed lowered from hunting (limit cycle)"),
-                                  (up, "s--", "from a small disturbance at each speed")):
+    for branch, marker, label in (
+        (down, "o-", "speed lowered from hunting (limit cycle)"),
+        (up, "s--", "from a small disturbance at each speed"),
+    ):
         ax.plot(branch.speeds, np.asarray(branch.amplitudes) * 1e3, marker, ms=5, label=label)
     ax.axhline(clearance * 1e3, color="grey", linestyle=":", label=f"flangeway clearance {clearance * 1e3:g} mm")
     if critical.linear_critical_speed is not None:
-        ax.axvline(critical.linear_critical_speed, color="red", linestyle="--",
-                   label=f"linear critical speed {critical.linear_critical_speed:.1f} m/s")
+        ax.axvline(
+            critical.linear_critical_speed,
+            color="red",
+            linestyle="--",
+            label=f"linear critical speed {critical.linear_critical_speed:.1f} m/s",
+        )
     if critical.critical_speed is not None:
-        ax.axvline(critical.critical_speed, color="green", linestyle="--",
-                   label=f"nonlinear critical speed {critical.critical_speed:.1f} m/s "
-                         f"(speed lowered in {critical.step:.0%} steps)")
-    ax.set(xlabel="speed V (m/s)", ylabel="amplitude: largest wheelset |y| (mm)",
-           title=f"Bifurcation diagram: {title}")
+        ax.axvline(
+            critical.critical_speed,
+            color="green",
+            linestyle="--",
+            label=f"nonlinear critical speed {critical.critical_speed:.1f} m/s "
+            f"(speed lowered in {critical.step:.0%} steps)",
+        )
+    ax.set(xlabel="speed V (m/s)", ylabel="amplitude: largest wheelset |y| (mm)", title=f"Bifurcation diagram: {title}")
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", fontsize=9)
     png = io.BytesIO()
@@ -179,8 +205,16 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
     markers = "o^svD<>phX*"
     for k, (name, points) in enumerate(sorted(modes.items())):
         px, py = zip(*points)
-        ax.scatter(px, py, s=10, marker=markers[k % len(markers)], facecolors="none", edgecolors="black",
-                   linewidths=0.5, label=name)
+        ax.scatter(
+            px,
+            py,
+            s=10,
+            marker=markers[k % len(markers)],
+            facecolors="none",
+            edgecolors="black",
+            linewidths=0.5,
+            label=name,
+        )
     if stable:
         px, py = zip(*stable)
         ax.scatter(px, py, s=40, marker="s", color="lightgrey", edgecolors="grey", label="stable in the range searched")
@@ -216,8 +250,11 @@ def profile_png(profile: Profile) -> bytes:
         ax.axvline(0.0, color="grey", linestyle=":", label="head centreline (y = 0)")
     ax.plot(y, z, color="black", linewidth=1.2, label=f"surface ({len(y)} points)")
     ax.set_aspect("equal")
-    ax.set(xlabel="y (mm), positive towards the field side", ylabel="z (mm), up",
-           title=f"{profile.kind} profile {profile.name}" + (f" ({profile.source})" if profile.source else ""))
+    ax.set(
+        xlabel="y (mm), positive towards the field side",
+        ylabel="z (mm), up",
+        title=f"{profile.kind} profile {profile.name}" + (f" ({profile.source})" if profile.source else ""),
+    )
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=9)
     return _png(fig)
@@ -243,8 +280,11 @@ def conicity_png(amplitudes, conicity, title: str, harmonic=None, quoted: tuple[
         at, value = quoted
         ax.axvline(at, color="red", linestyle=":", linewidth=1.2)
         ax.plot([at], [value], "D", color="red", label=f"λe = {value:.4f} at ŷ = {at:g} mm")
-    ax.set(xlabel="amplitude ŷ (mm, half the peak-to-peak lateral motion)",
-           ylabel="equivalent conicity λe (-)", title=f"Equivalent conicity (EN 15302): {title}")
+    ax.set(
+        xlabel="amplitude ŷ (mm, half the peak-to-peak lateral motion)",
+        ylabel="equivalent conicity λe (-)",
+        title=f"Equivalent conicity (EN 15302): {title}",
+    )
     ax.set_xlim(left=0.0)
     ax.set_ylim(bottom=0.0)
     ax.grid(alpha=0.3)
@@ -269,8 +309,11 @@ def contact_geometry_png(table, title: str, conicity: float | None = None) -> by
     ax_dr.set(xlabel="lateral shift y (mm, to the left)", ylabel="Δr (mm)", title="rolling-radius difference")
     ax_angle.plot(y, np.degrees(table.contact_angle_left), label="left wheel")
     ax_angle.plot(y, np.degrees(table.contact_angle_right), label="right wheel")
-    ax_angle.set(xlabel="lateral shift y (mm, to the left)", ylabel="contact angle (degrees)",
-                 title="contact angles (track frame, roll included)")
+    ax_angle.set(
+        xlabel="lateral shift y (mm, to the left)",
+        ylabel="contact angle (degrees)",
+        title="contact angles (track frame, roll included)",
+    )
     for ax in (ax_dr, ax_angle):
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=9)
@@ -292,8 +335,11 @@ def contact_geometry_png(table, title: str, conicity: float | None = None) -> by
     ax_prof.set_xlim(rq.min() * 1e3 - 5, rq.max() * 1e3 + 5)
     ax_prof.set_ylim(rz.min() * 1e3 - 2, 12)
     ax_prof.set_aspect("equal")
-    ax_prof.set(xlabel="track y (mm, from the track centre, to the left)", ylabel="z (mm, up)",
-                title="left wheel on left rail: contact points (open circle: a second contact point)")
+    ax_prof.set(
+        xlabel="track y (mm, from the track centre, to the left)",
+        ylabel="z (mm, up)",
+        title="left wheel on left rail: contact points (open circle: a second contact point)",
+    )
     ax_prof.grid(alpha=0.3)
     ax_prof.legend(loc="lower right", fontsize=8)
     fig.suptitle(f"Contact geometry (rigid wheelset, zero yaw): {title}")

@@ -55,9 +55,9 @@ import rerun.blueprint as rrb
 
 from rail_mj.analysis import flange_strikes
 from rail_mj.files import staged
+from rail_mj.simulation.runner import Run
 from rail_mj.units import MM_PER_M, MRAD_PER_RAD, N_PER_KN
 from rail_mj.vehicle.model import RAIL_HEAD_WIDTH
-from rail_mj.simulation.runner import Run
 
 APP_ID = "rail-mj"
 TIME = "time"
@@ -98,9 +98,18 @@ AXIS_EDGES = (1, 1.5, 2, 3, 4, 5, 6, 10)  # times a power of ten: see axis_range
 
 # Series colours by wheelset (and by bogie), the same in every plot; the car body white.
 PALETTE = [
-    (86, 156, 255), (255, 110, 90), (90, 210, 110), (255, 200, 60), (200, 130, 255),
-    (60, 220, 210), (255, 140, 200), (180, 230, 80), (255, 160, 60), (140, 150, 255),
-    (200, 200, 200), (190, 140, 100),
+    (86, 156, 255),
+    (255, 110, 90),
+    (90, 210, 110),
+    (255, 200, 60),
+    (200, 130, 255),
+    (60, 220, 210),
+    (255, 140, 200),
+    (180, 230, 80),
+    (255, 160, 60),
+    (140, 150, 255),
+    (200, 200, 200),
+    (190, 140, 100),
 ]
 CARBODY_COLOUR = (235, 235, 235)
 
@@ -217,23 +226,31 @@ def plots(run: Run) -> list[Plot]:
     forces = run.contact_forces()
     y, psi = run.y, run.psi
     wheelsets = [(f"wheelset {i + 1}", PALETTE[i % len(PALETTE)]) for i in range(run.n_wheelsets)]
-    frames = [("car body", CARBODY_COLOUR) if name == "carbody"
-              else (name.replace("carbody", "car body "), CARBODY_COLOUR) if name.startswith("carbody")
-              else (name.replace("bogie", "bogie "), PALETTE[k % len(PALETTE)])
-              for k, name in enumerate(run.frame_names)]
+    frames = [
+        ("car body", CARBODY_COLOUR)
+        if name == "carbody"
+        else (name.replace("carbody", "car body "), CARBODY_COLOUR)
+        if name.startswith("carbody")
+        else (name.replace("bogie", "bogie "), PALETTE[k % len(PALETTE)])
+        for k, name in enumerate(run.frame_names)
+    ]
 
     def wheelset_series(path, unit, values):
-        return [Series(path(i), f"{label} ({unit})", colour, values[:, i])
-                for i, (label, colour) in enumerate(wheelsets)]
+        return [
+            Series(path(i), f"{label} ({unit})", colour, values[:, i]) for i, (label, colour) in enumerate(wheelsets)
+        ]
 
     def frame_series(path, unit, values):
-        return [Series(path(name), f"{label} ({unit})", colour, values[:, k])
-                for k, (name, (label, colour)) in enumerate(zip(run.frame_names, frames))]
+        return [
+            Series(path(name), f"{label} ({unit})", colour, values[:, k])
+            for k, (name, (label, colour)) in enumerate(zip(run.frame_names, frames))
+        ]
 
-    out = [Plot("Wheelsets: lateral y (mm)", wheelset_series(lateral_path, "mm", y * MM_PER_M)),
-           Plot("Wheelsets: yaw ψ (mrad)", wheelset_series(yaw_path, "mrad", psi * MRAD_PER_RAD)),
-           Plot("Wheelsets: ΣY guiding force (kN)",
-                wheelset_series(guiding_path, "kN", forces.lateral / N_PER_KN))]
+    out = [
+        Plot("Wheelsets: lateral y (mm)", wheelset_series(lateral_path, "mm", y * MM_PER_M)),
+        Plot("Wheelsets: yaw ψ (mrad)", wheelset_series(yaw_path, "mrad", psi * MRAD_PER_RAD)),
+        Plot("Wheelsets: ΣY guiding force (kN)", wheelset_series(guiding_path, "kN", forces.lateral / N_PER_KN)),
+    ]
     train = run.layout.train
     if train is not None:  # a train: each car's body, bogies and wheelsets together
         per_bogie = len(run.layout.bogie.wheelset_positions)
@@ -244,23 +261,40 @@ def plots(run: Run) -> list[Plot]:
         for k, car in enumerate(train.cars, start=1):
             mine = [index[f"carbody{k}"]] + [index[f"bogie{b}"] for b in car.bogies]
             axles = [(b - 1) * per_bogie + j for b in car.bogies for j in range(per_bogie)]
-            out += [Plot(f"Car {k}: lateral y (mm)", [lateral[m] for m in mine] + [wheel_lateral[i] for i in axles]),
-                    Plot(f"Car {k}: yaw ψ (mrad)", [yaw[m] for m in mine] + [wheel_yaw[i] for i in axles])]
+            out += [
+                Plot(f"Car {k}: lateral y (mm)", [lateral[m] for m in mine] + [wheel_lateral[i] for i in axles]),
+                Plot(f"Car {k}: yaw ψ (mrad)", [yaw[m] for m in mine] + [wheel_yaw[i] for i in axles]),
+            ]
     elif run.frame_names:
-        out += [Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM_PER_M)),
-                Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD_PER_RAD))]
+        out += [
+            Plot("Bogies, car body: lateral y (mm)", frame_series(frame_lateral_path, "mm", run.frame_y * MM_PER_M)),
+            Plot("Bogies, car body: yaw ψ (mrad)", frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD_PER_RAD)),
+        ]
     if run.layout.spatial is not None:  # what the spatial vehicle adds: roll, bounce, wheel loads
-        out += [Plot("Bogies, car body: roll φ (mrad)", frame_series(frame_roll_path, "mrad", run.frame_roll * MRAD_PER_RAD),
-                     floor=0.1),
-                Plot("Bogies, car body: bounce z (mm)", frame_series(frame_bounce_path, "mm", run.frame_bounce * MM_PER_M),
-                     floor=0.1)]
+        out += [
+            Plot(
+                "Bogies, car body: roll φ (mrad)",
+                frame_series(frame_roll_path, "mrad", run.frame_roll * MRAD_PER_RAD),
+                floor=0.1,
+            ),
+            Plot(
+                "Bogies, car body: bounce z (mm)",
+                frame_series(frame_bounce_path, "mm", run.frame_bounce * MM_PER_M),
+                floor=0.1,
+            ),
+        ]
         out += _wheel_plots(run, wheelsets)
     if run.layout.profiles is not None:  # the normal forces: gravitational stiffness and the flange
-        out.append(Plot("Wheelsets: normal forces, lateral part (kN)",
-                        wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)))
+        out.append(
+            Plot(
+                "Wheelsets: normal forces, lateral part (kN)",
+                wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN),
+            )
+        )
     elif run.layout.flange is not None:
-        out.append(Plot("Wheelsets: flange force (kN)",
-                        wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)))
+        out.append(
+            Plot("Wheelsets: flange force (kN)", wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN))
+        )
     return out
 
 
@@ -276,12 +310,17 @@ def _wheel_plots(run: Run, wheelsets) -> list[Plot]:
         for i, (label, colour) in enumerate(wheelsets):
             for k, side in enumerate(("left", "right")):
                 shade = colour if k == 0 else tuple(int(0.55 * c) for c in colour)
-                out.append(Series(path(i, side), f"{label} {side} ({unit})" if unit else f"{label} {side}", shade,
-                                  values[:, i, k]))
+                out.append(
+                    Series(
+                        path(i, side), f"{label} {side} ({unit})" if unit else f"{label} {side}", shade, values[:, i, k]
+                    )
+                )
         return out
 
-    return [Plot("Wheels: vertical load Q (kN)", series(wheel_load_path, "kN", loads / N_PER_KN), positive=True),
-            Plot(f"Wheels: derailment quotient Y/Q (limit {Y_OVER_Q_LIMIT:g})", series(quotient_path, "", quotients))]
+    return [
+        Plot("Wheels: vertical load Q (kN)", series(wheel_load_path, "kN", loads / N_PER_KN), positive=True),
+        Plot(f"Wheels: derailment quotient Y/Q (limit {Y_OVER_Q_LIMIT:g})", series(quotient_path, "", quotients)),
+    ]
 
 
 def axis_range(values, floor: float = 0.0, positive: bool = False) -> list[float]:
@@ -305,12 +344,17 @@ def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
     the flange strikes."""
     shown = plots(run) if shown is None else shown
     whole_run = rr.TimeRange(start=rr.TimeRangeBoundary.infinite(), end=rr.TimeRangeBoundary.infinite())
-    views = [rrb.TimeSeriesView(origin="/", contents=[s.path for s in p.series], name=p.title,
-                                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),
-                                axis_x=rrb.TimeAxis(view_range=whole_run),
-                                axis_y=rrb.ScalarAxis(range=axis_range([s.values for s in p.series], p.floor,
-                                                                       p.positive)))
-             for p in shown]
+    views = [
+        rrb.TimeSeriesView(
+            origin="/",
+            contents=[s.path for s in p.series],
+            name=p.title,
+            plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),
+            axis_x=rrb.TimeAxis(view_range=whole_run),
+            axis_y=rrb.ScalarAxis(range=axis_range([s.values for s in p.series], p.floor, p.positive)),
+        )
+        for p in shown
+    ]
     notes = [rrb.TextDocumentView(origin="/layout", name="Layout and run")]
     if _flanges(run):
         notes.append(rrb.TextLogView(origin=FLANGE_EVENTS, name="Flange strikes"))
@@ -320,14 +364,20 @@ def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
     # ahead of it and a little above, far enough to take in its length.
     distance = max(CAMERA_DISTANCE * float(np.ptp(extent[:, 0])), CAMERA_MIN_DISTANCE)
     direction = np.array(CAMERA_DIRECTION) / np.linalg.norm(CAMERA_DIRECTION)
-    eye = rrb.EyeControls3D(kind=rrb.Eye3DKind.Orbital, position=centre + distance * direction,
-                            look_target=centre, eye_up=[0.0, 0.0, 1.0], tracking_entity=_extent_path(run))
+    eye = rrb.EyeControls3D(
+        kind=rrb.Eye3DKind.Orbital,
+        position=centre + distance * direction,
+        look_target=centre,
+        eye_up=[0.0, 0.0, 1.0],
+        tracking_entity=_extent_path(run),
+    )
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Grid(*views, grid_columns=3 if len(views) > 4 else 2),
             rrb.Vertical(
-                rrb.Spatial3DView(origin="/world", name="Vehicle on the track (the camera follows it)",
-                                  eye_controls=eye),
+                rrb.Spatial3DView(
+                    origin="/world", name="Vehicle on the track (the camera follows it)", eye_controls=eye
+                ),
                 rrb.Tabs(*notes),
                 row_shares=[3, 2],
             ),
@@ -360,8 +410,7 @@ def log_run(rec: rr.RecordingStream, run: Run, rate: float | None = None) -> Non
 
 
 def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: list[Plot]) -> None:
-    rec.log("/layout", rr.TextDocument(_layout_text(run, keep), media_type=rr.MediaType.MARKDOWN),
-            static=True)
+    rec.log("/layout", rr.TextDocument(_layout_text(run, keep), media_type=rr.MediaType.MARKDOWN), static=True)
     indexes = [
         rr.TimeColumn(TIME, duration=run.t[keep]),
         rr.TimeColumn(DISTANCE, sequence=np.round(run.x[keep] * 1000.0).astype(np.int64)),
@@ -369,8 +418,11 @@ def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: lis
     logged = set()  # a series shown twice (a Jacobs bogie under two cars) is sent once
     for series in (s for p in shown for s in p.series if not (s.path in logged or logged.add(s.path))):
         # MinMax: zoomed out, a pixel spans cycles of hunting; the default average flattens them.
-        rec.log(series.path, rr.SeriesLines(names=series.label, colors=[series.colour],
-                                            aggregation_policy="MinMax"), static=True)
+        rec.log(
+            series.path,
+            rr.SeriesLines(names=series.label, colors=[series.colour], aggregation_policy="MinMax"),
+            static=True,
+        )
         rec.send_columns(series.path, indexes=indexes, columns=rr.Scalars.columns(scalars=series.values[keep]))
     if _flanges(run):
         log_flange_strikes(rec, run)
@@ -390,12 +442,19 @@ def log_flange_strikes(rec: rr.RecordingStream, run: Run) -> None:
     order = np.argsort([s.start for s in strikes], kind="stable")
     strikes = [strikes[k] for k in order]
     starts = np.array([s.start for s in strikes])
-    lines = [f"wheelset {s.wheelset + 1} flange strikes the {'left' if s.side > 0 else 'right'} rail "
-             f"at x = {run.x[s.start]:.2f} m" for s in strikes]
-    rec.send_columns(FLANGE_EVENTS, indexes=[
-        rr.TimeColumn(TIME, duration=run.t[starts]),
-        rr.TimeColumn(DISTANCE, sequence=np.round(run.x[starts] * 1000.0).astype(np.int64)),
-    ], columns=rr.TextLog.columns(text=lines, level=["WARN"] * len(lines)))
+    lines = [
+        f"wheelset {s.wheelset + 1} flange strikes the {'left' if s.side > 0 else 'right'} rail "
+        f"at x = {run.x[s.start]:.2f} m"
+        for s in strikes
+    ]
+    rec.send_columns(
+        FLANGE_EVENTS,
+        indexes=[
+            rr.TimeColumn(TIME, duration=run.t[starts]),
+            rr.TimeColumn(DISTANCE, sequence=np.round(run.x[starts] * 1000.0).astype(np.int64)),
+        ],
+        columns=rr.TextLog.columns(text=lines, level=["WARN"] * len(lines)),
+    )
 
 
 def _xyzw(wxyz: np.ndarray) -> np.ndarray:
@@ -415,8 +474,11 @@ def _geom_archetype(model: mujoco.MjModel, g: int):
         m = model.geom_dataid[g]
         v0, nv = model.mesh_vertadr[m], model.mesh_vertnum[m]
         f0, nf = model.mesh_faceadr[m], model.mesh_facenum[m]
-        return rr.Mesh3D(vertex_positions=model.mesh_vert[v0:v0 + nv],
-                         triangle_indices=model.mesh_face[f0:f0 + nf], albedo_factor=colour)
+        return rr.Mesh3D(
+            vertex_positions=model.mesh_vert[v0 : v0 + nv],
+            triangle_indices=model.mesh_face[f0 : f0 + nf],
+            albedo_factor=colour,
+        )
     return None
 
 
@@ -458,20 +520,25 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes) ->
         body = model.body(model.geom_bodyid[g]).name
         if shape is not None:
             path = f"/world/vehicle/{body}/{model.geom(g).name}"
-            rec.log(path, rr.Transform3D(translation=model.geom_pos[g],
-                                         quaternion=_xyzw(model.geom_quat[g])), static=True)
+            rec.log(
+                path, rr.Transform3D(translation=model.geom_pos[g], quaternion=_xyzw(model.geom_quat[g])), static=True
+            )
             rec.log(path, shape, static=True)
     root = model.body(_root(run)).id
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    rec.log(_extent_path(run), rr.Points3D(_extent(run) - data.xpos[root], radii=0.0,
-                                           colors=[(0, 0, 0, 0)]), static=True)
+    rec.log(
+        _extent_path(run), rr.Points3D(_extent(run) - data.xpos[root], radii=0.0, colors=[(0, 0, 0, 0)]), static=True
+    )
     pos = run.body_pos[keep].copy()
     pos[:, :, 0] += run.x[keep, None]
     quat = _xyzw(run.body_quat[keep])
     for b in range(1, model.nbody):
-        rec.send_columns(f"/world/vehicle/{model.body(b).name}", indexes=indexes,
-                         columns=rr.Transform3D.columns(translation=pos[:, b], quaternion=quat[:, b]))
+        rec.send_columns(
+            f"/world/vehicle/{model.body(b).name}",
+            indexes=indexes,
+            columns=rr.Transform3D.columns(translation=pos[:, b], quaternion=quat[:, b]),
+        )
     log_track(rec, run)
 
 
@@ -480,15 +547,27 @@ def log_track(rec: rr.RecordingStream, run: Run) -> None:
     b = run.layout.wheelset.contact_half_spacing
     start, end = float(run.x[0]) - TRACK_MARGIN, float(run.x[-1]) + TRACK_MARGIN
     length = end - start
-    rec.log("/world/rails", rr.Boxes3D(
-        centers=[[start + length / 2, side * b, -0.08] for side in (1, -1)],
-        half_sizes=[[length / 2, RAIL_HEAD_WIDTH / 2, 0.08]] * 2,
-        colors=[[190, 190, 200]] * 2, fill_mode="solid"), static=True)
+    rec.log(
+        "/world/rails",
+        rr.Boxes3D(
+            centers=[[start + length / 2, side * b, -0.08] for side in (1, -1)],
+            half_sizes=[[length / 2, RAIL_HEAD_WIDTH / 2, 0.08]] * 2,
+            colors=[[190, 190, 200]] * 2,
+            fill_mode="solid",
+        ),
+        static=True,
+    )
     x = np.arange(math.ceil(start / SLEEPER_SPACING), math.floor(end / SLEEPER_SPACING) + 1) * SLEEPER_SPACING
-    rec.log("/world/sleepers", rr.Boxes3D(
-        centers=np.column_stack([x, np.zeros_like(x), np.full_like(x, -0.16 - 0.11)]),
-        half_sizes=np.tile([0.13, b + 0.5, 0.11], (len(x), 1)),
-        colors=[[110, 100, 90]], fill_mode="solid"), static=True)
+    rec.log(
+        "/world/sleepers",
+        rr.Boxes3D(
+            centers=np.column_stack([x, np.zeros_like(x), np.full_like(x, -0.16 - 0.11)]),
+            half_sizes=np.tile([0.13, b + 0.5, 0.11], (len(x), 1)),
+            colors=[[110, 100, 90]],
+            fill_mode="solid",
+        ),
+        static=True,
+    )
 
 
 def save_recording(run: Run, path: str | Path, rate: float | None = None) -> None:

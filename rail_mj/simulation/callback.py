@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.contact.creep import wheelset_forces
-from rail_mj.vehicle.block import contact_parameters  # noqa: F401  (re-exported)
+from rail_mj.vehicle.block import contact_parameters
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
 
 
@@ -63,8 +63,7 @@ class CreepForces:
         jy, jpsi = self._jacp[:, 1, :], self._jacr[:, 2, :]
         xmat = data.xmat[self.body_ids]
         # Yaw from the body rotation: atan2(R10, R00) of the row-major 3x3 xmat.
-        states = (data.xpos[self.body_ids, 1], np.arctan2(xmat[:, 3], xmat[:, 0]),
-                  jy @ data.qvel, jpsi @ data.qvel)
+        states = (data.xpos[self.body_ids, 1], np.arctan2(xmat[:, 3], xmat[:, 0]), jy @ data.qvel, jpsi @ data.qvel)
         return states, jy, jpsi
 
     def __call__(self, model, data):

@@ -32,8 +32,12 @@ def modal_roots(A: np.ndarray) -> np.ndarray:
     return lam[np.abs(lam) > RIGID_TOLERANCE * np.max(np.abs(lam))]
 
 
-def state_matrix(model: mujoco.MjModel, forces: CreepForces | None = None,
-                 data: mujoco.MjData | None = None, qpos0: np.ndarray | None = None) -> np.ndarray:
+def state_matrix(
+    model: mujoco.MjModel,
+    forces: CreepForces | None = None,
+    data: mujoco.MjData | None = None,
+    qpos0: np.ndarray | None = None,
+) -> np.ndarray:
     """A (2nv x 2nv) of `model` with the creep forces acting, about qpos = qpos0 (default
     the centred state, 0) and qvel = 0: `forces` (the Python callback), or by default the
     native one at the speed the model carries (`rail_mj.simulation.native.set_speed`)."""

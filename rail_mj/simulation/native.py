@@ -54,10 +54,18 @@ from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-expo
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
 
 _VALUE_TYPES = {
-    "mjtNum": ctypes.c_double, "double": ctypes.c_double, "float": ctypes.c_float,
-    "mjtSize": ctypes.c_int64, "int": ctypes.c_int, "unsigned int": ctypes.c_uint,
-    "size_t": ctypes.c_size_t, "uintptr_t": ctypes.c_size_t, "uint64_t": ctypes.c_uint64,
-    "mjtBool": ctypes.c_ubyte, "mjtByte": ctypes.c_ubyte, "char": ctypes.c_char,
+    "mjtNum": ctypes.c_double,
+    "double": ctypes.c_double,
+    "float": ctypes.c_float,
+    "mjtSize": ctypes.c_int64,
+    "int": ctypes.c_int,
+    "unsigned int": ctypes.c_uint,
+    "size_t": ctypes.c_size_t,
+    "uintptr_t": ctypes.c_size_t,
+    "uint64_t": ctypes.c_uint64,
+    "mjtBool": ctypes.c_ubyte,
+    "mjtByte": ctypes.c_ubyte,
+    "char": ctypes.c_char,
 }
 
 
@@ -78,8 +86,9 @@ def _ctype(declared, structs):
         if declared.name.startswith("mjt"):  # an enum
             return ctypes.c_int
     if kind == "AnonymousStructDecl":
-        return type("anonymous", (ctypes.Structure,),
-                    {"_fields_": [(f.name, _ctype(f.type, structs)) for f in declared.fields]})
+        return type(
+            "anonymous", (ctypes.Structure,), {"_fields_": [(f.name, _ctype(f.type, structs)) for f in declared.fields]}
+        )
     raise NativeError(f"MuJoCo {mujoco.__version__}: cannot lay out a field of type {declared}")
 
 
@@ -107,12 +116,15 @@ def _offsets() -> tuple[int, ...]:
         model_layout = _struct("mjModel", structs.STRUCTS)
         data_layout = _struct("mjData", structs.STRUCTS)
     except (KeyError, AttributeError) as e:
-        raise NativeError(f"MuJoCo {mujoco.__version__}: its struct declarations are not as expected "
-                          f"({e}); use the Python callback (rail_mj.simulation.callback)") from None
+        raise NativeError(
+            f"MuJoCo {mujoco.__version__}: its struct declarations are not as expected "
+            f"({e}); use the Python callback (rail_mj.simulation.callback)"
+        ) from None
     model = mujoco.MjModel.from_xml_string(
         '<mujoco><custom><numeric name="probe" data="1 2 3"/></custom><worldbody><body>'
         '<joint name="j" type="hinge"/><geom size="0.1"/></body></worldbody>'
-        '<tendon><fixed stiffness="1"><joint joint="j" coef="1"/></fixed></tendon></mujoco>')
+        '<tendon><fixed stiffness="1"><joint joint="j" coef="1"/></fixed></tendon></mujoco>'
+    )
     data = mujoco.MjData(model)
     offsets = []
     for layout, obj, names in ((model_layout, model, MODEL_FIELDS), (data_layout, data, DATA_FIELDS)):
@@ -121,15 +133,16 @@ def _offsets() -> tuple[int, ...]:
             value = getattr(obj, name)
             expected = value.ctypes.data if isinstance(value, np.ndarray) else value
             if getattr(live, name) != expected:
-                raise NativeError(f"MuJoCo {mujoco.__version__}: {layout.__name__}.{name} is not where its "
-                                  f"declaration puts it; use the Python callback (rail_mj.simulation.callback)")
+                raise NativeError(
+                    f"MuJoCo {mujoco.__version__}: {layout.__name__}.{name} is not where its "
+                    f"declaration puts it; use the Python callback (rail_mj.simulation.callback)"
+                )
             offsets.append(getattr(layout, name).offset)
     return tuple(offsets)
 
 
-
-
 # --- the callback -------------------------------------------------------------------------
+
 
 @intrinsic
 def _size_at(typingctx, base, offset):
@@ -161,7 +174,7 @@ def _wheelset_rates(chain, n, qvel, xpos, xanchor, xaxis, body):
     world: v = sum of slide axes and of hinge axes x (point - anchor), times the joint rate."""
     vy = 0.0
     wz = 0.0
-    px, py = xpos[3 * body], xpos[3 * body + 1]
+    px = xpos[3 * body]
     for c in range(n):
         j, dof, hinge = int(chain[3 * c]), int(chain[3 * c + 1]), chain[3 * c + 2]
         ax, ay, az = xaxis[3 * j], xaxis[3 * j + 1], xaxis[3 * j + 2]
@@ -182,8 +195,23 @@ def _tendon_force(stiffness, damping, springlength, length, velocity, t):
 
 
 @numba.njit(cache=True)
-def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, off_springlength, off_qvel, off_xpos,
-           off_xmat, off_xanchor, off_xaxis, off_length, off_velocity, off_force):
+def _apply(
+    model,
+    data,
+    off_nnumeric,
+    off_numeric,
+    off_stiffness,
+    off_damping,
+    off_springlength,
+    off_qvel,
+    off_xpos,
+    off_xmat,
+    off_xanchor,
+    off_xaxis,
+    off_length,
+    off_velocity,
+    off_force,
+):
     """Add every vehicle's contact forces to qfrc_passive: J^T [Fy, Mz] at each wheelset's
     origin, over the slide and hinge joints between it and the world. A model without the
     block (not rail-mj's) is left alone."""
@@ -213,7 +241,7 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
         k += rows * COLUMNS
         for i in range(n):
             body, count = int(block[k]), int(block[k + 1])
-            chain = numba.carray(block, (k + 2 + 3 * count,))[k + 2:]
+            chain = numba.carray(block, (k + 2 + 3 * count,))[k + 2 :]
             k += 2 + 3 * count
             weight, nominal, spin_inertia = block[k], block[k + 1], block[k + 2]
             cone_gravity, tendons = block[k + 3] != 0.0, int(block[k + 4])
@@ -237,11 +265,26 @@ def _apply(model, data, off_nnumeric, off_numeric, off_stiffness, off_damping, o
             psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
             if rows > 0:
-                f = profiled_contact(geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed, load, moment,
-                                     spin_inertia)
+                f = profiled_contact(
+                    geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed, load, moment, spin_inertia
+                )
             else:
-                f = wheelset_contact(table[:, i], law, flange, falling, y, psi, y_dot, psi_dot, speed, load, moment,
-                                     nominal, spin_inertia, cone_gravity)
+                f = wheelset_contact(
+                    table[:, i],
+                    law,
+                    flange,
+                    falling,
+                    y,
+                    psi,
+                    y_dot,
+                    psi_dot,
+                    speed,
+                    load,
+                    moment,
+                    nominal,
+                    spin_inertia,
+                    cone_gravity,
+                )
             fy, mz = f[0] + f[1], f[2] + f[3] + f[4]
             if f[9] != 0.0:  # the gyroscopic yaw moment (as the kernel adds it)
                 mz += f[9]

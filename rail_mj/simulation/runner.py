@@ -23,23 +23,22 @@ import functools
 import math
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
 from mujoco import rollout
 
 from rail_mj.contact.creep import ContactForces, contact_forces
-from rail_mj.simulation.callback import CreepForces, installed
-from rail_mj.vehicle.block import contact_parameters
 from rail_mj.layout import Layout
-from rail_mj.vehicle.loads import AxleLoads, ShearCouples
 from rail_mj.layout.practice import DERAILMENT_LATERAL
-from rail_mj.simulation.linear import modal_roots, state_matrix
-from rail_mj.vehicle.model import NUMERIC_GEOMETRY, YAW, Vehicle
 from rail_mj.simulation import native
+from rail_mj.simulation.callback import CreepForces, installed
+from rail_mj.simulation.linear import modal_roots, state_matrix
 from rail_mj.vehicle import block
-from rail_mj.vehicle.block import set_speed
+from rail_mj.vehicle.block import contact_parameters, set_speed
+from rail_mj.vehicle.loads import AxleLoads, ShearCouples
+from rail_mj.vehicle.model import NUMERIC_GEOMETRY, YAW, Vehicle
 
 # RK4 is stable for |lambda|*dt up to 2.78 on the real axis and 2.83 on the imaginary
 # axis; 1.0 for the fastest mode lambda of the linearised vehicle leaves margin, and the
@@ -54,7 +53,7 @@ CHECK_EVERY = 500  # samples between divergence checks (and progress reports)
 class SimulationError(RuntimeError):
     """A run that cannot be done or that diverged; the message says why, in one line."""
 
-    def __init__(self, message: str, run: "Run | None" = None):
+    def __init__(self, message: str, run: Run | None = None):
         super().__init__(message)
         self.run = run  # what was simulated before the failure, if anything
 
@@ -99,11 +98,27 @@ class Run:
         rates = self.wheelset_rates
         loads = self.axle_loads
         if loads is None or np.isnan(loads).all():
-            return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed,
-                                  nominal=self.layout.wheelset.wheel_load)
+            return contact_forces(
+                params,
+                self.y,
+                self.psi,
+                rates[..., 0],
+                rates[..., 1],
+                self.speed,
+                nominal=self.layout.wheelset.wheel_load,
+            )
         axle = AxleLoads.of(self.vehicle.model, self.vehicle.wheelset_names)
-        return contact_forces(params, self.y, self.psi, rates[..., 0], rates[..., 1], self.speed,
-                              loads[..., 0], loads[..., 1], **axle.contact())
+        return contact_forces(
+            params,
+            self.y,
+            self.psi,
+            rates[..., 0],
+            rates[..., 1],
+            self.speed,
+            loads[..., 0],
+            loads[..., 1],
+            **axle.contact(),
+        )
 
     def guiding_forces(self) -> np.ndarray:
         """(n_samples, n_wheelsets): the sum of guiding forces (Sigma Y, N) of each
@@ -278,8 +293,11 @@ def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> floa
         # rates: linearise there too, the whole vehicle pressed 2 mm into the flanges; on
         # profiles, in the table's step where the contact jumps onto the flange (the
         # normal force's lateral part rises by ~2 W over 0.05 mm: the stiffest place).
-        shift = (layout.wheelset.flangeway_clearance + 0.002 if layout.profiles is None
-                 else layout.wheelset.flangeway_clearance - 0.5 * _table_header(vehicle.model)[1])
+        shift = (
+            layout.wheelset.flangeway_clearance + 0.002
+            if layout.profiles is None
+            else layout.wheelset.flangeway_clearance - 0.5 * _table_header(vehicle.model)[1]
+        )
         qpos0 = np.zeros(vehicle.model.nq)
         qpos0[vehicle.root_lateral_dofs] = shift
         engaged = state_matrix(vehicle.model, forces, qpos0=qpos0)
@@ -356,9 +374,11 @@ def prepare(request: Request, python_callback: bool = False) -> _Prepared:
     if not steps <= MAX_STEPS:  # also catches inf from an absurdly slow run
         w, c = layout.wheelset, layout.creep
         creep_rate = 2 * c.f22 / (speed * w.mass)  # lateral creep damping / wheelset mass
-        cause = (f"the creep damping 2*f22/V = {2 * c.f22 / speed:.3g} N s/m on a {w.mass:g} kg "
-                 f"wheelset" if creep_rate * dt > 0.5 * STEP_FRACTION
-                 else "the fastest mode of the linearised vehicle")
+        cause = (
+            f"the creep damping 2*f22/V = {2 * c.f22 / speed:.3g} N s/m on a {w.mass:g} kg wheelset"
+            if creep_rate * dt > 0.5 * STEP_FRACTION
+            else "the fastest mode of the linearised vehicle"
+        )
         raise RunRefused(
             f"{speed:g} m/s for {distance:g} m is too slow to simulate: {cause} needs a timestep "
             f"of {dt:.2g} s, {steps:.3g} steps (limit {MAX_STEPS:.0e}); raise --speed or "
@@ -400,9 +420,13 @@ def simulate(
 PACK = 8
 
 
-def simulate_many(requests: list[Request], threads: int = 1, derailment_lateral: float = DERAILMENT_LATERAL,
-                  finished: Callable[[int, "Run | Exception", float], None] | None = None,
-                  stop: threading.Event | None = None) -> list[Run | Exception]:
+def simulate_many(
+    requests: list[Request],
+    threads: int = 1,
+    derailment_lateral: float = DERAILMENT_LATERAL,
+    finished: Callable[[int, Run | Exception, float], None] | None = None,
+    stop: threading.Event | None = None,
+) -> list[Run | Exception]:
     """Many runs stepped together, each result exactly the Run that `simulate` gives for its
     request, bit for bit, or the exception it raises (ValueError, SimulationError).
 
@@ -447,7 +471,7 @@ def simulate_many(requests: list[Request], threads: int = 1, derailment_lateral:
             def work() -> None:
                 try:
                     _work(queue, size, done, derailment_lateral)
-                except BaseException as e:  # noqa: BLE001 - raised again in the calling thread
+                except BaseException as e:
                     errors.append(e)
                     queue.cancel()
 
@@ -563,8 +587,16 @@ class _Running:
     def partial(self, k: int) -> Run:
         """The Run of its first k samples (what was simulated before a failure)."""
         p = self.prepared
-        return Run(p.vehicle, p.request.speed, p.timestep, self.t()[:k], self.pos[:k].copy(), self.quat[:k].copy(),
-                   self.rates[:k].copy(), axle_loads=self.loads[:k].copy())
+        return Run(
+            p.vehicle,
+            p.request.speed,
+            p.timestep,
+            self.t()[:k],
+            self.pos[:k].copy(),
+            self.quat[:k].copy(),
+            self.rates[:k].copy(),
+            axle_loads=self.loads[:k].copy(),
+        )
 
 
 @dataclasses.dataclass
@@ -579,10 +611,15 @@ class _Place:
     yaw: np.ndarray  # qpos entries of its wheelsets' yaw joints
 
     @classmethod
-    def whole(cls, vehicle: Vehicle) -> "_Place":
+    def whole(cls, vehicle: Vehicle) -> _Place:
         model = vehicle.model
-        return cls(vehicle.sensors, np.arange(model.nq), np.arange(model.nv),
-                   vehicle.root_lateral_dofs, vehicle.wheelset_dofs(YAW))
+        return cls(
+            vehicle.sensors,
+            np.arange(model.nq),
+            np.arange(model.nv),
+            vehicle.root_lateral_dofs,
+            vehicle.wheelset_dofs(YAW),
+        )
 
 
 class _Pack:
@@ -599,7 +636,9 @@ class _Pack:
             vehicle = runs[0].prepared.vehicle
             self.model, self.places = vehicle.model, [_Place.whole(vehicle)]
         else:
-            self.model, self.places = _pack([r.prepared.vehicle for r in runs], [r.prepared.request.speed for r in runs])
+            self.model, self.places = _pack(
+                [r.prepared.vehicle for r in runs], [r.prepared.request.speed for r in runs]
+            )
         model = self.model
         model.opt.timestep = runs[0].prepared.timestep
         # A run that blows up must stay blown up (non-finite), not be reset by MuJoCo to its
@@ -644,9 +683,14 @@ class _Pack:
 def _unconstrained(model: mujoco.MjModel) -> bool:
     """Whether nothing in the model makes a constraint: no contacts, equalities, limits,
     friction loss or tendons (so mjDSBL_CONSTRAINT changes nothing but the time)."""
-    return (bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT) and model.neq == 0
-            and model.ntendon == 0 and model.nflex == 0 and not np.any(model.jnt_limited)
-            and not np.any(model.dof_frictionloss))
+    return (
+        bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
+        and model.neq == 0
+        and model.ntendon == 0
+        and model.nflex == 0
+        and not np.any(model.jnt_limited)
+        and not np.any(model.dof_frictionloss)
+    )
 
 
 def _pack(vehicles: list[Vehicle], speeds: list[float]):
@@ -676,8 +720,17 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     for k, (vehicle, speed) in enumerate(zip(vehicles, speeds)):
         bodies = [model.body(f"v{k}/{w}").id for w in vehicle.wheelset_names]
         loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
-        entries.append(block.vehicle_block(model, bodies, contact_parameters(vehicle.model, len(bodies)), speed,
-                                            loads, prefix=f"v{k}/", couples=ShearCouples.of(vehicle.model)))
+        entries.append(
+            block.vehicle_block(
+                model,
+                bodies,
+                contact_parameters(vehicle.model, len(bodies)),
+                speed,
+                loads,
+                prefix=f"v{k}/",
+                couples=ShearCouples.of(vehicle.model),
+            )
+        )
     native_numeric.data = block.block(entries).tolist()
     model = compile_spec(parent, layout)
     places = []
@@ -687,8 +740,15 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
         qpos = np.array([model.jnt_qposadr[j] for j in joints], dtype=np.int64)
         qvel = np.array([model.jnt_dofadr[j] for j in joints], dtype=np.int64)
         # Each own joint is one coordinate (slide or hinge): own index -> packed index.
-        places.append(_Place(Sensors(model, vehicle.wheelset_names, prefix=f"v{k}/"), qpos, qvel,
-                             qpos[vehicle.root_lateral_dofs], qpos[vehicle.wheelset_dofs(YAW)]))
+        places.append(
+            _Place(
+                Sensors(model, vehicle.wheelset_names, prefix=f"v{k}/"),
+                qpos,
+                qvel,
+                qpos[vehicle.root_lateral_dofs],
+                qpos[vehicle.wheelset_dofs(YAW)],
+            )
+        )
     return model, places
 
 
@@ -706,10 +766,11 @@ class _Roller:
             self._states = np.empty(nstep * nstate)
         if self._readings.size < nstep * nsensor:
             self._readings = np.empty(nstep * nsensor)
-        states = self._states[:nstep * nstate].reshape(1, nstep, nstate)
-        readings = self._readings[:nstep * nsensor].reshape(1, nstep, nsensor)
-        self._rollout.rollout([model], [data], start[None], skip_checks=True, nstep=nstep, state=states,
-                              sensordata=readings)
+        states = self._states[: nstep * nstate].reshape(1, nstep, nstate)
+        readings = self._readings[: nstep * nsensor].reshape(1, nstep, nsensor)
+        self._rollout.rollout(
+            [model], [data], start[None], skip_checks=True, nstep=nstep, state=states, sensordata=readings
+        )
         return states[0], readings[0]
 
 
@@ -723,21 +784,29 @@ def _work(queue: _Queue, size: int, done, derailment_lateral: float) -> None:
         _drive(_Pack([_Running(k, p) for k, p in items]), roller, done, derailment_lateral, None, queue)
 
 
-def _alone(prepared: _Prepared, derailment_lateral: float, progress=None) -> "Run | SimulationError":
+def _alone(prepared: _Prepared, derailment_lateral: float, progress=None) -> Run | SimulationError:
     """One run on its own, in its vehicle's own model: what `simulate` steps."""
     outcome = []
     forces = prepared.forces
     with installed(forces) if forces else native.installed(), _stepping():
-        later = _drive(_Pack([_Running(0, prepared)], alone=True), _Roller(),
-                       lambda k, result, seconds: outcome.append(result), derailment_lateral, forces, None, progress)
+        later = _drive(
+            _Pack([_Running(0, prepared)], alone=True),
+            _Roller(),
+            lambda k, result, seconds: outcome.append(result),
+            derailment_lateral,
+            forces,
+            None,
+            progress,
+        )
     for make in later:  # outside the callback's block: the cause linearises
         outcome.append(make())
     (result,) = outcome
     return result
 
 
-def _drive(pack: _Pack, roller: _Roller, done, derailment_lateral: float, forces, queue: _Queue | None,
-           progress=None) -> list:
+def _drive(
+    pack: _Pack, roller: _Roller, done, derailment_lateral: float, forces, queue: _Queue | None, progress=None
+) -> list:
     """Step `pack` until its runs have covered their distances (and those that take their
     places from `queue`), telling `done(k, result, seconds)` each result. MuJoCo steps in
     chunks of CHECK_EVERY samples (`mujoco.rollout`) and measures every body with its
@@ -768,11 +837,17 @@ def _drive(pack: _Pack, roller: _Roller, done, derailment_lateral: float, forces
                 if pack.alone:
                     at = (min(r.done + count, r.count) - 1) * (every * dt)
                     speed = r.prepared.request.speed
-                    done(r.index, SimulationError(
-                        f"diverged by t = {at:.4g} s (x = {speed * at:.4g} m): MuJoCo reported "
-                        f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at "
-                        f"{speed:g} m/s; the suspension or creep stiffness is too high for "
-                        f"this step", r.partial(r.done)), r.seconds)
+                    done(
+                        r.index,
+                        SimulationError(
+                            f"diverged by t = {at:.4g} s (x = {speed * at:.4g} m): MuJoCo reported "
+                            f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at "
+                            f"{speed:g} m/s; the suspension or creep stiffness is too high for "
+                            f"this step",
+                            r.partial(r.done),
+                        ),
+                        r.seconds,
+                    )
                 else:
                     done(r.index, _alone(r.prepared, derailment_lateral), r.seconds)
             return later
@@ -872,25 +947,42 @@ def _records(vehicle: Vehicle, n_samples: int):
     """Empty arrays for a run's body positions, quaternions and rates, filled as it goes
     (the memory is touched then, a chunk at a time, not all before the first step)."""
     nbody, n = vehicle.model.nbody, vehicle.n_wheelsets
-    return (np.empty((n_samples, nbody, 3)), np.empty((n_samples, nbody, 4)), np.empty((n_samples, n, 2)),
-            np.empty((n_samples, n, 2)))
+    return (
+        np.empty((n_samples, nbody, 3)),
+        np.empty((n_samples, nbody, 4)),
+        np.empty((n_samples, n, 2)),
+        np.empty((n_samples, n, 2)),
+    )
 
 
-def _derailed(p: _Prepared, worst: int, j: int, t, derailment_lateral: float, forces, run) -> "Derailed":
+def _derailed(p: _Prepared, worst: int, j: int, t, derailment_lateral: float, forces, run) -> Derailed:
     """Why a wheelset left the rails: the speed (a linear mode grows) or the start."""
     r = p.request
     derailment_lateral = p.derailment(derailment_lateral)
-    why = ("its wheel climbed the flange (past the profiles' contact table)" if r.layout.profiles else
-           "the flanges did not hold it" if r.layout.flange else
-           "without [flange] contact nothing bounds the motion")
+    why = (
+        "its wheel climbed the flange (past the profiles' contact table)"
+        if r.layout.profiles
+        else "the flanges did not hold it"
+        if r.layout.flange
+        else "without [flange] contact nothing bounds the motion"
+    )
     if _linearly_stable(p.vehicle, forces):
-        start = (f"the start (shifted {r.initial_lateral:g} m, yawed {r.initial_yaw:g} rad)"
-                 if r.state is None else "the state it started from")
-        cause = (f"At {r.speed:g} m/s the centred vehicle is stable (every linear mode decays), "
-                 f"so {start} was too large a disturbance and {why}; start nearer the centre")
+        start = (
+            f"the start (shifted {r.initial_lateral:g} m, yawed {r.initial_yaw:g} rad)"
+            if r.state is None
+            else "the state it started from"
+        )
+        cause = (
+            f"At {r.speed:g} m/s the centred vehicle is stable (every linear mode decays), "
+            f"so {start} was too large a disturbance and {why}; start nearer the centre"
+        )
     else:
-        cause = (f"{r.speed:g} m/s is above this vehicle's critical speed (a linear mode grows), "
-                 f"and {why}; lower --speed or shorten --distance")
+        cause = (
+            f"{r.speed:g} m/s is above this vehicle's critical speed (a linear mode grows), "
+            f"and {why}; lower --speed or shorten --distance"
+        )
     return Derailed(
         f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
-        f"x = {r.speed * t[j]:.4g} m (t = {t[j]:.4g} s). {cause}", run)
+        f"x = {r.speed * t[j]:.4g} m (t = {t[j]:.4g} s). {cause}",
+        run,
+    )

@@ -1,6 +1,6 @@
 """Many cases: parameter sweeps and stability maps, on local threads or a Dask cluster.
 
-    sweep.py       cases over layout keys and speeds, their rows, resumable journals
+sweep.py       cases over layout keys and speeds, their rows, resumable journals
 """
 
 from rail_mj import _lazy

@@ -6,7 +6,8 @@ speed as well. Runs are stepped many at a time (rail_mj.simulation.runner.simula
 vehicles to a MuJoCo model, a model on each thread), each with exactly the result it
 would have alone, and each row is summarised as its run ends; critical speeds are
 computed a case a thread (`run_case`). Every row is a function of its case alone, so
-any executor gives the same rows: this machine's cores by default, or a Dask cluster. Finished rows are appended to a journal beside the output as they come;
+any executor gives the same rows: this machine's cores by default, or a Dask cluster.
+Finished rows are appended to a journal beside the output as they come;
 the same sweep started again keeps them and runs only the rest, and the output is written
 whole at the end, sorted by case.
 
@@ -32,9 +33,10 @@ import queue
 import threading
 import time
 import tomllib
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -48,10 +50,19 @@ STATUSES = ("ok", "diverged", "refused", "failed")
 
 # The result columns of each method, after the case's parameters and speed.
 RESULTS = {
-    "run": ("max_abs_lateral_m", "final_abs_lateral_m", "growth_rate_per_s", "frequency_hz",
-            "wavelength_m", "decayed", "flange_contact", "hunting", "hunting_rms_n", "hunting_limit_n"),
-    "critical": ("critical_speed_m_per_s", "frequency_hz", "mode", "linear_critical_speed_m_per_s", "outcome",
-                 "note"),
+    "run": (
+        "max_abs_lateral_m",
+        "final_abs_lateral_m",
+        "growth_rate_per_s",
+        "frequency_hz",
+        "wavelength_m",
+        "decayed",
+        "flange_contact",
+        "hunting",
+        "hunting_rms_n",
+        "hunting_limit_n",
+    ),
+    "critical": ("critical_speed_m_per_s", "frequency_hz", "mode", "linear_critical_speed_m_per_s", "outcome", "note"),
 }
 TAIL = ("status", "message", "wall_time_s", "case_key")
 
@@ -115,7 +126,7 @@ def _set(node: Any, key: str, parts: list[str], value: Any) -> None:
         if isinstance(node, list):
             if table == "*":
                 for item in node:
-                    _set(item, key, tables[k + 1:] + [name], value)
+                    _set(item, key, tables[k + 1 :] + [name], value)
                 return
             if not (table.isdigit() and 1 <= int(table) <= len(node)):
                 raise SweepError(f"{key}: {table!r} must number one of the {len(node)} entries (from 1), or be *")
@@ -155,9 +166,15 @@ class Case:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def plan(layout_path: str | Path, speeds: tuple[float, float, int], sets: Iterable[str] = (),
-         grids: Iterable[str] = (), method: str = "run", distance: float = DEFAULT_DISTANCE,
-         recordings: str | Path | None = None) -> list[Case]:
+def plan(
+    layout_path: str | Path,
+    speeds: tuple[float, float, int],
+    sets: Iterable[str] = (),
+    grids: Iterable[str] = (),
+    method: str = "run",
+    distance: float = DEFAULT_DISTANCE,
+    recordings: str | Path | None = None,
+) -> list[Case]:
     """Every case of a sweep, in order: grid points (first key slowest), then speeds."""
     if method not in METHODS:
         raise SweepError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
@@ -191,8 +208,10 @@ def plan(layout_path: str | Path, speeds: tuple[float, float, int], sets: Iterab
     if method == "nonlinear":
         base = layout_from_dict(data, source=str(path))
         if base.flange is None or base.creep.law == "linear":
-            raise SweepError(f"{path}: the nonlinear critical speed needs [flange] and a saturating creep "
-                             f"law (set them with --set, or in the layout)")
+            raise SweepError(
+                f"{path}: the nonlinear critical speed needs [flange] and a saturating creep "
+                f"law (set them with --set, or in the layout)"
+            )
     for key, values in axes:  # a key the layout does not know fails the sweep, not each case
         try:
             layout_from_dict(with_value(data, key, values[0]), source=str(path))
@@ -208,8 +227,9 @@ def plan(layout_path: str | Path, speeds: tuple[float, float, int], sets: Iterab
             variant = with_value(variant, key, value)
         for speed in run_speeds:
             index = len(cases)
-            recording = (str(Path(recordings) / f"case-{index:05d}.rrd")
-                         if recordings is not None and method == "run" else None)
+            recording = (
+                str(Path(recordings) / f"case-{index:05d}.rrd") if recordings is not None and method == "run" else None
+            )
             cases.append(Case(index, method, variant, str(path), point, speed, (a, b, n), distance, recording))
     return cases
 
@@ -238,7 +258,7 @@ def tasks(cases: list[Case], packs_per_task: int = 1) -> list[list[Case]]:
 
     size = PACK * packs_per_task
     runs = sorted((c for c in cases if c.method == "run"), key=lambda c: (c.distance / c.speed, c.index))
-    return [runs[k:k + size] for k in range(0, len(runs), size)] + [[c] for c in cases if c.method != "run"]
+    return [runs[k : k + size] for k in range(0, len(runs), size)] + [[c] for c in cases if c.method != "run"]
 
 
 def run_task(cases: list[Case], threads: int = 1) -> list[dict]:
@@ -273,7 +293,7 @@ def run_rows(cases: list[Case], threads: int = 1) -> Iterator[dict]:
     def step() -> None:
         try:
             simulate_many(requests, threads, finished=finished, stop=stop)
-        except Exception:  # noqa: BLE001 - packs that cannot be built: each case left on its own
+        except Exception:
             rows.put(False)
         rows.put(None)
 
@@ -311,10 +331,11 @@ def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> di
         status, message = "diverged", str(e)
     except (LayoutError, ValueError) as e:
         status, message = "refused", str(e)
-    except Exception as e:  # noqa: BLE001 - one case must never stop a sweep
+    except Exception as e:
         status, message = "failed", f"{type(e).__name__}: {' '.join(str(e).split())}"
-    row.update(status=status, message=message, wall_time_s=time.perf_counter() - started + extra_time,
-               case_key=case.key)
+    row.update(
+        status=status, message=message, wall_time_s=time.perf_counter() - started + extra_time, case_key=case.key
+    )
     return row
 
 
@@ -443,8 +464,10 @@ def read_table(path: Path) -> list[dict]:
         options = pacsv.ConvertOptions(strings_can_be_null=True, column_types={"case_key": pa.string()})
         return pacsv.read_csv(path, convert_options=options).to_pylist()
     except (pa.ArrowException, OSError) as e:
-        raise SweepError(f"{path}: not a sweep table that can be read ({' '.join(str(e).split())[:200]}); "
-                         f"write to a new file or delete it") from None
+        raise SweepError(
+            f"{path}: not a sweep table that can be read ({' '.join(str(e).split())[:200]}); "
+            f"write to a new file or delete it"
+        ) from None
 
 
 def to_table(rows: list[dict], columns: list[str]):
@@ -466,10 +489,20 @@ def write_table(table, path: Path) -> None:
             pacsv.write_csv(table, tmp)
 
 
-def sweep(layout_path: str | Path, speeds: tuple[float, float, int], *, sets: Iterable[str] = (),
-          grids: Iterable[str] = (), method: str = "run", distance: float = DEFAULT_DISTANCE,
-          workers: int | None = None, scheduler: str | None = None, out: str | Path | None = None,
-          recordings: str | Path | None = None, progress: Callable[[int, int, dict], None] | None = None):
+def sweep(
+    layout_path: str | Path,
+    speeds: tuple[float, float, int],
+    *,
+    sets: Iterable[str] = (),
+    grids: Iterable[str] = (),
+    method: str = "run",
+    distance: float = DEFAULT_DISTANCE,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    out: str | Path | None = None,
+    recordings: str | Path | None = None,
+    progress: Callable[[int, int, dict], None] | None = None,
+):
     """Run a sweep (see `plan`) and return its table (pyarrow), one row per case.
 
     `workers` threads (default: every core), or the Dask scheduler at `scheduler`. With
@@ -491,8 +524,10 @@ def sweep(layout_path: str | Path, speeds: tuple[float, float, int], *, sets: It
         for where, rows in ((output, read_table(output) if output.exists() else []), (journal.path, journal.read())):
             for row in rows:
                 if row.get("case_key") not in wanted:
-                    raise SweepError(f"{where} holds results of another sweep (case {row.get('case')}); "
-                                     f"write to a new file or delete it")
+                    raise SweepError(
+                        f"{where} holds results of another sweep (case {row.get('case')}); "
+                        f"write to a new file or delete it"
+                    )
                 if row.get("status") != "failed":  # a failure is a bug, perhaps mended since: again
                     kept[row["case_key"]] = {**row, "case": wanted[row["case_key"]].index}
     todo = [c for c in cases if c.key not in kept]
@@ -523,7 +558,8 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
         return
     if scheduler is not None:
         try:
-            from distributed import Client, as_completed as dask_completed
+            from distributed import Client
+            from distributed import as_completed as dask_completed
         except ImportError:
             raise SweepError("--scheduler needs Dask: pip install 'rail-mj[cluster]'") from None
         try:
@@ -557,19 +593,27 @@ def summarise(table) -> dict:
     where the motion stops decaying (the last speed with negative growth and the first
     with growth or a run that left the rails)."""
     rows = table.to_pylist()
-    result = {"cases": len(rows), "by_status": {s: sum(r["status"] == s for r in rows) for s in STATUSES},
-              "wall_time_s": float(sum(r["wall_time_s"] for r in rows))}
+    result = {
+        "cases": len(rows),
+        "by_status": {s: sum(r["status"] == s for r in rows) for s in STATUSES},
+        "wall_time_s": float(sum(r["wall_time_s"] for r in rows)),
+    }
     if rows and "growth_rate_per_s" in rows[0]:
-        params = [c for c in table.column_names if c not in ("case", "speed_m_per_s")
-                  and c not in RESULTS["run"] and c not in TAIL]
+        params = [
+            c
+            for c in table.column_names
+            if c not in ("case", "speed_m_per_s") and c not in RESULTS["run"] and c not in TAIL
+        ]
         groups: dict[tuple, list[dict]] = {}
         for r in rows:
             groups.setdefault(tuple(r[p] for p in params), []).append(r)
         brackets = []
         for key, group in groups.items():
             group.sort(key=lambda r: r["speed_m_per_s"])
-            unstable = [(r["status"] == "diverged" or (r["status"] == "ok" and (r["growth_rate_per_s"] or 0) > 0))
-                        for r in group]
+            unstable = [
+                (r["status"] == "diverged" or (r["status"] == "ok" and (r["growth_rate_per_s"] or 0) > 0))
+                for r in group
+            ]
             first = next((k for k, u in enumerate(unstable) if u), None)
             bracket = None
             if first is not None and first > 0 and not unstable[first - 1]:

@@ -1,9 +1,9 @@
 """A checked `Layout` built into a MuJoCo model with the MjSpec API, and its MJCF files.
 
-    model.py       bodies, joints, suspension tendons; `Vehicle`, `generate`
-    wheel.py       the wheel's mesh, for viewing
-    loads.py       a spatial vehicle's axle loads from its axlebox tendons
-    block.py       the one writer of the native block the compiled callback reads (rail_mj.numerics)
+model.py       bodies, joints, suspension tendons; `Vehicle`, `generate`
+wheel.py       the wheel's mesh, for viewing
+loads.py       a spatial vehicle's axle loads from its axlebox tendons
+block.py       the one writer of the native block the compiled callback reads (rail_mj.numerics)
 """
 
 from rail_mj import _lazy

@@ -16,8 +16,20 @@ import numpy as np
 
 from rail_mj import numerics
 from rail_mj.contact.creep import ContactParameters
-from rail_mj.numerics import (COLUMNS, COUPLE, LOADS_HEADER, MAGIC, NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE,
-                              NUMERIC_GEOMETRY, NUMERIC_NATIVE, NUMERIC_SATURATION, NUMERIC_WHEEL, SPEED)
+from rail_mj.numerics import (
+    COLUMNS,
+    COUPLE,
+    LOADS_HEADER,
+    MAGIC,
+    NUMERIC_CREEP,
+    NUMERIC_ELLIPSE,
+    NUMERIC_FLANGE,
+    NUMERIC_GEOMETRY,
+    NUMERIC_NATIVE,
+    NUMERIC_SATURATION,
+    NUMERIC_WHEEL,
+    SPEED,
+)
 from rail_mj.units import PA_PER_GPA
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
 
@@ -40,11 +52,29 @@ def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParame
     except KeyError:  # coned wheels
         geometry = None
     return ContactParameters.broadcast(
-        n_wheelsets, r0=r0, b=b, conicity=conicity, f11=f11, f22=f22, f23=f23, f33=f33,
-        friction_limit=limit, falling_friction_ratio=falling_ratio, falling_friction_rate=falling_rate,
-        law=int(law), clearance=clearance, flange_stiffness=stiffness,
-        flange_damping=damping, flange_slope=slope if flange else None, geometry=geometry,
-        semi_axis_a=a, semi_axis_b=semi_b, normal_force=normal, shear_modulus=shear * PA_PER_GPA, c11=c11, c22=c22,
+        n_wheelsets,
+        r0=r0,
+        b=b,
+        conicity=conicity,
+        f11=f11,
+        f22=f22,
+        f23=f23,
+        f33=f33,
+        friction_limit=limit,
+        falling_friction_ratio=falling_ratio,
+        falling_friction_rate=falling_rate,
+        law=int(law),
+        clearance=clearance,
+        flange_stiffness=stiffness,
+        flange_damping=damping,
+        flange_slope=slope if flange else None,
+        geometry=geometry,
+        semi_axis_a=a,
+        semi_axis_b=semi_b,
+        normal_force=normal,
+        shear_modulus=shear * PA_PER_GPA,
+        c11=c11,
+        c22=c22,
         c23=c23,
     )
 
@@ -52,14 +82,21 @@ def contact_parameters(model: mujoco.MjModel, n_wheelsets: int) -> ContactParame
 _SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE)
 
 
-def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0, loads=None,
-                  prefix: str = "", couples=None) -> np.ndarray:
+def vehicle_block(
+    model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0, loads=None, prefix: str = "", couples=None
+) -> np.ndarray:
     """One vehicle's entries of the block: see VEHICLE_HEADER. `loads`: its AxleLoads
     (rail_mj.vehicle.loads), its tendons named in `model` under `prefix`; None: static loads.
     `couples`: its frames' ShearCouples, or None."""
     table, geometry = params.table, params.geometry
-    entries = [speed, len(wheelset_bodies), params.law, float(params.flange), float(params.falling),
-               float(geometry.shape[0])]
+    entries = [
+        speed,
+        len(wheelset_bodies),
+        params.law,
+        float(params.flange),
+        float(params.falling),
+        float(geometry.shape[0]),
+    ]
     entries += list(table.reshape(-1)) + list(geometry.reshape(-1))
     for i, body in enumerate(wheelset_bodies):
         chain = []
@@ -68,8 +105,9 @@ def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float =
             for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
                 kind = int(model.jnt_type[j])
                 if kind not in (_SLIDE, _HINGE):
-                    raise NativeError(f"joint {model.joint(j).name}: the native callback handles slide "
-                                      f"and hinge joints only")
+                    raise NativeError(
+                        f"joint {model.joint(j).name}: the native callback handles slide and hinge joints only"
+                    )
                 chain += [j, model.jnt_dofadr[j], float(kind == _HINGE)]
             b = model.body_parentid[b]
         entries += [body, len(chain) // 3] + chain
@@ -77,8 +115,13 @@ def vehicle_block(model: mujoco.MjModel, wheelset_bodies, params, speed: float =
             entries += [0.0] * LOADS_HEADER
         else:
             rows = loads.rows(model, i, prefix)
-            entries += [loads.weight, loads.nominal, loads.spin_inertia, float(loads.cone_gravity),
-                        float(len(rows))] + list(rows.reshape(-1))
+            entries += [
+                loads.weight,
+                loads.nominal,
+                loads.spin_inertia,
+                float(loads.cone_gravity),
+                float(len(rows)),
+            ] + list(rows.reshape(-1))
         pairs = loads.shear_rows(model, i, prefix) if loads is not None else np.zeros((0, 2))
         entries += [float(len(pairs))] + list(pairs.reshape(-1))
     rows = couples.rows(model, prefix) if couples is not None else np.zeros((0, COUPLE))
@@ -96,14 +139,25 @@ def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
     parameters read from the model's named numerics, no speed yet."""
     names = [f"wheelset{i + 1}" for i in range(n_wheelsets)]
     bodies = [model.body(name).id for name in names]
-    return block([vehicle_block(model, bodies, contact_parameters(model, n_wheelsets), loads=AxleLoads.of(model, names),
-                                couples=ShearCouples.of(model))])
+    return block(
+        [
+            vehicle_block(
+                model,
+                bodies,
+                contact_parameters(model, n_wheelsets),
+                loads=AxleLoads.of(model, names),
+                couples=ShearCouples.of(model),
+            )
+        ]
+    )
 
 
 def _block_of(model: mujoco.MjModel) -> np.ndarray:
     if model.nnumeric == 0 or model.numeric(0).name != NUMERIC_NATIVE or model.numeric_data[0] != MAGIC:
-        raise NativeError(f"model {model.names[:40]!r}...: its first numeric is not {NUMERIC_NATIVE}; "
-                          f"build it with rail_mj.vehicle.model.Vehicle")
+        raise NativeError(
+            f"model {model.names[:40]!r}...: its first numeric is not {NUMERIC_NATIVE}; "
+            f"build it with rail_mj.vehicle.model.Vehicle"
+        )
     return model.numeric_data
 
 

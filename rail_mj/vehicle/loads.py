@@ -27,7 +27,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from rail_mj.numerics import NUMERIC_COUPLES, NUMERIC_LOADS  # noqa: E402,F401  (re-exported)
+from rail_mj.numerics import NUMERIC_COUPLES, NUMERIC_LOADS
 
 SIDES = {"left": 1.0, "right": -1.0}
 
@@ -35,8 +35,10 @@ SIDES = {"left": 1.0, "right": -1.0}
 def tendon_forces(model: mujoco.MjModel, ids, lengths: np.ndarray, rates: np.ndarray) -> np.ndarray:
     """Spring and damper forces of fixed tendons (no deadband) from their lengths and rates:
     f = -k*(L - L0) - c*L', positive pushing the upper body up (or along +x, +y)."""
-    return (-model.tendon_stiffness[ids] * (lengths[..., ids] - model.tendon_lengthspring[ids, 0])
-            - model.tendon_damping[ids] * rates[..., ids])
+    return (
+        -model.tendon_stiffness[ids] * (lengths[..., ids] - model.tendon_lengthspring[ids, 0])
+        - model.tendon_damping[ids] * rates[..., ids]
+    )
 
 
 def _couples_on(model: mujoco.MjModel, prefix: str) -> bool:
@@ -80,7 +82,7 @@ class ShearCouples:
     elements: tuple[tuple[str, str, str, str, str], ...]  # (z, y, x tendon, lower roll joint, lower pitch joint)
 
     @classmethod
-    def of(cls, model: mujoco.MjModel, prefix: str = "") -> "ShearCouples | None":
+    def of(cls, model: mujoco.MjModel, prefix: str = "") -> ShearCouples | None:
         if not _couples_on(model, prefix):
             return None
         names = {n.removeprefix(prefix) for t in range(model.ntendon) if (n := model.tendon(t).name).startswith(prefix)}
@@ -93,9 +95,19 @@ class ShearCouples:
 
     def rows(self, model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
         """(n, 5): z, y, x tendon ids and the lower body's roll and pitch dofs in `model`."""
-        return np.array([(model.tendon(prefix + z).id, model.tendon(prefix + y).id, model.tendon(prefix + x).id,
-                          model.joint(prefix + roll).dofadr[0], model.joint(prefix + pitch).dofadr[0])
-                         for z, y, x, roll, pitch in self.elements], dtype=np.float64).reshape(-1, 5)
+        return np.array(
+            [
+                (
+                    model.tendon(prefix + z).id,
+                    model.tendon(prefix + y).id,
+                    model.tendon(prefix + x).id,
+                    model.joint(prefix + roll).dofadr[0],
+                    model.joint(prefix + pitch).dofadr[0],
+                )
+                for z, y, x, roll, pitch in self.elements
+            ],
+            dtype=np.float64,
+        ).reshape(-1, 5)
 
     def forces(self, model: mujoco.MjModel, lengths: np.ndarray, rates: np.ndarray, rows=None) -> np.ndarray:
         """The generalized forces (nv,) of the couples at tendon lengths and rates (ntendon,);
@@ -132,7 +144,7 @@ class AxleLoads:
     shear: tuple[tuple[tuple[str, str], ...], ...] = ()
 
     @classmethod
-    def of(cls, model: mujoco.MjModel, wheelset_names, prefix: str = "") -> "AxleLoads | None":
+    def of(cls, model: mujoco.MjModel, wheelset_names, prefix: str = "") -> AxleLoads | None:
         """Read from a model built by rail_mj.vehicle.model (None: not a spatial vehicle with gravity,
         whose wheels carry the layout's static load)."""
         try:
@@ -143,8 +155,10 @@ class AxleLoads:
         axleboxes = [(spacing, height)] * len(wheelset_names)
         if len(data) > 6:  # each wheelset's own
             if len(data) != 6 + 2 * len(wheelset_names):
-                raise ValueError(f"numeric {prefix + NUMERIC_LOADS}: {len(data)} entries for {len(wheelset_names)} "
-                                 f"wheelsets: 6, or 6 and 2 per wheelset")
+                raise ValueError(
+                    f"numeric {prefix + NUMERIC_LOADS}: {len(data)} entries for {len(wheelset_names)} "
+                    f"wheelsets: 6, or 6 and 2 per wheelset"
+                )
             axleboxes = data[6:].reshape(-1, 2).tolist()
         names = [n.removeprefix(prefix) for t in range(model.ntendon) if (n := model.tendon(t).name).startswith(prefix)]
         tendons = []
@@ -160,8 +174,10 @@ class AxleLoads:
         shear = ()
         if _couples_on(model, prefix):
             elements = _elements(set(names))
-            shear = tuple(tuple((z, f"{stem}_y") for z, (lower, stem) in sorted(elements.items()) if lower == w)
-                          for w in wheelset_names)
+            shear = tuple(
+                tuple((z, f"{stem}_y") for z, (lower, stem) in sorted(elements.items()) if lower == w)
+                for w in wheelset_names
+            )
         return cls(float(weight), float(nominal), tuple(tendons), float(spin), bool(gravity), shear)
 
     def contact(self) -> dict:
@@ -170,14 +186,16 @@ class AxleLoads:
 
     def rows(self, model: mujoco.MjModel, wheelset: int, prefix: str = "") -> np.ndarray:
         """(n, 3): tendon id in `model`, coefficient on P, coefficient on M."""
-        return np.array([(model.tendon(prefix + name).id, a, b) for name, a, b in self.tendons[wheelset]],
-                        dtype=np.float64).reshape(-1, 3)
+        return np.array(
+            [(model.tendon(prefix + name).id, a, b) for name, a, b in self.tendons[wheelset]], dtype=np.float64
+        ).reshape(-1, 3)
 
     def shear_rows(self, model: mujoco.MjModel, wheelset: int, prefix: str = "") -> np.ndarray:
         """(n, 2): the z and y tendon ids in `model` of the wheelset's shear couples."""
         pairs = self.shear[wheelset] if self.shear else ()
-        return np.array([(model.tendon(prefix + z).id, model.tendon(prefix + y).id) for z, y in pairs],
-                        dtype=np.float64).reshape(-1, 2)
+        return np.array(
+            [(model.tendon(prefix + z).id, model.tendon(prefix + y).id) for z, y in pairs], dtype=np.float64
+        ).reshape(-1, 2)
 
     def evaluate(self, model: mujoco.MjModel, lengths: np.ndarray, rates: np.ndarray, prefix: str = ""):
         """(P, M), each (..., n_wheelsets), from tendon lengths and rates (..., ntendon) of
@@ -192,6 +210,7 @@ class AxleLoads:
             moment[..., i] += force @ rows[:, 2]
             pairs = self.shear_rows(model, i, prefix).astype(int)
             if len(pairs):  # the axlebox loads passed on at the frame's seats
-                moment[..., i] -= np.sum(tendon_forces(model, pairs[:, 0], lengths, rates) * lengths[..., pairs[:, 1]],
-                                         axis=-1)
+                moment[..., i] -= np.sum(
+                    tendon_forces(model, pairs[:, 0], lengths, rates) * lengths[..., pairs[:, 1]], axis=-1
+                )
         return load, moment

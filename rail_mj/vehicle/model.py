@@ -34,8 +34,8 @@ import mujoco
 import numpy as np
 
 from rail_mj.files import staged
-from rail_mj.units import PA_PER_GPA
 from rail_mj.layout import GRAVITY, LAWS, Layout, Suspension
+from rail_mj.units import PA_PER_GPA
 from rail_mj.vehicle.wheel import wheel_profile, wheel_stl
 
 # Heights of the bodies above the rail, m. The model is planar (lateral and yaw), so
@@ -81,8 +81,15 @@ FRAME_RGBA = [0.2, 0.3, 0.6, 1]
 # The run's speed replaces nothing here: the timestep is chosen by the runner.
 DEFAULT_TIMESTEP = 1e-3
 
-from rail_mj.numerics import (  # noqa: E402,F401  (re-exported)
-    NUMERIC_CREEP, NUMERIC_ELLIPSE, NUMERIC_FLANGE, NUMERIC_GEOMETRY, NUMERIC_NATIVE, NUMERIC_SATURATION, NUMERIC_WHEEL)
+from rail_mj.numerics import (  # noqa: E402  (re-exported)
+    NUMERIC_CREEP,
+    NUMERIC_ELLIPSE,
+    NUMERIC_FLANGE,
+    NUMERIC_GEOMETRY,
+    NUMERIC_NATIVE,
+    NUMERIC_SATURATION,
+    NUMERIC_WHEEL,
+)
 
 # A wheelset's lateral/yaw joints are named <body>_lateral and <body>_yaw.
 LATERAL, YAW = "lateral", "yaw"
@@ -110,12 +117,18 @@ def _add_planar_joints(body, suspension: Suspension | None) -> None:
     """Lateral slide and yaw hinge; `suspension` (None: free) is their stiffness and damping."""
     s = suspension or Suspension(0.0, 0.0)
     body.add_joint(
-        name=f"{body.name}_{LATERAL}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0],
-        stiffness=_g6(s.lateral_stiffness, 0.0, 0.0), damping=_g6(s.lateral_damping, 0.0, 0.0),
+        name=f"{body.name}_{LATERAL}",
+        type=mujoco.mjtJoint.mjJNT_SLIDE,
+        axis=[0, 1, 0],
+        stiffness=_g6(s.lateral_stiffness, 0.0, 0.0),
+        damping=_g6(s.lateral_damping, 0.0, 0.0),
     )
     body.add_joint(
-        name=f"{body.name}_{YAW}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1],
-        stiffness=_g6(s.yaw_stiffness, 0.0, 0.0), damping=_g6(s.yaw_damping, 0.0, 0.0),
+        name=f"{body.name}_{YAW}",
+        type=mujoco.mjtJoint.mjJNT_HINGE,
+        axis=[0, 0, 1],
+        stiffness=_g6(s.yaw_stiffness, 0.0, 0.0),
+        damping=_g6(s.yaw_damping, 0.0, 0.0),
     )
 
 
@@ -130,16 +143,22 @@ def _set_inertia(body, mass: float, inertia) -> None:
 
 
 def _box(body, name: str, half, pos, rgba) -> None:
-    body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=_g6(*half), pos=_g6(*pos),
-                  contype=0, conaffinity=0, rgba=rgba)
+    body.add_geom(
+        name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=_g6(*half), pos=_g6(*pos), contype=0, conaffinity=0, rgba=rgba
+    )
 
 
-def _upright_cylinder(body, name: str, radius: float, x: float, y: float, bottom: float, top: float,
-                      rgba) -> None:
+def _upright_cylinder(body, name: str, radius: float, x: float, y: float, bottom: float, top: float, rgba) -> None:
     """A cylinder standing from `bottom` to `top` (heights in `body`'s frame): a coil spring."""
-    body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                  size=_g6(radius, (top - bottom) / 2, 0.0), pos=_g6(x, y, (top + bottom) / 2),
-                  contype=0, conaffinity=0, rgba=rgba)
+    body.add_geom(
+        name=name,
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=_g6(radius, (top - bottom) / 2, 0.0),
+        pos=_g6(x, y, (top + bottom) / 2),
+        contype=0,
+        conaffinity=0,
+        rgba=rgba,
+    )
 
 
 def spring_spacing(layout: Layout) -> float:
@@ -166,8 +185,7 @@ def underframe_bottom(layout: Layout) -> float:
     return max(UNDERFRAME_BOTTOM, below + UNDERFRAME_CLEARANCE)
 
 
-def add_wheelset(parent, name: str, x: float, z: float, layout: Layout, spring_top: float,
-                 nested: bool = True) -> None:
+def add_wheelset(parent, name: str, x: float, z: float, layout: Layout, spring_top: float, nested: bool = True) -> None:
     """A wheelset hanging from `parent` at (x, z) in its frame, on the primary suspension,
     with its axleboxes and the primary springs up to `spring_top` (above the rail).
     `nested=False` (a train): free joints in the world, the suspension a tendon."""
@@ -177,21 +195,39 @@ def add_wheelset(parent, name: str, x: float, z: float, layout: Layout, spring_t
     _add_planar_joints(body, layout.primary if nested else None)
     b, ys = w.contact_half_spacing, spring_spacing(layout)
     body.add_geom(  # through the wheels into the axleboxes
-        name=f"{name}_axle", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=_g6(AXLE_RADIUS, ys, 0),
-        quat=_quat_about_x(np.pi / 2), contype=0, conaffinity=0, rgba=[0.4, 0.4, 0.45, 1],
+        name=f"{name}_axle",
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=_g6(AXLE_RADIUS, ys, 0),
+        quat=_quat_about_x(np.pi / 2),
+        contype=0,
+        conaffinity=0,
+        rgba=[0.4, 0.4, 0.45, 1],
     )
     # The mesh's axis (its +z) points outward: +y for the left wheel, -y for the right.
     for side, y, angle in (("left", b, -np.pi / 2), ("right", -b, np.pi / 2)):
         body.add_geom(
-            name=f"{name}_{side}_wheel", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="wheel",
-            pos=[0, y, 0], quat=_quat_about_x(angle), contype=0, conaffinity=0,
+            name=f"{name}_{side}_wheel",
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname="wheel",
+            pos=[0, y, 0],
+            quat=_quat_about_x(angle),
+            contype=0,
+            conaffinity=0,
             rgba=[0.55, 0.55, 0.6, 1],
         )
     # The body's origin is the axle centre, r0 above the rail.
     for side, sign in SIDES:
         _box(body, f"{name}_axlebox_{side}", AXLEBOX_HALF, (0, sign * ys, 0), AXLEBOX_RGBA)
-        _upright_cylinder(body, f"{name}_spring_{side}", PRIMARY_SPRING_RADIUS, 0, sign * ys,
-                          AXLEBOX_HALF[2], spring_top - w.rolling_radius, SPRING_RGBA)
+        _upright_cylinder(
+            body,
+            f"{name}_spring_{side}",
+            PRIMARY_SPRING_RADIUS,
+            0,
+            sign * ys,
+            AXLEBOX_HALF[2],
+            spring_top - w.rolling_radius,
+            SPRING_RGBA,
+        )
 
 
 def add_bogie(parent, name: str, x: float, z: float, layout: Layout, first_wheelset: int) -> None:
@@ -208,8 +244,12 @@ def add_bogie(parent, name: str, x: float, z: float, layout: Layout, first_wheel
     bottom = side_frame_heights(layout)[0] - BOGIE_HEIGHT  # in this body's frame
     for i, x in enumerate(bogie.wheelset_positions):
         add_wheelset(
-            body, f"wheelset{first_wheelset + i}", x,
-            layout.wheelset.rolling_radius - BOGIE_HEIGHT, layout, spring_top=bottom + BOGIE_HEIGHT,
+            body,
+            f"wheelset{first_wheelset + i}",
+            x,
+            layout.wheelset.rolling_radius - BOGIE_HEIGHT,
+            layout,
+            spring_top=bottom + BOGIE_HEIGHT,
         )
 
 
@@ -225,19 +265,36 @@ def add_bogie_frame(body, name: str, layout: Layout, wheelset_positions=None) ->
     # Side frames reach the outline of the end wheels.
     half_length = (xs[-1] - xs[0]) / 2 + wheel_radius(layout)
     for side, sign in SIDES:
-        _box(body, f"{name}_side_{side}", (half_length, SIDE_FRAME_HALF[0], half_depth),
-             (middle, sign * ys, bottom + half_depth), FRAME_RGBA)
+        _box(
+            body,
+            f"{name}_side_{side}",
+            (half_length, SIDE_FRAME_HALF[0], half_depth),
+            (middle, sign * ys, bottom + half_depth),
+            FRAME_RGBA,
+        )
     # A transom midway between each two wheelsets; a little shallower than the side
     # frames and ending inside them, so that no two faces coincide.
     gaps = list(zip(xs, xs[1:]))
     for k, (a, c) in enumerate(gaps):
-        _box(body, f"{name}_transom" + (f"{k + 1}" if len(gaps) > 1 else ""),
-             (min(TRANSOM_HALF_LENGTH, (c - a) / 10), ys, 0.8 * half_depth),
-             ((a + c) / 2, 0, bottom + half_depth), FRAME_RGBA)
+        _box(
+            body,
+            f"{name}_transom" + (f"{k + 1}" if len(gaps) > 1 else ""),
+            (min(TRANSOM_HALF_LENGTH, (c - a) / 10), ys, 0.8 * half_depth),
+            ((a + c) / 2, 0, bottom + half_depth),
+            FRAME_RGBA,
+        )
     # Secondary springs on the side frames at the bogie centre, up to the car body.
     for side, sign in SIDES:
-        _upright_cylinder(body, f"{name}_spring_{side}", SECONDARY_SPRING_RADIUS, middle, sign * ys,
-                          top, underframe_bottom(layout) - BOGIE_HEIGHT, SPRING_RGBA)
+        _upright_cylinder(
+            body,
+            f"{name}_spring_{side}",
+            SECONDARY_SPRING_RADIUS,
+            middle,
+            sign * ys,
+            top,
+            underframe_bottom(layout) - BOGIE_HEIGHT,
+            SPRING_RGBA,
+        )
 
 
 def add_carbody_shell(body, layout: Layout) -> None:
@@ -250,11 +307,17 @@ def add_carbody_shell(body, layout: Layout) -> None:
     if c.fixed:  # a plate over the running gear, reaching 0.5 m past the wheels
         half_width = CARBODY_HALF_WIDTH
         bottom = underframe_bottom(layout) - CARBODY_HEIGHT
-        reach = (max(layout.bogie.wheelset_positions) - min(layout.bogie.wheelset_positions)) / 2 \
-            if layout.bogie else 0.0
+        reach = (
+            (max(layout.bogie.wheelset_positions) - min(layout.bogie.wheelset_positions)) / 2 if layout.bogie else 0.0
+        )
         half_length = (max(xs) - min(xs)) / 2 + reach + wheel_radius(layout) + 0.5
-        _box(body, "carbody_underframe", (half_length, half_width, UNDERFRAME_DEPTH / 2),
-             (middle, 0, bottom + UNDERFRAME_DEPTH / 2), [0.7, 0.2, 0.2, 0.35])
+        _box(
+            body,
+            "carbody_underframe",
+            (half_length, half_width, UNDERFRAME_DEPTH / 2),
+            (middle, 0, bottom + UNDERFRAME_DEPTH / 2),
+            [0.7, 0.2, 0.2, 0.35],
+        )
         return
     add_coach_shell(body, "carbody", layout, middle, (max(xs) - min(xs)) / 2 + OVERHANG)
 
@@ -267,23 +330,48 @@ def add_coach_shell(body, name: str, layout: Layout, middle: float, half_length:
     floor = bottom + UNDERFRAME_DEPTH
     body_rgba, dark = [0.7, 0.2, 0.2, 1], [0.15, 0.15, 0.17, 1]
     # The underframe a little narrower than the body, so that it reads as a separate band.
-    _box(body, f"{name}_underframe", (half_length, half_width - 0.1, UNDERFRAME_DEPTH / 2),
-         (middle, 0, bottom + UNDERFRAME_DEPTH / 2), dark)
+    _box(
+        body,
+        f"{name}_underframe",
+        (half_length, half_width - 0.1, UNDERFRAME_DEPTH / 2),
+        (middle, 0, bottom + UNDERFRAME_DEPTH / 2),
+        dark,
+    )
     eaves = ROOF_HEIGHT - ROOF_DEPTH - CARBODY_HEIGHT
     wall_half_height = (eaves - floor) / 2
     for side, sign in SIDES:
-        _box(body, f"{name}_side_{side}", (half_length, WALL / 2, wall_half_height),
-             (middle, sign * (half_width - WALL / 2), floor + wall_half_height), body_rgba)
+        _box(
+            body,
+            f"{name}_side_{side}",
+            (half_length, WALL / 2, wall_half_height),
+            (middle, sign * (half_width - WALL / 2), floor + wall_half_height),
+            body_rgba,
+        )
         # Windows: a dark strip just proud of the wall, short of the vestibules at the ends.
         low, high = WINDOW_BAND
-        _box(body, f"{name}_windows_{side}", (half_length - VESTIBULE, 0.005, (high - low) / 2),
-             (middle, sign * (half_width + 0.005), floor + (low + high) / 2), [0.1, 0.12, 0.18, 1])
+        _box(
+            body,
+            f"{name}_windows_{side}",
+            (half_length - VESTIBULE, 0.005, (high - low) / 2),
+            (middle, sign * (half_width + 0.005), floor + (low + high) / 2),
+            [0.1, 0.12, 0.18, 1],
+        )
     for end, sign in (("front", 1.0), ("rear", -1.0)):
-        _box(body, f"{name}_end_{end}", (WALL / 2, half_width - WALL, wall_half_height),
-             (middle + sign * (half_length - WALL / 2), 0, floor + wall_half_height), body_rgba)
+        _box(
+            body,
+            f"{name}_end_{end}",
+            (WALL / 2, half_width - WALL, wall_half_height),
+            (middle + sign * (half_length - WALL / 2), 0, floor + wall_half_height),
+            body_rgba,
+        )
     # The roof overhangs the walls by 2 cm.
-    _box(body, f"{name}_roof", (half_length + 0.02, half_width + 0.02, ROOF_DEPTH / 2),
-         (middle, 0, eaves + ROOF_DEPTH / 2), [0.45, 0.45, 0.48, 1])
+    _box(
+        body,
+        f"{name}_roof",
+        (half_length + 0.02, half_width + 0.02, ROOF_DEPTH / 2),
+        (middle, 0, eaves + ROOF_DEPTH / 2),
+        [0.45, 0.45, 0.48, 1],
+    )
 
 
 def add_carbody(worldbody, layout: Layout) -> None:
@@ -301,8 +389,11 @@ def add_carbody(worldbody, layout: Layout) -> None:
     else:
         for i, x in enumerate(c.wheelset_positions):
             add_wheelset(
-                body, f"wheelset{i + 1}", x,
-                layout.wheelset.rolling_radius - CARBODY_HEIGHT, layout,
+                body,
+                f"wheelset{i + 1}",
+                x,
+                layout.wheelset.rolling_radius - CARBODY_HEIGHT,
+                layout,
                 spring_top=underframe_bottom(layout),
             )
 
@@ -353,15 +444,24 @@ def _coupling_tendons(spec, train, x_of: dict[str, float], heights: dict[str, fl
         front, rear = (f"carbody{k}" for k in c.cars)
         x = train.coupling_x(c)
         # The rear body's point at x against the front body's: y + (x - x_body)*psi of each.
-        lateral = {f"{rear}_{LATERAL}": 1.0, f"{rear}_{YAW}": x - x_of[rear],
-                   f"{front}_{LATERAL}": -1.0, f"{front}_{YAW}": -(x - x_of[front])}
+        lateral = {
+            f"{rear}_{LATERAL}": 1.0,
+            f"{rear}_{YAW}": x - x_of[rear],
+            f"{front}_{LATERAL}": -1.0,
+            f"{front}_{YAW}": -(x - x_of[front]),
+        }
         if heights is not None and heights[front] != heights[rear]:  # and - (z - H_body)*phi
             z = 0.5 * (heights[front] + heights[rear])
             lateral[f"{rear}_{ROLL}"] = -(z - heights[rear])
             lateral[f"{front}_{ROLL}"] = z - heights[front]
         _tendon(spec, f"coupling{c.cars[0]}_{LATERAL}", lateral, c.lateral_stiffness, c.lateral_damping)
-        _tendon(spec, f"coupling{c.cars[0]}_{YAW}", {f"{rear}_{YAW}": 1.0, f"{front}_{YAW}": -1.0},
-                c.yaw_stiffness, c.yaw_damping)
+        _tendon(
+            spec,
+            f"coupling{c.cars[0]}_{YAW}",
+            {f"{rear}_{YAW}": 1.0, f"{front}_{YAW}": -1.0},
+            c.yaw_stiffness,
+            c.yaw_damping,
+        )
 
 
 def _add_spatial_joints(body) -> None:
@@ -390,8 +490,15 @@ SPATIAL_WHEELSET = (LATERAL, YAW)  # vertical and roll held by the (rigid) track
 AXES = "xyz"
 
 
-def spring_tendons(spec, name: str, point, lower: tuple[str, tuple, tuple], upper: tuple[str, tuple, tuple],
-                   spring, measured: bool = False) -> None:
+def spring_tendons(
+    spec,
+    name: str,
+    point,
+    lower: tuple[str, tuple, tuple],
+    upper: tuple[str, tuple, tuple],
+    spring,
+    measured: bool = False,
+) -> None:
     """A spatial spring-damper (`spring`: kx..cz) at `point` (x, y, z in the vehicle's frame, z above
     the rail) between `lower` and `upper`, each (body, centre (x, y, z), joints): three fixed tendons
     <name>_x|y|z, their lengths the deflections u_upper - u_lower of the point along x, y, z.
@@ -402,8 +509,7 @@ def spring_tendons(spec, name: str, point, lower: tuple[str, tuple, tuple], uppe
         _tendon(spec, f"{name}_{axis}", coefficients, k, c, keep=measured)
 
 
-def deflections(point, lower: tuple[str, tuple, tuple],
-                upper: tuple[str, tuple, tuple]) -> tuple[dict, dict, dict]:
+def deflections(point, lower: tuple[str, tuple, tuple], upper: tuple[str, tuple, tuple]) -> tuple[dict, dict, dict]:
     """The deflections (x, y, z) u_upper - u_lower at `point` of two bodies, each (body, centre, joints)
     as in `spring_tendons`: each a {joint name: coefficient}."""
     motions = []
@@ -419,8 +525,15 @@ def deflections(point, lower: tuple[str, tuple, tuple],
     return tuple(out)
 
 
-def secondary_elements(spec, bogie: str, x: float, frame: tuple[str, tuple, tuple],
-                       carbody: tuple[str, tuple, tuple], sp, share: float = 1.0) -> None:
+def secondary_elements(
+    spec,
+    bogie: str,
+    x: float,
+    frame: tuple[str, tuple, tuple],
+    carbody: tuple[str, tuple, tuple],
+    sp,
+    share: float = 1.0,
+) -> None:
     """The secondary elements of a spatial vehicle besides its springs (`sp`: layout.spatial;
     docs/spatial.md) between a bogie frame at x and the car body, each at its place: tendons
     <bogie>_<carbody>_lateral_damper, _left|right_yaw_damper, _anti_roll_bar, _bump_stop_<i>;
@@ -428,8 +541,7 @@ def secondary_elements(spec, bogie: str, x: float, frame: tuple[str, tuple, tupl
     name = f"{bogie}_{carbody[0]}"
     if sp.lateral_damper:
         e = sp.lateral_damper
-        _tendon(spec, f"{name}_lateral_damper", deflections((x, 0.0, e.height), frame, carbody)[1], 0.0,
-                share * e.c)
+        _tendon(spec, f"{name}_lateral_damper", deflections((x, 0.0, e.height), frame, carbody)[1], 0.0, share * e.c)
     if sp.yaw_damper:
         e = sp.yaw_damper
         for side, sign in SIDES:
@@ -438,8 +550,13 @@ def secondary_elements(spec, bogie: str, x: float, frame: tuple[str, tuple, tupl
     if sp.anti_roll_bar:
         # A torsion bar's moment is k times the relative roll of the two bodies, wherever its
         # arms and links sit: exactly a tendon on the two roll hinges.
-        _tendon(spec, f"{name}_anti_roll_bar", {f"{carbody[0]}_{ROLL}": 1.0, f"{bogie}_{ROLL}": -1.0},
-                share * sp.anti_roll_bar, 0.0)
+        _tendon(
+            spec,
+            f"{name}_anti_roll_bar",
+            {f"{carbody[0]}_{ROLL}": 1.0, f"{bogie}_{ROLL}": -1.0},
+            share * sp.anti_roll_bar,
+            0.0,
+        )
     if sp.bump_stop:
         e = sp.bump_stop
         lateral = deflections((x, 0.0, e.height), frame, carbody)[1]
@@ -457,8 +574,10 @@ def spatial_carbodies(layout: Layout) -> list[tuple[str, tuple, tuple]]:
     a spatial train's carbody1, carbody2, ... each at its own x and height (docs/trains.md)."""
     if layout.train is None:
         return [("carbody", (0.0, 0.0, layout.spatial.carbody_height), SPATIAL_BODY)]
-    return [(f"carbody{k}", (car.position, 0.0, car.height), SPATIAL_BODY)
-            for k, car in enumerate(layout.train.cars, start=1)]
+    return [
+        (f"carbody{k}", (car.position, 0.0, car.height), SPATIAL_BODY)
+        for k, car in enumerate(layout.train.cars, start=1)
+    ]
 
 
 def carried(layout: Layout, bogie: int) -> list[tuple[tuple[str, tuple, tuple], float]]:
@@ -512,13 +631,27 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
             add_wheelset(world, wheelset, xb + xw, r0, layout, spring_top, nested=False)
             for side, sign in SIDES:
                 e = design.axlebox
-                spring_tendons(spec, f"{wheelset}_{name}_{side}", (xb + xw, sign * e.spacing, e.height),
-                               (wheelset, (xb + xw, 0.0, r0), SPATIAL_WHEELSET), frame, e, couples)
+                spring_tendons(
+                    spec,
+                    f"{wheelset}_{name}_{side}",
+                    (xb + xw, sign * e.spacing, e.height),
+                    (wheelset, (xb + xw, 0.0, r0), SPATIAL_WHEELSET),
+                    frame,
+                    e,
+                    couples,
+                )
         for carbody, share in carried(layout, i):
             for side, sign in SIDES:
                 e = sp.secondary
-                spring_tendons(spec, f"{name}_{carbody[0]}_{side}", (xb, sign * e.spacing, e.height), frame,
-                               carbody, _shared(e, share), couples)
+                spring_tendons(
+                    spec,
+                    f"{name}_{carbody[0]}_{side}",
+                    (xb, sign * e.spacing, e.height),
+                    frame,
+                    carbody,
+                    _shared(e, share),
+                    couples,
+                )
             secondary_elements(spec, name, xb, frame, carbody, sp, share)
     if train is not None:
         x_of = {f"carbody{k}": car.position for k, car in enumerate(train.cars, start=1)}
@@ -597,8 +730,7 @@ def gravitational_stiffness(layout: Layout, forces: dict[str, float]) -> dict[st
     return stiffness
 
 
-def add_gravitational_stiffness(spec: mujoco.MjSpec, layout: Layout, model: mujoco.MjModel,
-                                q_eq: np.ndarray) -> None:
+def add_gravitational_stiffness(spec: mujoco.MjSpec, layout: Layout, model: mujoco.MjModel, q_eq: np.ndarray) -> None:
     """`gravitational_stiffness` of the forces of `preload`'s solve (q_eq: unrounded, so the terms
     sum to -m g h to round-off) as the stiffness of the roll and pitch hinges, springref 0: no
     force at q = 0, which stays the equilibrium. Negative for a body above its springs; MuJoCo
@@ -611,14 +743,14 @@ def add_gravitational_stiffness(spec: mujoco.MjSpec, layout: Layout, model: mujo
         # (a deadband tendon, a bump stop, carries none: preload leaves it in its play).
         preloaded = t.springlength[0] != 0.0 and t.springlength[0] == t.springlength[1]
         if preloaded and t.name not in known:
-            raise NotImplementedError(f"gravitational stiffness: tendon {t.name} is preloaded but is "
-                                      f"no element of spatial_elements")
+            raise NotImplementedError(
+                f"gravitational stiffness: tendon {t.name} is preloaded but is no element of spatial_elements"
+            )
     for joint, k in gravitational_stiffness(layout, forces).items():
         spec.joint(joint).stiffness = _g6(k, 0.0, 0.0)
 
 
-def add_flat_bogie(world, name: str, x: float, height: float, layout: Layout, spatial: bool,
-                   design=None) -> None:
+def add_flat_bogie(world, name: str, x: float, height: float, layout: Layout, spatial: bool, design=None) -> None:
     """A bogie frame as a child of the world at (x, height): planar (lateral, yaw) or spatial
     joints, with no spring (a train's or a spatial vehicle's; its wheelsets are added apart).
     `design`: its mass, inertia and wheelset_positions (a spatial vehicle's BogieDesign); None:
@@ -633,15 +765,21 @@ def add_flat_bogie(world, name: str, x: float, height: float, layout: Layout, sp
     add_bogie_frame(body, name, layout, design.wheelset_positions)
 
 
-def _suspension_tendons(spec, child: str, parent: str, x_of: dict[str, float], s: Suspension,
-                        share: float = 1.0) -> None:
+def _suspension_tendons(
+    spec, child: str, parent: str, x_of: dict[str, float], s: Suspension, share: float = 1.0
+) -> None:
     """The lateral and yaw deflections of `child` hung from `parent` (docs/frames.md),
     d = y_c - y_p - (x_c - x_p)*psi_p and e = psi_c - psi_p, as tendons with `share` of `s`."""
     arm = x_of[child] - x_of[parent]
     lateral = {f"{child}_{LATERAL}": 1.0, f"{parent}_{LATERAL}": -1.0, f"{parent}_{YAW}": -arm}
     _tendon(spec, f"{child}_{parent}_{LATERAL}", lateral, share * s.lateral_stiffness, share * s.lateral_damping)
-    _tendon(spec, f"{child}_{parent}_{YAW}", {f"{child}_{YAW}": 1.0, f"{parent}_{YAW}": -1.0},
-            share * s.yaw_stiffness, share * s.yaw_damping)
+    _tendon(
+        spec,
+        f"{child}_{parent}_{YAW}",
+        {f"{child}_{YAW}": 1.0, f"{parent}_{YAW}": -1.0},
+        share * s.yaw_stiffness,
+        share * s.yaw_damping,
+    )
 
 
 def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, damping: float, keep: bool = False):
@@ -649,8 +787,9 @@ def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, d
     none (None) when both are zero, unless `keep` (its length is needed)."""
     if stiffness == 0.0 and damping == 0.0 and not keep:
         return None
-    tendon = spec.add_tendon(name=name, stiffness=_g6(stiffness, 0.0, 0.0), damping=_g6(damping, 0.0, 0.0),
-                             springlength=[0.0, 0.0])
+    tendon = spec.add_tendon(
+        name=name, stiffness=_g6(stiffness, 0.0, 0.0), damping=_g6(damping, 0.0, 0.0), springlength=[0.0, 0.0]
+    )
     for joint, coef in coefficients.items():
         if coef != 0.0:
             tendon.wrap_joint(joint, _g6(coef)[0])
@@ -696,11 +835,12 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
             cone_gravity = layout.spatial.gravitational_stiffness and layout.profiles is None
             # Each wheelset's axlebox spacing and height after the defaults, when a bogie has its
             # own ([bogies.N.axlebox]; rail_mj.vehicle.loads reads either form).
-            own = [(d.axlebox.spacing, d.axlebox.height) for d in layout.spatial.bogies
-                   for _ in d.wheelset_positions]
+            own = [(d.axlebox.spacing, d.axlebox.height) for d in layout.spatial.bogies for _ in d.wheelset_positions]
             own = [] if all(a == (e.spacing, e.height) for a in own) else [v for a in own for v in a]
-            spec.add_numeric(name=NUMERIC_LOADS, data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin,
-                                                          float(cone_gravity), *own))
+            spec.add_numeric(
+                name=NUMERIC_LOADS,
+                data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin, float(cone_gravity), *own),
+            )
             if layout.spatial.gravitational_stiffness:  # the preloads' shear couples (rail_mj.vehicle.loads)
                 from rail_mj.vehicle.loads import NUMERIC_COUPLES
 
@@ -711,16 +851,24 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
         add_carbody(spec.worldbody, layout)
 
     c = layout.creep
-    spec.add_numeric(name=NUMERIC_WHEEL, data=_g6(
-        w.rolling_radius, w.contact_half_spacing, w.conicity, w.flangeway_clearance,
-    ))
+    spec.add_numeric(
+        name=NUMERIC_WHEEL,
+        data=_g6(
+            w.rolling_radius,
+            w.contact_half_spacing,
+            w.conicity,
+            w.flangeway_clearance,
+        ),
+    )
     spec.add_numeric(name=NUMERIC_CREEP, data=_g6(c.f11, c.f22, c.f23, c.f33))
     limit = c.friction * w.wheel_load if c.law != "linear" else 0.0  # unused by the linear law
-    spec.add_numeric(name=NUMERIC_SATURATION, data=_g6(LAWS[c.law], limit, c.falling_friction_ratio,
-                                                       c.falling_friction_rate))
+    spec.add_numeric(
+        name=NUMERIC_SATURATION, data=_g6(LAWS[c.law], limit, c.falling_friction_ratio, c.falling_friction_rate)
+    )
     f = layout.flange
-    spec.add_numeric(name=NUMERIC_FLANGE, data=_g6(1.0, f.stiffness, f.damping, np.tan(f.angle))
-                     if f else _g6(0.0, 0.0, 0.0, 0.0))
+    spec.add_numeric(
+        name=NUMERIC_FLANGE, data=_g6(1.0, f.stiffness, f.damping, np.tan(f.angle)) if f else _g6(0.0, 0.0, 0.0, 0.0)
+    )
     spec.add_numeric(name=NUMERIC_ELLIPSE, data=_g6(*_ellipse(layout)))
     if layout.profiles is not None:
         from rail_mj.contact.tables import TableError, dynamics_table
@@ -741,8 +889,15 @@ def _ellipse(layout: Layout) -> tuple[float, ...]:
     from rail_mj.layout import contact_patch_of  # scipy: only for layouts with [contact]
 
     patch = contact_patch_of(layout)
-    return (patch.a, patch.b, patch.normal_load, patch.shear_modulus / PA_PER_GPA, patch.C["C11"], patch.C["C22"],
-            patch.C["C23"])
+    return (
+        patch.a,
+        patch.b,
+        patch.normal_load,
+        patch.shear_modulus / PA_PER_GPA,
+        patch.C["C11"],
+        patch.C["C22"],
+        patch.C["C23"],
+    )
 
 
 def compile_spec(spec: mujoco.MjSpec, layout: Layout) -> mujoco.MjModel:
@@ -785,10 +940,12 @@ def add_sensors(spec: mujoco.MjSpec, bodies: list[str]) -> None:
         spec.add_sensor(name=f"{body}_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT, objtype=frame, objname=body)
     for body in bodies:
         if body.startswith("wheelset"):
-            spec.add_sensor(name=f"{body}_linvel", type=mujoco.mjtSensor.mjSENS_FRAMELINVEL, objtype=frame,
-                            objname=body)
-            spec.add_sensor(name=f"{body}_angvel", type=mujoco.mjtSensor.mjSENS_FRAMEANGVEL, objtype=frame,
-                            objname=body)
+            spec.add_sensor(
+                name=f"{body}_linvel", type=mujoco.mjtSensor.mjSENS_FRAMELINVEL, objtype=frame, objname=body
+            )
+            spec.add_sensor(
+                name=f"{body}_angvel", type=mujoco.mjtSensor.mjSENS_FRAMEANGVEL, objtype=frame, objname=body
+            )
 
 
 def add_load_sensors(spec: mujoco.MjSpec, model: mujoco.MjModel, wheelsets: list[str]) -> None:
@@ -800,10 +957,18 @@ def add_load_sensors(spec: mujoco.MjSpec, model: mujoco.MjModel, wheelsets: list
     if loads is None:
         return
     for name in sorted({name for tendons in loads.tendons for name, _, _ in tendons}):
-        spec.add_sensor(name=f"{name}_length", type=mujoco.mjtSensor.mjSENS_TENDONPOS,
-                        objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=name)
-        spec.add_sensor(name=f"{name}_rate", type=mujoco.mjtSensor.mjSENS_TENDONVEL,
-                        objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=name)
+        spec.add_sensor(
+            name=f"{name}_length",
+            type=mujoco.mjtSensor.mjSENS_TENDONPOS,
+            objtype=mujoco.mjtObj.mjOBJ_TENDON,
+            objname=name,
+        )
+        spec.add_sensor(
+            name=f"{name}_rate",
+            type=mujoco.mjtSensor.mjSENS_TENDONVEL,
+            objtype=mujoco.mjtObj.mjOBJ_TENDON,
+            objname=name,
+        )
 
 
 class Sensors:
@@ -813,8 +978,9 @@ class Sensors:
         """`model` holds the vehicle under `prefix` (several vehicles stepped together);
         the readings are for the vehicle's own bodies 1, 2, ... in its own order."""
         address = lambda name: model.sensor(prefix + name).adr[0]  # noqa: E731
-        own = [name.removeprefix(prefix) for b in range(1, model.nbody)
-               if (name := model.body(b).name).startswith(prefix)]
+        own = [
+            name.removeprefix(prefix) for b in range(1, model.nbody) if (name := model.body(b).name).startswith(prefix)
+        ]
         self.bodies = np.arange(1, len(own) + 1, dtype=np.int64)
         self.pos = np.array([np.arange(3) + address(f"{name}_pos") for name in own])
         self.quat = np.array([np.arange(4) + address(f"{name}_quat") for name in own])
@@ -872,16 +1038,14 @@ class Vehicle:
         self.layout = layout
         self.spec, self.model = compiled(layout)
         self.wheelset_names = tuple(f"wheelset{i + 1}" for i in range(layout.n_wheelsets))
-        self.wheelset_ids = np.array(
-            [self.model.body(n).id for n in self.wheelset_names], dtype=np.int64
-        )
+        self.wheelset_ids = np.array([self.model.body(n).id for n in self.wheelset_names], dtype=np.int64)
 
     @property
     def n_wheelsets(self) -> int:
         return len(self.wheelset_names)
 
     @functools.cached_property
-    def sensors(self) -> "Sensors":
+    def sensors(self) -> Sensors:
         return Sensors(self.model, self.wheelset_names)
 
     @functools.cached_property
@@ -939,8 +1103,13 @@ def scene_xml(layout: Layout) -> str:
     length = max(xs) - min(xs) + 10.0
     b = layout.wheelset.contact_half_spacing
     return SCENE_TEMPLATE.format(
-        name=layout.name, extent=length, floor_z=-0.16, rail_half_length=length,
-        rail_half_width=RAIL_HEAD_WIDTH / 2, b=b, neg_b=-b,
+        name=layout.name,
+        extent=length,
+        floor_z=-0.16,
+        rail_half_length=length,
+        rail_half_width=RAIL_HEAD_WIDTH / 2,
+        b=b,
+        neg_b=-b,
     )
 
 
@@ -954,8 +1123,10 @@ def generated_files(layout: Layout) -> dict[str, bytes]:
     written = mujoco.MjModel.from_xml_string(xml, spec.assets)
     if not np.array_equal(written.numeric_data, model.numeric_data):
         k = int(np.flatnonzero(written.numeric_data != model.numeric_data)[0])
-        raise ValueError(f"{layout.source}: the written MJCF would not read back to the model (numeric entry {k}: "
-                         f"{model.numeric_data[k]!r} written as {written.numeric_data[k]!r}); a bug in rail-mj")
+        raise ValueError(
+            f"{layout.source}: the written MJCF would not read back to the model (numeric entry {k}: "
+            f"{model.numeric_data[k]!r} written as {written.numeric_data[k]!r}); a bug in rail-mj"
+        )
     files = {f"{layout.name}.xml": xml.encode(), "scene.xml": scene_xml(layout).encode()}
     for name, data in spec.assets.items():
         files[f"assets/{name}"] = bytes(data)
