@@ -72,8 +72,8 @@ _EXPORTS = {
     "layout_from_dict": "layout",
     "load_layout": "layout",
     # vehicle
-    "Vehicle": "vehicle.model",
-    "generate": "vehicle.model",
+    "Vehicle": "vehicle.spec",
+    "generate": "vehicle.mjcf",
     # simulation
     "Run": "simulation.runner",
     "SimulationError": "simulation.runner",

@@ -2,7 +2,8 @@
 
 rail-mj 0.2 arranged the package by its data flow (README.md, "How the code is laid out").
 `import rail_mj.runner` and `from rail_mj.model import Vehicle` still work: each old path is
-the module that now holds its code. New code uses the new paths; the test suite checks that
+the module that now holds its code, or, for a module since split in parts, a module forwarding
+every name it had to its part. New code uses the new paths; the test suite checks that
 nothing in the repository uses an old one (tests/test_architecture.py). CHANGELOG.md lists
 the moves.
 """
@@ -24,7 +25,6 @@ MOVED = {
     "tables": "contact.tables",
     "creep": "contact.creep",
     "practice": "layout.practice",
-    "model": "vehicle.model",
     "wheel": "vehicle.wheel",
     "loads": "vehicle.loads",
     "forces": "simulation.callback",
@@ -38,6 +38,14 @@ MOVED = {
     "recording": "output.recording",
     "plots": "output.plots",
     "sweep": "studies.sweep",
+}
+
+# Old modules split in parts -> the parts; a name in several is the first one's. The vehicle
+# builder was rail_mj.model, then rail_mj.vehicle.model whole, before its split.
+_VEHICLE = ("spec", "mjcf", "sensors", "statics", "spatial", "train", "planar", "looks", "joints", "rounding")
+SPLIT = {
+    "model": tuple(f"vehicle.{part}" for part in _VEHICLE),
+    "vehicle.model": tuple(f"vehicle.{part}" for part in _VEHICLE),
 }
 
 
@@ -76,12 +84,29 @@ class _Alias(importlib.abc.Loader):
         module.__spec__ = self.spec
 
 
+class _Forward(importlib.abc.Loader):
+    """An old module split in parts: a module of its own holding every name of its parts."""
+
+    def __init__(self, parts: tuple[str, ...]) -> None:
+        self.parts = parts
+
+    def exec_module(self, module: types.ModuleType) -> None:
+        targets = [importlib.import_module(part) for part in self.parts]
+        module.__doc__ = f"{module.__name__}, moved: its names are those of {', '.join(self.parts)}."
+        for target in reversed(targets):  # the first part that has a name gives it
+            module.__dict__.update({k: v for k, v in vars(target).items() if not k.startswith("__")})
+
+
 class _OldPaths(importlib.abc.MetaPathFinder):
     def find_spec(self, fullname, path=None, target=None):
-        package, _, leaf = fullname.rpartition(".")
-        if package != "rail_mj" or leaf not in MOVED:
+        package, _, old = fullname.partition(".")
+        if package != "rail_mj":
             return None
-        return importlib.machinery.ModuleSpec(fullname, _Alias(f"rail_mj.{MOVED[leaf]}"))
+        if old in MOVED:
+            return importlib.machinery.ModuleSpec(fullname, _Alias(f"rail_mj.{MOVED[old]}"))
+        if old in SPLIT:
+            return importlib.machinery.ModuleSpec(fullname, _Forward(tuple(f"rail_mj.{p}" for p in SPLIT[old])))
+        return None
 
 
 def install() -> None:

@@ -26,10 +26,11 @@ from rail_mj.contact.creep import (
 )
 from rail_mj.contact.hertz import contact_patch, ellipse_patch
 from rail_mj.layout import LayoutError, layout_from_dict
+from rail_mj.numerics import NUMERIC_ELLIPSE
 from rail_mj.simulation import native
 from rail_mj.simulation.callback import CreepForces
 from rail_mj.simulation.runner import simulate
-from rail_mj.vehicle.model import NUMERIC_ELLIPSE, Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 # The reference case of docs/contact.md: a 10 t wheel, r0 0.46 m, rail crown 0.30 m, steel.
 PATCH = contact_patch(98.1e3, 0.46, 0.30, young_modulus=210e9, poisson_ratio=0.28)

@@ -22,7 +22,7 @@ from rail_mj.contact.creep import contact_forces
 from rail_mj.layout import layout_from_dict
 from rail_mj.simulation.callback import contact_parameters
 from rail_mj.vehicle.loads import AxleLoads
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 # The static loads come from spring lengths kept to 6 significant figures (docs/spatial.md).
 ROUNDING = 5e-6
@@ -193,7 +193,7 @@ def switched(gravitational: bool, gyroscopic: bool) -> dict:
 
 def wheelset_entries(stability, speed: float):
     """A at `speed`, and each wheelset's (lateral, yaw) dofs."""
-    from rail_mj.vehicle.model import LATERAL, YAW
+    from rail_mj.vehicle.joints import LATERAL, YAW
 
     model = stability.model
     dofs = [
@@ -414,7 +414,7 @@ def roll_balance(layout, pushed: str, F: float = 10e3) -> tuple[float, float, fl
     body `pushed`, the wheelsets held by the rails: linear statics from central differences of
     MuJoCo's forces with the native callback at speed 0 (no creep; the shear couples)."""
     from rail_mj.simulation import native
-    from rail_mj.vehicle.model import LATERAL, ROLL, YAW
+    from rail_mj.vehicle.joints import LATERAL, ROLL, YAW
 
     vehicle = Vehicle(layout)
     model = vehicle.model

@@ -12,7 +12,8 @@ from conftest import MODELS, ROOT, SHIPPED, free_truck
 
 from rail_mj.layout import layout_from_dict, load_layout
 from rail_mj.simulation.callback import CreepForces, installed
-from rail_mj.vehicle.model import Vehicle, generate, generated_files
+from rail_mj.vehicle.mjcf import generate, generated_files
+from rail_mj.vehicle.spec import Vehicle
 
 sys.path.insert(0, str(ROOT / "tools"))
 import regenerate_models

@@ -13,7 +13,8 @@ from mujoco import rollout
 from rail_mj.layout import load_layout
 from rail_mj.simulation import native
 from rail_mj.simulation.runner import simulate
-from rail_mj.vehicle.model import Vehicle, generate
+from rail_mj.vehicle.mjcf import generate
+from rail_mj.vehicle.spec import Vehicle
 
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)

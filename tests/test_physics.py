@@ -15,7 +15,7 @@ from rail_mj.contact.creep import LINEAR, POLACH, SHEN_HEDRICK_ELKINS, ContactPa
 from rail_mj.layout import layout_from_dict
 from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.simulation.runner import simulate
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 # Low enough that creep is effectively rigid (no slip): the inertia correction to the
 # kinematic wavelength is of order (V^2 * m / f22 / L)^2, below 1e-4 at 5 m/s.

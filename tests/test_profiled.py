@@ -19,7 +19,7 @@ from rail_mj.contact.creep import ContactParameters, contact_forces
 from rail_mj.layout import LayoutError, load_layout
 from rail_mj.simulation.runner import simulate
 from rail_mj.units import M_PER_MM, N_PER_KN
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 PROFILES = PROFILES_TOML

@@ -32,7 +32,7 @@ from rail_mj.output.recording import (
     yaw_path,
 )
 from rail_mj.simulation.runner import Run, simulate
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
 

@@ -22,7 +22,7 @@ from rail_mj.simulation.runner import (
     simulate_many,
     stable_timestep,
 )
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
 WHEELSET = MODELS / "wheelset" / "wheelset.toml"

@@ -16,7 +16,7 @@ import pytest
 from scipy.linalg import eigh
 
 from rail_mj.layout import LayoutError, layout_from_dict
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 SPATIAL = tomllib.loads((Path(__file__).parent / "data" / "manchester-coach-spatial.toml").read_text())
 G = 9.81
@@ -651,7 +651,7 @@ def test_preload_leaves_out_the_deadband_tendons():
     not reach: the sag is m g / k alone (1e-6, the 6 figures of a spring length), so q = 0 is the
     equilibrium, and the deadband is kept. (A lateral stop on the coach cannot show this: gravity
     has no lateral part.)"""
-    from rail_mj.vehicle.model import preload
+    from rail_mj.vehicle.statics import preload
 
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body(name="b", mass=2.0, inertia=[1.0, 1.0, 1.0])
@@ -674,7 +674,7 @@ def test_gravitational_stiffness_is_the_drop_of_the_attachment_points(coach_grav
     points moved by the bodies' true rotations; its Hessian over the car body's and frames' roll,
     pitch and yaw (central differences, 1e-3 rad: truncation ~1e-6) is diagonal, roll and pitch
     only, and equals the joints' stiffness to 1e-5 of the largest (the MJCF's 6 figures: 2e-6)."""
-    from rail_mj.vehicle.model import spatial_elements
+    from rail_mj.vehicle.spatial import spatial_elements
 
     layout, vehicle = coach_gravitational
     model, data = vehicle.model, mujoco.MjData(vehicle.model)

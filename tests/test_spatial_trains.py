@@ -23,7 +23,8 @@ from rail_mj.analysis.stability import Stability
 from rail_mj.analysis.train_modes import SNAKING
 from rail_mj.cli import cli
 from rail_mj.layout import LayoutError, layout_from_dict
-from rail_mj.vehicle.model import Vehicle, build_spec, compile_spec, preload, tendon_jacobian
+from rail_mj.vehicle.spec import Vehicle, build_spec, compile_spec
+from rail_mj.vehicle.statics import preload, tendon_jacobian
 
 PAIR_FILE = Path(__file__).parent / "data" / "spatial-articulated-pair.toml"
 PAIR = tomllib.loads(PAIR_FILE.read_text())

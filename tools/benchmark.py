@@ -47,7 +47,7 @@ from rail_mj.simulation import native
 from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.simulation.runner import PACK, Request, prepare, simulate, simulate_many
 from rail_mj.studies.sweep import sweep
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import peer_numba

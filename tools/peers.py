@@ -47,7 +47,7 @@ import numpy as np
 from rail_mj.layout import load_layout
 from rail_mj.simulation.callback import contact_parameters
 from rail_mj.simulation.runner import Run, simulate
-from rail_mj.vehicle.model import Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 COACH = Path(__file__).resolve().parent.parent / "models" / "manchester-coach" / "manchester-coach.toml"
 

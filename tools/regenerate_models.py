@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from rail_mj.layout import load_layout
-from rail_mj.vehicle.model import generate, generated_files
+from rail_mj.vehicle.mjcf import generate, generated_files
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 PROFILE_SUFFIXES = (".csv", ".prw", ".prr")  # profile files: inputs a layout reads, kept

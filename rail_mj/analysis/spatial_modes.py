@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from rail_mj.layout import Layout
-from rail_mj.vehicle.model import LATERAL, PITCH, ROLL, VERTICAL, YAW
+from rail_mj.vehicle.joints import LATERAL, PITCH, ROLL, VERTICAL, YAW
 
 MOTIONS = (LATERAL, YAW, VERTICAL, ROLL, PITCH)
 # A sway's roll centre nearer the centre of mass than this (m): the body rolls about itself.

@@ -30,7 +30,8 @@ from rail_mj.layout import Layout
 from rail_mj.simulation.linear import RIGID_TOLERANCE, modal_roots, state_matrix
 from rail_mj.simulation.runner import Derailed, simulate
 from rail_mj.vehicle.block import set_speed
-from rail_mj.vehicle.model import LATERAL, YAW, Vehicle
+from rail_mj.vehicle.joints import LATERAL, YAW
+from rail_mj.vehicle.spec import Vehicle
 
 CRITICAL_XTOL = 1e-4  # relative; the issue asks for 0.1 % or better
 # Speeds (m/s) at which A(V) = A0 + D/V + G*V is sampled: spread by factors of 4, so that

@@ -1,6 +1,6 @@
 """Trains: the names of a train's modes (docs/trains.md).
 
-A train's model is flat (rail_mj.vehicle.model.add_train): every body's joints are absolute, so
+A train's model is flat (rail_mj.vehicle.train.add_train): every body's joints are absolute, so
 the grouping of rail_mj.analysis.stability (a frame and the wheelsets nested under it) is read here
 from the layout instead: each bogie frame with its wheelsets, and each car body.
 

@@ -120,7 +120,7 @@ def cli():
 )
 def generate_cmd(layout, out_dir):
     """Generate the MJCF model of LAYOUT."""
-    from rail_mj.vehicle.model import generate
+    from rail_mj.vehicle.mjcf import generate
 
     lay = _layout(layout)
     _check_outputs(layout, [("-o", out_dir)], folders=True)

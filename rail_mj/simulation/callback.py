@@ -4,7 +4,7 @@
 MuJoCo, asks `rail_mj.contact.creep` for the forces of all wheelsets in one call, and adds
 them to `qfrc_passive` through the wheelset Jacobians. It reads the contact data
 from the compiled model by name (the `rail_mj/*` numerics written by
-`rail_mj.vehicle.model`), so a generated MJCF alone is enough.
+`rail_mj.vehicle.spec`), so a generated MJCF alone is enough.
 
 MuJoCo's passive callback is process-global, cannot be installed while a model
 compiles, and its forces are integrated explicitly: see `installed` and the
@@ -14,7 +14,7 @@ Example:
 
     >>> import mujoco
     >>> from rail_mj.layout import load_layout
-    >>> from rail_mj.vehicle.model import Vehicle
+    >>> from rail_mj.vehicle.spec import Vehicle
     >>> vehicle = Vehicle(load_layout("models/wheelset/wheelset.toml"))
     >>> data = mujoco.MjData(vehicle.model)
     >>> data.qpos[0] = 0.003

@@ -22,7 +22,7 @@ Example:
 
     >>> import mujoco
     >>> from rail_mj.layout import load_layout
-    >>> from rail_mj.vehicle.model import Vehicle
+    >>> from rail_mj.vehicle.spec import Vehicle
     >>> vehicle = Vehicle(load_layout("models/wheelset/wheelset.toml"))
     >>> set_speed(vehicle.model, 20.0)
     >>> data = mujoco.MjData(vehicle.model)

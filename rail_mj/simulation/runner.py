@@ -32,13 +32,15 @@ from mujoco import rollout
 from rail_mj.contact.creep import ContactForces, contact_forces
 from rail_mj.layout import Layout
 from rail_mj.layout.practice import DERAILMENT_LATERAL
+from rail_mj.numerics import NUMERIC_GEOMETRY
 from rail_mj.simulation import native
 from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.simulation.linear import modal_roots, state_matrix
 from rail_mj.vehicle import block
 from rail_mj.vehicle.block import contact_parameters, set_speed
+from rail_mj.vehicle.joints import YAW
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
-from rail_mj.vehicle.model import NUMERIC_GEOMETRY, YAW, Vehicle
+from rail_mj.vehicle.spec import Vehicle
 
 # RK4 is stable for |lambda|*dt up to 2.78 on the real axis and 2.83 on the imaginary
 # axis; 1.0 for the fastest mode lambda of the linearised vehicle leaves margin, and the
@@ -261,7 +263,7 @@ def _yaw(quat: np.ndarray) -> np.ndarray:
 
 def _spatial_angles(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(roll, pitch, yaw) of a spatial body's quaternions (w, x, y, z), its joints turning it
-    by yaw, then roll, then pitch (rail_mj.vehicle.model: R = Rz(psi) Rx(phi) Ry(theta)): from R's
+    by yaw, then roll, then pitch (rail_mj.vehicle.joints: R = Rz(psi) Rx(phi) Ry(theta)): from R's
     entries R21 = sin(phi), R20 = -cos(phi) sin(theta), R01 = -sin(psi) cos(phi)."""
     w, x, y, z = (quat[..., k] for k in range(4))
     roll = np.arcsin(np.clip(2.0 * (y * z + w * x), -1.0, 1.0))
@@ -604,7 +606,7 @@ class _Place:
     """Where one vehicle sits in the model that is stepped: its sensors, and its qpos and
     qvel entries."""
 
-    sensors: object  # rail_mj.vehicle.model.Sensors
+    sensors: object  # rail_mj.vehicle.sensors.Sensors
     qpos: np.ndarray
     qvel: np.ndarray
     lateral: np.ndarray  # qpos entries of its root lateral joints
@@ -696,7 +698,9 @@ def _unconstrained(model: mujoco.MjModel) -> bool:
 def _pack(vehicles: list[Vehicle], speeds: list[float]):
     """One model holding every vehicle, attached under the prefixes v0/, v1/, ..., the
     native block listing them all with their speeds."""
-    from rail_mj.vehicle.model import NUMERIC_NATIVE, Sensors, compile_spec
+    from rail_mj.numerics import NUMERIC_NATIVE
+    from rail_mj.vehicle.sensors import Sensors
+    from rail_mj.vehicle.spec import compile_spec
 
     parent = mujoco.MjSpec()
     first = vehicles[0].spec

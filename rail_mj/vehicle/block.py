@@ -135,7 +135,7 @@ def block(vehicles: list[np.ndarray]) -> np.ndarray:
 
 
 def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
-    """The block of a model built by rail_mj.vehicle.model: one vehicle, wheelset1..N, its contact
+    """The block of a model built by rail_mj.vehicle.spec: one vehicle, wheelset1..N, its contact
     parameters read from the model's named numerics, no speed yet."""
     names = [f"wheelset{i + 1}" for i in range(n_wheelsets)]
     bodies = [model.body(name).id for name in names]
@@ -156,7 +156,7 @@ def _block_of(model: mujoco.MjModel) -> np.ndarray:
     if model.nnumeric == 0 or model.numeric(0).name != NUMERIC_NATIVE or model.numeric_data[0] != MAGIC:
         raise NativeError(
             f"model {model.names[:40]!r}...: its first numeric is not {NUMERIC_NATIVE}; "
-            f"build it with rail_mj.vehicle.model.Vehicle"
+            f"build it with rail_mj.vehicle.spec.Vehicle"
         )
     return model.numeric_data
 

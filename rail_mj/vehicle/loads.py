@@ -73,7 +73,7 @@ class ShearCouples:
     Example:
 
         >>> from rail_mj.layout import load_layout
-        >>> from rail_mj.vehicle.model import Vehicle
+        >>> from rail_mj.vehicle.spec import Vehicle
         >>> model = Vehicle(load_layout("tests/data/manchester-coach-spatial.toml")).model
         >>> ShearCouples.of(model).elements[0]
         ('bogie1_carbody_left_z', 'bogie1_carbody_left_y', 'bogie1_carbody_left_x', 'bogie1_roll', 'bogie1_pitch')
@@ -128,7 +128,7 @@ class AxleLoads:
     Example:
 
         >>> from rail_mj.layout import load_layout
-        >>> from rail_mj.vehicle.model import Vehicle
+        >>> from rail_mj.vehicle.spec import Vehicle
         >>> vehicle = Vehicle(load_layout("tests/data/manchester-coach-spatial.toml"))
         >>> loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
         >>> [name for name, _, _ in loads.tendons[0]][:2]
@@ -145,7 +145,7 @@ class AxleLoads:
 
     @classmethod
     def of(cls, model: mujoco.MjModel, wheelset_names, prefix: str = "") -> AxleLoads | None:
-        """Read from a model built by rail_mj.vehicle.model (None: not a spatial vehicle with gravity,
+        """Read from a model built by rail_mj.vehicle.spec (None: not a spatial vehicle with gravity,
         whose wheels carry the layout's static load)."""
         try:
             data = model.numeric(prefix + NUMERIC_LOADS).data

@@ -1,0 +1,100 @@
+"""What a run records, measured by MuJoCo at every step: the sensors added to a vehicle, and
+where their readings sit in sensordata.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+
+def add_sensors(spec: mujoco.MjSpec, bodies: list[str]) -> None:
+    """What a run records, measured by MuJoCo at every step: each body's pose (frame
+    position and orientation) and each wheelset's velocity, in the track frame."""
+    frame = mujoco.mjtObj.mjOBJ_XBODY
+    for body in bodies:
+        spec.add_sensor(name=f"{body}_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=frame, objname=body)
+        spec.add_sensor(name=f"{body}_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT, objtype=frame, objname=body)
+    for body in bodies:
+        if body.startswith("wheelset"):
+            spec.add_sensor(
+                name=f"{body}_linvel", type=mujoco.mjtSensor.mjSENS_FRAMELINVEL, objtype=frame, objname=body
+            )
+            spec.add_sensor(
+                name=f"{body}_angvel", type=mujoco.mjtSensor.mjSENS_FRAMEANGVEL, objtype=frame, objname=body
+            )
+
+
+def add_load_sensors(spec: mujoco.MjSpec, model: mujoco.MjModel, wheelsets: list[str]) -> None:
+    """A spatial vehicle's axlebox tendons' lengths and rates, what its wheel loads come from
+    (rail_mj.vehicle.loads): <tendon>_length and <tendon>_rate."""
+    from rail_mj.vehicle.loads import AxleLoads
+
+    loads = AxleLoads.of(model, wheelsets)
+    if loads is None:
+        return
+    for name in sorted({name for tendons in loads.tendons for name, _, _ in tendons}):
+        spec.add_sensor(
+            name=f"{name}_length",
+            type=mujoco.mjtSensor.mjSENS_TENDONPOS,
+            objtype=mujoco.mjtObj.mjOBJ_TENDON,
+            objname=name,
+        )
+        spec.add_sensor(
+            name=f"{name}_rate",
+            type=mujoco.mjtSensor.mjSENS_TENDONVEL,
+            objtype=mujoco.mjtObj.mjOBJ_TENDON,
+            objname=name,
+        )
+
+
+class Sensors:
+    """Where `add_sensors`' readings sit in MuJoCo's sensordata, and what they mean."""
+
+    def __init__(self, model: mujoco.MjModel, wheelset_names, prefix: str = ""):
+        """`model` holds the vehicle under `prefix` (several vehicles stepped together);
+        the readings are for the vehicle's own bodies 1, 2, ... in its own order."""
+        address = lambda name: model.sensor(prefix + name).adr[0]  # noqa: E731
+        own = [
+            name.removeprefix(prefix) for b in range(1, model.nbody) if (name := model.body(b).name).startswith(prefix)
+        ]
+        self.bodies = np.arange(1, len(own) + 1, dtype=np.int64)
+        self.pos = np.array([np.arange(3) + address(f"{name}_pos") for name in own])
+        self.quat = np.array([np.arange(4) + address(f"{name}_quat") for name in own])
+        # The lateral velocity and yaw rate of each wheelset, in the world (track) frame.
+        self.lateral_rate = np.array([address(f"{w}_linvel") + 1 for w in wheelset_names])
+        self.yaw_rate = np.array([address(f"{w}_angvel") + 2 for w in wheelset_names])
+        # A spatial vehicle's axlebox tendons (rail_mj.vehicle.loads), read as the model's ten_length/velocity.
+        from rail_mj.vehicle.loads import AxleLoads
+
+        self.model, self.prefix = model, prefix
+        self.axle_loads = AxleLoads.of(model, wheelset_names, prefix)
+        self.tendons = np.zeros(0, dtype=np.int64)
+        if self.axle_loads is not None:
+            names = sorted({n for tendons in self.axle_loads.tendons for n, _, _ in tendons})
+            self.tendons = np.array([model.tendon(prefix + n).id for n in names], dtype=np.int64)
+            self.tendon_length = np.array([address(f"{n}_length") for n in names])
+            self.tendon_rate = np.array([address(f"{n}_rate") for n in names])
+
+    def poses(self, readings: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Fill every moving body's position and quaternion (w, x, y, z) from sensor readings
+        (samples along axis 0); the world's stay as they are."""
+        pos[:, self.bodies] = readings[:, self.pos]
+        quat[:, self.bodies] = readings[:, self.quat]
+
+    def rates(self, readings: np.ndarray, rates: np.ndarray) -> None:
+        """Fill each wheelset's (y_dot, psi_dot) from sensor readings."""
+        rates[..., 0] = readings[:, self.lateral_rate]
+        rates[..., 1] = readings[:, self.yaw_rate]
+
+    def loads(self, readings: np.ndarray, loads: np.ndarray) -> None:
+        """Fill each wheelset's (axle load P, roll moment M) from sensor readings (rail_mj.vehicle.loads);
+        NaN for a vehicle whose wheels carry the layout's static load."""
+        if self.axle_loads is None:
+            loads[...] = np.nan
+            return
+        lengths = np.zeros((len(readings), self.model.ntendon))
+        rates = np.zeros_like(lengths)
+        lengths[:, self.tendons] = readings[:, self.tendon_length]
+        rates[:, self.tendons] = readings[:, self.tendon_rate]
+        loads[..., 0], loads[..., 1] = self.axle_loads.evaluate(self.model, lengths, rates, self.prefix)

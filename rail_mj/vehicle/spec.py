@@ -1,0 +1,204 @@
+"""A `Layout` as one MjSpec (options, the bodies, the numerics the creep callback reads) and
+compiled, its native block filled in: `Vehicle`.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import mujoco
+import numpy as np
+
+from rail_mj.layout import GRAVITY, LAWS, Layout
+from rail_mj.numerics import (
+    NUMERIC_CREEP,
+    NUMERIC_ELLIPSE,
+    NUMERIC_FLANGE,
+    NUMERIC_GEOMETRY,
+    NUMERIC_NATIVE,
+    NUMERIC_SATURATION,
+    NUMERIC_WHEEL,
+)
+from rail_mj.units import PA_PER_GPA
+from rail_mj.vehicle.joints import LATERAL
+from rail_mj.vehicle.looks import add_wheel_mesh
+from rail_mj.vehicle.planar import add_carbody
+from rail_mj.vehicle.rounding import _g6
+from rail_mj.vehicle.sensors import Sensors, add_load_sensors, add_sensors
+from rail_mj.vehicle.spatial import add_spatial
+from rail_mj.vehicle.statics import add_gravitational_stiffness, preload
+from rail_mj.vehicle.train import add_train
+
+# The run's speed replaces nothing here: the timestep is chosen by the runner.
+DEFAULT_TIMESTEP = 1e-3
+
+
+def build_spec(layout: Layout) -> mujoco.MjSpec:
+    """The vehicle alone as an MjSpec, its wheel mesh in `spec.assets`."""
+    spec = mujoco.MjSpec()
+    spec.modelname = layout.name
+    spec.compiler.degree = False
+    spec.meshdir = "assets"
+    # Masses and inertias come from the layout, never from the (visual) geoms; to_xml
+    # writes the <inertial> elements only when asked to.
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.compiler.saveinertial = True
+    # Only the car-body/bogie/wheelset lateral-yaw dynamics are modelled; nothing collides.
+    # RK4: MuJoCo integrates callback (creep) forces explicitly, and the semi-implicit
+    # Euler integrators then misjudge the creep damping by O(dt*2*f22/(m*V)), which moved
+    # the time-domain critical speed of the restrained wheelset by 5 % at dt = 1 ms;
+    # RK4 reproduces the eigenvalues' growth rates to 4 digits at the same step.
+    spec.option.timestep = DEFAULT_TIMESTEP
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    spec.option.disableflags = int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+
+    spec.add_numeric(name=NUMERIC_NATIVE, data=[0.0])  # first; filled in by `compiled`
+    add_wheel_mesh(spec, layout)
+    w = layout.wheelset
+    if layout.spatial is not None:
+        add_spatial(spec, layout)
+        if layout.spatial.gravity:  # the wheel loads come from the suspension (rail_mj.vehicle.loads)
+            from rail_mj.vehicle.loads import NUMERIC_LOADS
+
+            e = layout.spatial.primary
+            spin = w.inertia[1] if layout.spatial.gyroscopic else 0.0
+            cone_gravity = layout.spatial.gravitational_stiffness and layout.profiles is None
+            # Each wheelset's axlebox spacing and height after the defaults, when a bogie has its
+            # own ([bogies.N.axlebox]; rail_mj.vehicle.loads reads either form).
+            own = [(d.axlebox.spacing, d.axlebox.height) for d in layout.spatial.bogies for _ in d.wheelset_positions]
+            own = [] if all(a == (e.spacing, e.height) for a in own) else [v for a in own for v in a]
+            spec.add_numeric(
+                name=NUMERIC_LOADS,
+                data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin, float(cone_gravity), *own),
+            )
+            if layout.spatial.gravitational_stiffness:  # the preloads' shear couples (rail_mj.vehicle.loads)
+                from rail_mj.vehicle.loads import NUMERIC_COUPLES
+
+                spec.add_numeric(name=NUMERIC_COUPLES, data=[1.0])
+    elif layout.train is not None:
+        add_train(spec, layout)
+    else:
+        add_carbody(spec.worldbody, layout)
+
+    c = layout.creep
+    spec.add_numeric(
+        name=NUMERIC_WHEEL,
+        data=_g6(
+            w.rolling_radius,
+            w.contact_half_spacing,
+            w.conicity,
+            w.flangeway_clearance,
+        ),
+    )
+    spec.add_numeric(name=NUMERIC_CREEP, data=_g6(c.f11, c.f22, c.f23, c.f33))
+    limit = c.friction * w.wheel_load if c.law != "linear" else 0.0  # unused by the linear law
+    spec.add_numeric(
+        name=NUMERIC_SATURATION, data=_g6(LAWS[c.law], limit, c.falling_friction_ratio, c.falling_friction_rate)
+    )
+    f = layout.flange
+    spec.add_numeric(
+        name=NUMERIC_FLANGE, data=_g6(1.0, f.stiffness, f.damping, np.tan(f.angle)) if f else _g6(0.0, 0.0, 0.0, 0.0)
+    )
+    spec.add_numeric(name=NUMERIC_ELLIPSE, data=_g6(*_ellipse(layout)))
+    if layout.profiles is not None:
+        from rail_mj.contact.tables import TableError, dynamics_table
+
+        try:
+            table = dynamics_table(layout)
+        except TableError as e:
+            raise ValueError(f"{layout.source}: {e}") from None
+        spec.add_numeric(name=NUMERIC_GEOMETRY, data=_g6(*table.reshape(-1)))
+    return spec
+
+
+def _ellipse(layout: Layout) -> tuple[float, ...]:
+    """NUMERIC_ELLIPSE's numbers: the Hertz ellipse of [contact], or zeros (also on
+    profiles, whose contact table carries each point's ellipse)."""
+    if layout.contact is None or layout.profiles is not None:
+        return (0.0,) * 7
+    from rail_mj.layout import contact_patch_of  # scipy: only for layouts with [contact]
+
+    patch = contact_patch_of(layout)
+    return (
+        patch.a,
+        patch.b,
+        patch.normal_load,
+        patch.shear_modulus / PA_PER_GPA,
+        patch.C["C11"],
+        patch.C["C22"],
+        patch.C["C23"],
+    )
+
+
+def compile_spec(spec: mujoco.MjSpec, layout: Layout) -> mujoco.MjModel:
+    try:
+        return spec.compile()
+    except ValueError as e:
+        why = "; ".join(line.strip() for line in str(e).splitlines() if line.strip())
+        raise ValueError(f"{layout.source}: MuJoCo could not compile the model: {why}") from None
+
+
+def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    """The vehicle's spec and compiled model, its native block filled in: the block lists
+    bodies, joints and dofs by the ids the compiler gave them, so it is written after a
+    first compile (a millisecond or two) and the model compiled again."""
+    from rail_mj.vehicle import block  # numba (the contact law's module): only once a model is built
+
+    spec = build_spec(layout)
+    model = compile_spec(spec, layout)
+    if layout.spatial is not None:
+        if layout.spatial.gravity:
+            q_eq = preload(spec, model)
+            # After the preload, and so outside the K it solves with: these terms are made of its
+            # forces, and act about q = 0, which they must leave the equilibrium (docs/spatial.md).
+            if layout.spatial.gravitational_stiffness:
+                add_gravitational_stiffness(spec, layout, model, q_eq)
+        else:
+            spec.option.gravity = [0.0, 0.0, 0.0]
+    spec.numerics[0].data = block.block_for(model, layout.n_wheelsets).tolist()
+    add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
+    add_load_sensors(spec, model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)])
+    return spec, compile_spec(spec, layout)
+
+
+class Vehicle:
+    """A compiled vehicle: the MuJoCo model of a layout, its parts read by name.
+
+    Example:
+
+        >>> from rail_mj.layout import load_layout
+        >>> vehicle = Vehicle(load_layout("models/manchester-coach/manchester-coach.toml"))
+        >>> vehicle.wheelset_names[0], vehicle.model.nv
+        ('wheelset1', 14)
+    """
+
+    def __init__(self, layout: Layout):
+        self.layout = layout
+        self.spec, self.model = compiled(layout)
+        self.wheelset_names = tuple(f"wheelset{i + 1}" for i in range(layout.n_wheelsets))
+        self.wheelset_ids = np.array([self.model.body(n).id for n in self.wheelset_names], dtype=np.int64)
+
+    @property
+    def n_wheelsets(self) -> int:
+        return len(self.wheelset_names)
+
+    @functools.cached_property
+    def sensors(self) -> Sensors:
+        return Sensors(self.model, self.wheelset_names)
+
+    @functools.cached_property
+    def root_lateral_dofs(self) -> np.ndarray:
+        """The lateral joints that move the whole vehicle: those whose parent cannot move."""
+        dofs = []
+        for j in range(self.model.njnt):
+            name = self.model.joint(j).name
+            parent = self.model.body_parentid[self.model.jnt_bodyid[j]]
+            if name.endswith(f"_{LATERAL}") and self.model.body_dofnum[parent] == 0:
+                dofs.append(self.model.jnt_dofadr[j])
+        return np.array(dofs, dtype=np.int64)
+
+    def wheelset_dofs(self, motion: str) -> np.ndarray:
+        return np.array(
+            [self.model.joint(f"{n}_{motion}").dofadr[0] for n in self.wheelset_names],
+            dtype=np.int64,
+        )
