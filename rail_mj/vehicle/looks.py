@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.layout import Layout
+from rail_mj.units import SIDES
 from rail_mj.vehicle.rounding import _g6
 from rail_mj.vehicle.wheel import wheel_profile, wheel_stl
 
@@ -46,7 +47,6 @@ OVERHANG = 2.75
 WALL = 0.05  # side walls and ends
 WINDOW_BAND = (0.75, 1.55)  # window strip, above the floor
 VESTIBULE = 1.2  # no windows this far from each end (doors)
-SIDES = (("left", 1.0), ("right", -1.0))  # name and sign of y
 AXLEBOX_RGBA = [0.25, 0.25, 0.28, 1]
 SPRING_RGBA = [0.85, 0.65, 0.15, 1]
 FRAME_RGBA = [0.2, 0.3, 0.6, 1]

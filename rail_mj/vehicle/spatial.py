@@ -11,6 +11,7 @@ import dataclasses
 import mujoco
 
 from rail_mj.layout import Layout
+from rail_mj.units import SIDES
 from rail_mj.vehicle.joints import (
     LATERAL,
     PITCH,
@@ -22,7 +23,7 @@ from rail_mj.vehicle.joints import (
     _add_spatial_joints,
     _set_inertia,
 )
-from rail_mj.vehicle.looks import END_GAP, SIDES, add_carbody_shell, add_coach_shell, side_frame_heights
+from rail_mj.vehicle.looks import END_GAP, add_carbody_shell, add_coach_shell, side_frame_heights
 from rail_mj.vehicle.planar import add_wheelset
 from rail_mj.vehicle.rounding import _g6, _pos
 from rail_mj.vehicle.train import _coupling_tendons, _tendon, add_flat_bogie

@@ -73,7 +73,7 @@ def add_gravitational_stiffness(spec: mujoco.MjSpec, layout: Layout, model: mujo
     forces = {model.tendon(t).name: -model.tendon_stiffness[t] * L for t, L in enumerate(lengths)}
     known = {f"{e[0]}_{axis}" for e in spatial_elements(layout) for axis in AXES}
     for t in spec.tendons:
-        # A static force at a point this module does not know would be a term silently missing
+        # A static force at a point spatial_elements does not list would be a term silently missing
         # (a deadband tendon, a bump stop, carries none: preload leaves it in its play).
         preloaded = t.springlength[0] != 0.0 and t.springlength[0] == t.springlength[1]
         if preloaded and t.name not in known:
