@@ -558,7 +558,7 @@ def test_a_limit_cycle_is_not_called_decayed(capsys):
 
 def test_help_and_layout_errors_load_no_heavy_library(tmp_path):
     """`rail-mj --help` and a layout error must not wait for MuJoCo, numba, scipy or rerun
-    (tools/benchmark.py measures the time)."""
+    (benchmarks/benchmark.py measures the time)."""
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "x"\n')
     probe = (

@@ -1,4 +1,4 @@
-"""The peers of tools/ (what a user would write instead of rail-mj) model the same coach:
+"""The peers of benchmarks/ (what a user would write instead of rail-mj) model the same coach:
 the numba peer follows rail-mj's trajectory to round-off, and the solve_ivp peer's numpy
 creep law and equations of motion are rail-mj's law and the numba peer's equations."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import ROOT
 
-sys.path.insert(0, str(ROOT / "tools"))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import peer_numba
 import peer_solve_ivp

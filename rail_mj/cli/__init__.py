@@ -1,4 +1,7 @@
-"""The `rail-mj` command: a thin layer over the Python API (`rail_mj.cli:main`)."""
+"""The `rail-mj` command: a thin layer over the Python API (`rail_mj.cli:main`).
+
+    main.py        the command group and its subcommands
+"""
 
 from rail_mj import _lazy
 from rail_mj.cli.main import cli, main

@@ -1,6 +1,6 @@
 """The articulated set's snaking against its inter-car yaw damping (README, "Trains").
 
-    python tools/snaking_figure.py [--out tools/figures]
+    python examples/train-snaking/snaking_figure.py [--out DIR]
 
 For models/articulated-set with every [[coupling]]'s yaw_damping set in turn to each value
 below: the snaking mode (car bodies yawing in alternation, rail_mj.analysis.train_modes) at SPEED, its
@@ -29,7 +29,7 @@ from rail_mj.analysis.train_modes import SNAKING
 from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 SPEED = 50.0  # m/s, where the snaking mode is read
 DAMPING = (0.0, 5e4, 1e5, 2e5, 4e5, 8e5, 1.6e6, 3.2e6)  # N m s/rad per coupling
 VMIN, VMAX = 5.0, 150.0
@@ -38,7 +38,7 @@ LOW_CONICITY = 0.02
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "figures")
+    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent)
     args = parser.parse_args()
     base = load_layout(MODELS / "articulated-set" / "articulated-set.toml")
     rows = []

@@ -1,6 +1,6 @@
 """What turns a wheelset at a flange strike: the yaw moments of the rails, strike by strike.
 
-    python tools/flange_strikes.py
+    python examples/hunting/flange_strikes.py
 
 Runs the shipped bogie and coach at 1.1 times their linear critical speed (on the
 hunting limit cycle, Polach saturation and flange contact) and prints, for the leading
@@ -21,7 +21,7 @@ from rail_mj.analysis.stability import Stability
 from rail_mj.layout import load_layout
 from rail_mj.simulation.runner import simulate
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 SETTLE, SAMPLE = 8.0, 4.0  # s on the limit cycle before sampling, and sampled
 
 

@@ -1,18 +1,18 @@
 """A peer of rail-mj: the coach on a fixed-step RK4 compiled with numba.
 
 What a user would write instead of rail-mj to run the Manchester coach fast: the
-14 planar equations of its 7 bodies with exact nested kinematics (see tools/peers.py
+14 planar equations of its 7 bodies with exact nested kinematics (see benchmarks/peers.py
 for the derivation), rail-mj's own creep law called from inside the compiled code
 (`rail_mj.contact.creep.wheelset_contact`: Polach saturation and flange contact, the same
 function rail-mj's MuJoCo callback calls), and the classical RK4 at rail-mj's timestep.
 It follows rail-mj's trajectory to round-off: 1e-18 m over 1 km at 60 m/s, 4e-16 m
 hunting on the flanges at 100 m/s, where |y| reaches 15 mm.
 
-    PYTHONPATH=. python tools/peer_numba.py
+    PYTHONPATH=. python benchmarks/peer_numba.py
 
 prints the agreement with `rail_mj.simulate` over 1 km at 60 m/s and a timing table:
 one run, and a batch of 64 speeds run at once on every core (`batch`, numba prange).
-`time_single` and `time_batch` return (seconds, vehicle-km) for tools/benchmark.py,
+`time_single` and `time_batch` return (seconds, vehicle-km) for benchmarks/benchmark.py,
 `step_time` the CPU time of one step.
 """
 

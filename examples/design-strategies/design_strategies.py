@@ -1,6 +1,6 @@
 """The seed article's two routes to a stable vehicle, worked on the shipped models.
 
-    python tools/design_strategies.py [--out tools/figures]
+    python examples/design-strategies/design_strategies.py [--out DIR]
 
 1. Conicity: 1:20 (0.05) against 1:40 (0.025), and the shipped effective 0.15, on the
    bogie and the coach (the Shinkansen's change from 1:20 to 1:40).
@@ -29,7 +29,7 @@ from rail_mj.analysis.stability import Stability
 from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 VMIN, VMAX = 5.0, 300.0
 
 
@@ -84,7 +84,7 @@ def fmt(v):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "figures"))
+    parser.add_argument("--out", default=str(Path(__file__).resolve().parent))
     args = parser.parse_args()
 
     rows = conicity_study()

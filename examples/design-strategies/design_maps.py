@@ -1,6 +1,6 @@
 """The seed's two design strategies at a glance: stability maps of the shipped models.
 
-    python tools/design_maps.py [--out tools/figures]
+    python examples/design-strategies/design_maps.py [--out DIR]
 
 1. The coach: conicity (1:40 to worn treads) against primary yaw stiffness (Matsudaira's
    stiff yaw), 20 x 20 eigen critical speeds.
@@ -22,7 +22,7 @@ from rail_mj.files import atomic_write
 from rail_mj.output.plots import stability_map_png
 from rail_mj.studies.sweep import sweep
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 MAPS = [
     (
         "coach",
@@ -41,7 +41,7 @@ MAPS = [
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "figures"))
+    parser.add_argument("--out", default=str(Path(__file__).resolve().parent))
     args = parser.parse_args()
     for name, layout, x, y in MAPS:
         started = time.perf_counter()

@@ -1,9 +1,9 @@
 """What hunting looks like: the shipped bogie on its limit cycle, drawn from one run.
 
-    python tools/hunting_figure.py [--out tools/figures]
+    python examples/hunting/hunting_figure.py [--out DIR]
 
 Runs the shipped bogie (Polach saturation, flange contact) at 1.1 times its linear
-critical speed from a 2 mm disturbance and draws tools/figures/hunting_bogie.png: the
+critical speed from a 2 mm disturbance and draws examples/hunting/hunting_bogie.png: the
 leading wheelset's lateral displacement over the whole run (growth onto the flanges),
 then the last 40 m: both wheelsets' displacement and yaw, and the sum of guiding forces
 with EN 14363's band-passed sliding rms against its limit.
@@ -27,13 +27,13 @@ from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
 from rail_mj.simulation.runner import simulate
 
-BOGIE = Path(__file__).resolve().parent.parent / "models" / "bogie" / "bogie.toml"
+BOGIE = Path(__file__).resolve().parents[2] / "models" / "bogie" / "bogie.toml"
 ZOOM = 40.0  # m at the end of the run
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "figures"))
+    parser.add_argument("--out", default=str(Path(__file__).resolve().parent))
     args = parser.parse_args()
     layout = load_layout(BOGIE)
     linear = Stability(layout).critical_speed().critical_speed

@@ -1,6 +1,6 @@
 """Wheel wear and equivalent conicity: new and worn S1002 on 60E1, drawn and tabulated.
 
-    python tools/conicity_figure.py [--out tools/figures]
+    python examples/wheel-wear/conicity_figure.py [--out DIR]
 
 Computes the rigid contact geometry (rail_mj.contact.geometry, -10 to +10 mm in 0.05 mm steps) and
 EN 15302's equivalent conicity (rail_mj.contact.conicity, the integration method) for three wheel-rail
@@ -11,7 +11,7 @@ pairs on standard gauge (1435 mm, flange backs 1360 mm):
 - the worn S1002 of tools/worn_profile.py (models/manchester-coach-worn/assets/s1002_worn.csv)
   on 60E1 at 1:40,
 
-draws tools/figures/conicity_wear.png (the wheels, their rolling-radius differences Δr(y) and
+draws examples/wheel-wear/conicity_wear.png (the wheels, their rolling-radius differences Δr(y) and
 λe against amplitude from 0.5 to 10 mm) and prints the Markdown table of λe at 1, 3 and 5 mm
 that README.md quotes. About 20 s.
 """
@@ -34,7 +34,7 @@ from rail_mj.contact import profiles as P
 from rail_mj.contact.conicity import equivalent_conicity
 from rail_mj.files import atomic_write
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))  # the worn wheel: a maintenance tool makes it
 import worn_profile
 
 AMPLITUDES = np.round(np.arange(0.5, 10.0 + 1e-9, 0.1), 10)  # mm
@@ -58,7 +58,7 @@ def flange_from(table: G.ContactTable) -> float:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "figures"))
+    parser.add_argument("--out", default=str(Path(__file__).resolve().parent))
     args = parser.parse_args()
 
     results = []

@@ -1,6 +1,6 @@
 """Critical speed against equivalent conicity: the Manchester coach on real profiles.
 
-    python tools/conicity_stability.py [--out tools/figures] [--nonlinear]
+    python examples/wheel-wear/conicity_stability.py [--out DIR] [--nonlinear]
 
 The coach on S1002 wheels and 60E1 rails (models/manchester-coach-s1002) and on the worn
 wheel (models/manchester-coach-worn), with the track varied as practitioners vary it: the
@@ -33,7 +33,7 @@ from rail_mj.analysis.stability import Stability
 from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 VMIN, VMAX = 20.0, 250.0
 
 
@@ -65,7 +65,7 @@ def cone_line(base, conicities):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "figures")
+    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent)
     parser.add_argument("--nonlinear", action="store_true", help="also the nonlinear critical speeds")
     args = parser.parse_args()
 

@@ -3,14 +3,14 @@
 The peers are what a user would write instead of rail-mj, for the same vehicle and
 the same creep law:
 
-    tools/peer_solve_ivp.py   scipy's solve_ivp (RK45, DOP853) on a numpy right-hand side
-    tools/peer_numba.py       a fixed-step RK4 compiled with numba, one run and a batch
+    benchmarks/peer_solve_ivp.py   scipy's solve_ivp (RK45, DOP853) on a numpy right-hand side
+    benchmarks/peer_numba.py       a fixed-step RK4 compiled with numba, one run and a batch
 
 This module holds what both share: the coach's numbers (`coach`), rail-mj's own run to
 compare with (`reference`), the timing of rail-mj (`time_rail_mj`) and the small helpers
 that print the tables. Run it to measure everything side by side in one process:
 
-    PYTHONPATH=. python tools/peers.py
+    PYTHONPATH=. python benchmarks/peers.py
 
 The equations (peer_numba writes them body by body, peer_solve_ivp all bodies at once)
 -------------------------------------------------------------------------------------

@@ -2,7 +2,7 @@
 
 What a user would write instead of rail-mj with the scientific Python stack alone:
 the 14 planar equations of the Manchester coach's 7 bodies with exact nested
-kinematics (derived in tools/peers.py), the creep law written out in numpy over the
+kinematics (derived in benchmarks/peers.py), the creep law written out in numpy over the
 4 wheelsets (rail-mj's law, transcribed from rail_mj/contact/creep.py: Kalker's linear
 forces per wheel, Polach's saturation, flange contact), and an adaptive Runge-Kutta
 method (RK45 or DOP853) at tight tolerances.
@@ -12,10 +12,10 @@ at a 1 ms step (the numba peer, the same RK4, shows the same 1.5e-9 m at 1 ms an
 within 1e-13 m of this peer at 0.05 ms); the equations are the same to round-off
 (tests/test_peers.py).
 
-    PYTHONPATH=. python tools/peer_solve_ivp.py
+    PYTHONPATH=. python benchmarks/peer_solve_ivp.py
 
 prints the agreement with `rail_mj.simulate` over 1 km at 60 m/s and a timing table.
-`time_run(method)` returns (seconds, vehicle-km) for tools/benchmark.py.
+`time_run(method)` returns (seconds, vehicle-km) for benchmarks/benchmark.py.
 """
 
 from __future__ import annotations
@@ -108,7 +108,7 @@ class Equations:
 
     Written for numpy: every body at once, through the tree's ancestor matrix A
     (A[i, j] = 1 when body j is body i or above it). With u_j = R(theta_P(j)) (x_j, q_y,j)
-    the offset of body j from its parent P(j) in the track frame (tools/peers.py), the
+    the offset of body j from its parent P(j) in the track frame (benchmarks/peers.py), the
     chain of offsets adds up to every position and its derivatives:
 
         theta_i = sum_j A[i, j] q_psi,j           p_i = sum_j A[i, j] u_j

@@ -1,6 +1,6 @@
 """Nonlinear critical speed and bifurcation diagrams of the shipped bogie and coach.
 
-    python tools/nonlinear_examples.py [--out tools/figures]
+    python examples/nonlinear-critical-speed/nonlinear_examples.py [--out DIR]
 
 Both layouts carry Polach saturation and flange contact; the bogie is run once more with
 Polach's falling friction. Prints a Markdown table (copied into README.md) and writes
@@ -18,12 +18,12 @@ from rail_mj.files import atomic_write
 from rail_mj.layout import load_layout
 from rail_mj.output.plots import bifurcation_png
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "figures"))
+    parser.add_argument("--out", default=str(Path(__file__).resolve().parent))
     args = parser.parse_args()
     print(f"speed lowered in steps of {STEP:.0%}")
     print("| vehicle | linear critical speed | nonlinear critical speed | limit cycle at 1.1 x linear |")

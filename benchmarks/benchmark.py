@@ -1,6 +1,6 @@
 """Speed benchmarks: figures for README.md, measured here and never in a timed test.
 
-    python tools/benchmark.py
+    python benchmarks/benchmark.py
 
 Times (best of several repeats, wall clock, one process, side by side in one run):
 - the eigen critical speed of the shipped coach; a root locus of 50 speeds;
@@ -10,7 +10,7 @@ Times (best of several repeats, wall clock, one process, side by side in one run
 - one coach run, 1 km at 60 m/s (target: under 0.3 s);
 - the 64-speed sweep of the coach, 20-100 m/s, 1 km each, on every core (target: under
   10 s), and a 20 x 20 eigen stability map (target: under 20 s);
-- the peers, what a user writes instead (tools/peer_solve_ivp.py, tools/peer_numba.py),
+- the peers, what a user writes instead (benchmarks/peer_solve_ivp.py, benchmarks/peer_numba.py),
   per vehicle-km against rail-mj; the batches (rail-mj's sweep, its runs alone, the numba
   peer's as written and with its speeds dealt out evenly to the cores) taken in turn,
   wall clock and CPU time (the machine is shared: each the best of its turns);
@@ -26,7 +26,7 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   contact, against it) and on S1002/60E1 (models/manchester-coach-spatial against
   models/manchester-coach-s1002).
 
-    python tools/benchmark.py --spatial   # only the spatial coach against the planar one
+    python benchmarks/benchmark.py --spatial   # only the spatial coach against the planar one
 """
 
 from __future__ import annotations
@@ -76,9 +76,9 @@ def single_peers() -> list[tuple[str, float]]:
     rows = []
     for method in peer_solve_ivp.METHODS:
         seconds, km = peer_solve_ivp.time_run(method)
-        rows.append((f"`solve_ivp` {method}, numpy right-hand side (`tools/peer_solve_ivp.py`)", seconds / km))
+        rows.append((f"`solve_ivp` {method}, numpy right-hand side (`benchmarks/peer_solve_ivp.py`)", seconds / km))
     seconds, km = peer_numba.time_single()
-    rows.append(("a planar RK4 compiled with numba, one run (`tools/peer_numba.py`)", seconds / km))
+    rows.append(("a planar RK4 compiled with numba, one run (`benchmarks/peer_numba.py`)", seconds / km))
     return rows
 
 
@@ -166,7 +166,7 @@ def ten_car_train():
     data["train"]["bogie_positions"] = [c + s for c in centres for s in (axle, -axle)]
     data["car"] = [{**data["car"][0], "position": c, "bogies": [2 * k + 1, 2 * k + 2]} for k, c in enumerate(centres)]
     data["coupling"] = [{**data["coupling"][0], "cars": [k + 1, k + 2]} for k in range(n - 1)]
-    return layout_from_dict(data, "ten-coaches (tools/benchmark.py)")
+    return layout_from_dict(data, "ten-coaches (benchmarks/benchmark.py)")
 
 
 def train_speed(n: int = 3000) -> tuple[float, float, int]:
@@ -201,7 +201,7 @@ def spatial_coned():
     data = tomllib.loads(SPATIAL_CONED.read_text())
     data["wheelset"]["flangeway_clearance"] = planar["wheelset"]["flangeway_clearance"]
     data["creep"], data["flange"] = planar["creep"], planar["flange"]
-    return layout_from_dict(data, f"{SPATIAL_CONED.name} with {COACH.name}'s contact (tools/benchmark.py)")
+    return layout_from_dict(data, f"{SPATIAL_CONED.name} with {COACH.name}'s contact (benchmarks/benchmark.py)")
 
 
 def spatial_against_planar(speed: float = 40.0, n: int = 3000, repeats: int = 11):
@@ -334,7 +334,9 @@ def main() -> None:
     print()
     print("| one RK4 step of the coach, CPU time | µs | the peer's step times |")
     print("|---|---|---|")
-    print(f"| the numba peer's whole step (`tools/peer_numba.py`, creep law included) | {peer_step * 1e6:.2f} | 1 |")
+    print(
+        f"| the numba peer's whole step (`benchmarks/peer_numba.py`, creep law included) | {peer_step * 1e6:.2f} | 1 |"
+    )
     print(
         f"| a coach in a model of {PACK}, bare MuJoCo (no creep forces) | {packed_bare * 1e6:.2f} | "
         f"{packed_bare / peer_step:.2f} |"
