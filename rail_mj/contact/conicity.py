@@ -372,7 +372,7 @@ def _cycle(knots, c: float, amp: float) -> tuple[np.ndarray, np.ndarray]:
     crosses a knot of Δr, so that each piece is smooth."""
     inside = knots[(knots > c - amp) & (knots < c + amp)]
     cuts = np.unique(np.concatenate([[-math.pi / 2, math.pi / 2], np.arcsin((inside - c) / amp)]))
-    pieces = []
+    pieces: list[tuple[float, float]] = []
     for a, b in zip(cuts[:-1], cuts[1:]):
         edges = np.linspace(a, b, max(1, math.ceil((b - a) / (math.pi / 64))) + 1)
         pieces.extend(zip(edges[:-1], edges[1:]))
@@ -398,20 +398,12 @@ def klingel_ode(
     def rhs(_x, s):
         return [s[1], -delta_r._at(s[0]) / (e * r0)]
 
-    def turned(direction):
-        def event(_x, s):
-            return s[1]
-
-        event.terminal = True
-        event.direction = direction
-        return event
-
     first = 1.0 if release > delta_r.centre[1] else -1.0  # at the far side the slope changes sign
     state, points, length = [float(release), 0.0], [float(release)], 0.0
     span = 100.0 * math.pi * math.sqrt(e * r0)  # far beyond any period of interest
     for direction in (first, -first):
         run = solve_ivp(
-            rhs, (0.0, span), state, method="DOP853", rtol=rtol, atol=rtol * scale * 1e-3, events=turned(direction)
+            rhs, (0.0, span), state, method="DOP853", rtol=rtol, atol=rtol * scale * 1e-3, events=_Turned(direction)
         )
         if not run.t_events[0].size:
             raise ConicityError(f"{delta_r.source}: no turning point within {span:g} mm of running")
@@ -419,6 +411,19 @@ def klingel_ode(
         state = [float(run.y_events[0][0][0]), 0.0]
         points.append(state[0])
     return 0.5 * (max(points) - min(points)), length
+
+
+class _Turned:
+    """solve_ivp's event: the wheelset's lateral velocity dy/dx (s[1]) passes zero in one
+    direction, a turning point of the kinematic oscillation; the run stops there."""
+
+    terminal = True
+
+    def __init__(self, direction: float) -> None:
+        self.direction = direction
+
+    def __call__(self, _x: float, s: np.ndarray) -> float:
+        return s[1]
 
 
 def _check_geometry(e: float, r0: float) -> None:

@@ -146,7 +146,7 @@ class ContactParameters:
         )
 
 
-NO_GEOMETRY = np.zeros((0, _t.COLUMNS))
+NO_GEOMETRY: np.ndarray = np.zeros((0, _t.COLUMNS))
 # The shear modulus travels in GPa (ContactParameters.table, the rail_mj/ellipse numeric):
 # MuJoCo's MJCF writer writes as 0 every entry of a numeric below 1e-12 of its largest,
 # and 8e10 Pa would take a flangeway clearance of 0.008 m with it.

@@ -143,7 +143,11 @@ class _Placed:
         n = max(3, math.ceil((w.y[-1] - lo) / _COARSE) + 1)
         if w.exact is not None:  # the published curve, tabulated finely for cubic Hermite
             grid = np.linspace(lo, float(w.y[-1]), math.ceil((w.y[-1] - lo) / _HERMITE) + 1)
-            self._table = (grid, np.asarray(w.height(grid), float), np.asarray(w.slope(grid), float))
+            self._table: tuple[np.ndarray, np.ndarray, np.ndarray] | None = (
+                grid,
+                np.asarray(w.height(grid), float),
+                np.asarray(w.slope(grid), float),
+            )
         else:
             self._table = None
         self.s = np.linspace(lo, float(w.y[-1]), n)
@@ -204,7 +208,7 @@ class _Placed:
         k = np.flatnonzero(np.concatenate([[g[0] <= g[1]], inner, [g[-1] <= g[-2]]]))
         k = k[g[k] <= lowest + margin]
         found = sorted((self._refine(eta, psi, int(i)) for i in k), key=lambda t: t[0])
-        out = []
+        out: list[tuple[float, float]] = []
         for value, s in found:
             if all(abs(s - other) >= _SECOND_APART for _, other in out):
                 out.append((value, s))
@@ -427,8 +431,8 @@ def contact_table(source, ys=None) -> ContactTable:
             cols[f"rail_curvature_{side}"][i] = first["rail_curvature"]
             second = found.get("2")
             near = second is not None and second["gap"] <= NEAR_GAP
-            cols[f"two_point_{side}"][i] = float(near and second["gap"] <= TWO_POINT_GAP)
-            if near:
+            cols[f"two_point_{side}"][i] = float(near and second is not None and second["gap"] <= TWO_POINT_GAP)
+            if near and second is not None:
                 cols[f"r2_{side}"][i] = second["r"]
                 cols[f"contact_angle2_{side}"][i] = second["contact_angle"]
                 cols[f"contact_y2_{side}"][i] = sign * second["q"]

@@ -255,6 +255,15 @@ class _RailHead:
     y1: float = 10.228  # where the 300 mm arc gives way to the 80 mm one
     y2: float = 26.0265  # where the 80 mm arc gives way to the 13 mm one
     flank: float = 1 / 20  # the side, from the vertical
+    # Derived from the above in __post_init__: the arcs' centres, end angles and point 3.
+    c1: tuple[float, float] = dataclasses.field(init=False)
+    c2: tuple[float, float] = dataclasses.field(init=False)
+    c3: tuple[float, float] = dataclasses.field(init=False)
+    phi1: float = dataclasses.field(init=False)
+    phi2: float = dataclasses.field(init=False)
+    phi3: float = dataclasses.field(init=False)
+    y3: float = dataclasses.field(init=False)
+    z3: float = dataclasses.field(init=False)
 
     def __post_init__(self):
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen
@@ -415,7 +424,9 @@ def _number(text: str) -> float | None:
 
 
 def _parse_csv(path: Path, text: str):
-    ys, zs, lines = [], [], []
+    ys: list[float] = []
+    zs: list[float] = []
+    lines: list[int] = []
     header_seen = False
     for n, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
@@ -427,8 +438,8 @@ def _parse_csv(path: Path, text: str):
             header_seen = True
             continue
         fields = line.split(",")
-        values = [_number(f) for f in fields]
-        if len(fields) != 2 or None in values:
+        values = [v for v in map(_number, fields) if v is not None]
+        if len(fields) != 2 or len(values) != 2:
             raise ProfileError(f"{path}, line {n}: expected two numbers y_mm,z_mm, got {_show(line)}")
         ys.append(values[0] * 1e-3)
         zs.append(values[1] * 1e-3)
@@ -459,7 +470,9 @@ def _parse_simpack(path: Path, text: str, kind: str):
     """Points and flags of a SIMPACK profile, then SIMPACK's own preprocessing, in its
     order: shift, rotate, bounds, mirror, inversion, units; then its z (down) to ours (up)."""
     flags = dict(_FLAGS)
-    ys, zs, lines = [], [], []
+    ys: list[float] = []
+    zs: list[float] = []
+    lines: list[int] = []
     begin = end = None
     in_header = False
     for n, raw in enumerate(text.splitlines(), start=1):
@@ -480,8 +493,8 @@ def _parse_simpack(path: Path, text: str, kind: str):
             if word.endswith((".begin", ".end")):  # another section: the points never ended
                 raise ProfileError(f"{path}, line {begin}: point.begin without point.end (line {n} is {word})")
             parts = line.split()
-            values = [_number(p) for p in parts]
-            if len(parts) not in (2, 3) or None in values:
+            values = [v for v in map(_number, parts) if v is not None]
+            if len(parts) not in (2, 3) or len(values) != len(parts):
                 raise ProfileError(
                     f"{path}, line {n}: expected two numbers y z (and an optional weight) "
                     f"between point.begin and point.end, got {_show(line)}"
@@ -513,7 +526,7 @@ def _parse_simpack(path: Path, text: str, kind: str):
             f"{path}, line {begin}: {len(ys)} point(s) between point.begin (line {begin}) "
             f"and point.end (line {end}): a profile needs at least 2"
         )
-    y, z, lines = np.array(ys), np.array(zs), np.array(lines)
+    y, z, at = np.array(ys), np.array(zs), np.array(lines)
     # 1. shift, in the file's length unit
     y, z = y + flags["shift.y"], z + flags["shift.z"]
     # 2. rotate about x (right-handed in SIMPACK's frame), in the file's angle unit
@@ -528,7 +541,7 @@ def _parse_simpack(path: Path, text: str, kind: str):
     # 3. bounds (active when min < max): points outside bound.y dropped, z clipped to bound.z
     if flags["bound.y.min"] < flags["bound.y.max"]:
         keep = (y >= flags["bound.y.min"]) & (y <= flags["bound.y.max"])
-        y, z, lines = y[keep], z[keep], lines[keep]
+        y, z, at = y[keep], z[keep], at[keep]
         if len(y) < 2:
             raise ProfileError(
                 f"{path}: {len(y)} point(s) left within bound.y.min..bound.y.max: a profile needs at least 2"
@@ -542,12 +555,12 @@ def _parse_simpack(path: Path, text: str, kind: str):
         z = -z
     # 5. inversion: the order of the points reversed
     if flags["inversion"]:
-        y, z, lines = y[::-1], z[::-1], lines[::-1]
+        y, z, at = y[::-1], z[::-1], at[::-1]
     # 6. units: units.len.f is the file's length unit per metre (1000 for millimetres)
     y, z = y / flags["units.len.f"], z / flags["units.len.f"]
     # SIMPACK's profile z points down (a wheel's z is its radius above r0, a rail's the depth
     # below the top); rail-mj's points up.
-    return y, -z, list(lines)
+    return y, -z, list(at)
 
 
 def _flag(path: Path, n: int, key: str, value: str) -> float:

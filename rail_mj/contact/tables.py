@@ -153,7 +153,7 @@ def _assign_slots(wheel_s, centre: int) -> list[list[int]]:
     the slot that was occupied if it lies within _JUMP of that slot's point, and starts in
     the other slot if it jumped (the contact leaving the tread for the flange root): then
     the one slot's load fades out across the table step as the other's fades in."""
-    out = [None] * len(wheel_s)
+    out: list[list[int]] = [[] for _ in wheel_s]
     first = sorted(range(len(wheel_s[centre])), key=lambda k: -wheel_s[centre][k])
     out[centre] = [first.index(k) for k in range(len(wheel_s[centre]))]
     for step in (1, -1):
@@ -248,12 +248,12 @@ def build(geometry, axle_load: float, young: float, poisson: float, friction: fl
         for slot in range(SLOTS):
             have = np.flatnonzero(filled[:, slot])
             c = point_column(k, slot, 0)
-            for i in np.flatnonzero(~filled[:, slot]):
-                source = (have[np.argmin(np.abs(have - i))], slot) if len(have) else (i, 1 - slot)
-                body[i, c : c + POINT] = body[
+            for empty in np.flatnonzero(~filled[:, slot]):
+                source = (have[np.argmin(np.abs(have - empty))], slot) if len(have) else (empty, 1 - slot)
+                body[empty, c : c + POINT] = body[
                     source[0], point_column(k, source[1], 0) : point_column(k, source[1], 0) + POINT
                 ]
-                body[i, c + WEIGHT] = 0.0
+                body[empty, c + WEIGHT] = 0.0
     if not np.all(np.isfinite(table)):
         raise TableError("the contact table has undefined entries (a profile's curvature at its end?)")
     return table
