@@ -10,7 +10,7 @@ method (RK45 or DOP853) at tight tolerances.
 Over 1 km at 60 m/s it is 1.5e-9 m from rail-mj: that is rail-mj's own error, its RK4
 at a 1 ms step (the numba peer, the same RK4, shows the same 1.5e-9 m at 1 ms and is
 within 1e-13 m of this peer at 0.05 ms); the equations are the same to round-off
-(tests/test_peers.py).
+(tests/validation/test_peers.py).
 
     PYTHONPATH=. python benchmarks/peer_solve_ivp.py
 

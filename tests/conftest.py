@@ -12,6 +12,7 @@ from rail_mj.layout import layout_from_dict
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"
+DATA = ROOT / "tests" / "data"  # layouts and profile files of the tests alone
 SHIPPED = sorted(p for p in MODELS.glob("*/*.toml") if p.stem == p.parent.name)
 # Shipped models on coned wheels (the others have [profiles]).
 CONED = [p for p in SHIPPED if "[profiles]" not in p.read_text()]
@@ -108,3 +109,16 @@ def assert_callbacks_agree(vehicle, speed: float, seed: int, samples: int, posit
         scale = np.max(np.abs(forces[0]))
         assert scale > 0
         np.testing.assert_allclose(forces[1], forces[0], rtol=0, atol=1e-9 * scale)
+
+
+@pytest.fixture(scope="session")
+def standard():
+    """The contact table of new S1002 on 60E1 at 1:40, 1435/1360, -10 to +10 mm (rail_mj.contact.
+    geometry): a few seconds to build, so once per test process, and read-only."""
+    from rail_mj.contact.geometry import Track, contact_table
+    from rail_mj.contact.profiles import rail_60e1, s1002
+
+    table = contact_table(Track(s1002(), rail_60e1()))
+    for column in table.columns.values():
+        column.setflags(write=False)
+    return table

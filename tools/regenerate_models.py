@@ -3,7 +3,7 @@
     python tools/regenerate_models.py          # rewrite models/
     python tools/regenerate_models.py --check  # exit 1 if models/ is out of date
 
-tests/test_models.py runs the same comparison, so a stale models/ fails CI.
+tests/vehicle/test_models.py runs the same comparison, so a stale models/ fails CI.
 
 Profile files in assets/ (.csv, .prw, .prr: a layout's [profiles] wheel or rail, such as
 models/manchester-coach-worn/assets/s1002_worn.csv from tools/worn_profile.py) are inputs, not

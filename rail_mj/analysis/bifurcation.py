@@ -14,7 +14,7 @@ Example (about a minute; the layout needs [flange] and a saturating creep law):
     critical, branch = nonlinear_critical_speed(load_layout("models/bogie/bogie.toml"))
     critical.critical_speed, critical.linear_critical_speed   # about 63 and 80.8 m/s
 
-tests/test_nonlinear.py runs it on a restrained wheelset.
+tests/analysis/test_nonlinear.py runs it on a restrained wheelset.
 """
 
 from __future__ import annotations

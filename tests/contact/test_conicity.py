@@ -270,7 +270,7 @@ def test_cli_cone_layout_gives_its_conicity(capsys):
 
 
 def test_cli_layout_with_profiles_gives_theirs(tmp_path, capsys):
-    """A layout with [profiles]: the Δr of their contact geometry (tests/test_geometry.py),
+    """A layout with [profiles]: the Δr of their contact geometry (tests/contact/test_geometry.py),
     not the cone of its wheelset.conicity."""
     layout = tmp_path / "profiled.toml"
     layout.write_text(

@@ -8,13 +8,12 @@ from __future__ import annotations
 import copy
 import json
 import tomllib
-from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import assert_callbacks_agree
+from conftest import DATA, assert_callbacks_agree
 from test_loads import ROUNDING, static_wheel_loads
 from test_spatial import SPATIAL, G, dof, fd_stiffness, point_motion_rows
 from test_trains import matched_error
@@ -26,7 +25,7 @@ from rail_mj.layout import LayoutError, layout_from_dict
 from rail_mj.vehicle.spec import Vehicle, build_spec, compile_spec
 from rail_mj.vehicle.statics import preload, tendon_jacobian
 
-PAIR_FILE = Path(__file__).parent / "data" / "spatial-articulated-pair.toml"
+PAIR_FILE = DATA / "spatial-articulated-pair.toml"
 PAIR = tomllib.loads(PAIR_FILE.read_text())
 
 

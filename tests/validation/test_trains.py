@@ -1,5 +1,5 @@
 """Trains (docs/trains.md): uncoupled vehicles keep their own eigenvalues, an articulated pair
-agrees with the independent planar model (tests/planar.py), its snaking mode is named, and bad
+agrees with the independent planar model (tests/validation/planar.py), its snaking mode is named, and bad
 topologies fail with one line."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Checks of the independent planar model (tests/planar.py) against closed forms.
+"""Checks of the independent planar model (tests/validation/planar.py) against closed forms.
 
 Every formula is from the physics notes docs/creep.md (its section numbers given next to each
 check) and docs/frames.md, never from rail_mj's own model.

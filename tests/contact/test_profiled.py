@@ -6,11 +6,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import PROFILES_TOML, assert_callbacks_agree
+from conftest import MODELS, PROFILES_TOML, assert_callbacks_agree
 
 from rail_mj.analysis.stability import Stability
 from rail_mj.cli import main
@@ -21,7 +20,6 @@ from rail_mj.simulation.runner import simulate
 from rail_mj.units import M_PER_MM, N_PER_KN
 from rail_mj.vehicle.spec import Vehicle
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
 PROFILES = PROFILES_TOML
 COACH = (MODELS / "manchester-coach" / "manchester-coach.toml").read_text().replace("conicity = 0.15", "").replace(
     "flangeway_clearance = 0.008", ""

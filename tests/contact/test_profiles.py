@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import DATA
 
 from rail_mj.cli import main
 from rail_mj.contact.profiles import (
@@ -24,7 +25,6 @@ from rail_mj.contact.profiles import (
     write_csv,
 )
 
-DATA = Path(__file__).resolve().parent / "data"
 ROUNDED = 1e-3  # mm: the published check values have three decimals
 
 
@@ -156,7 +156,7 @@ def simpack_text(kind: str, points_mm, flags: dict, header: bool = True) -> str:
     c, s = math.cos(-angle), math.sin(-angle)
     y, z = c * y - s * z, s * y + c * z
     y, z = y - flags.get("shift.y", 0.0), z - flags.get("shift.z", 0.0)
-    lines = ["! a profile written by tests/test_profiles.py"]
+    lines = ["! a profile written by tests/contact/test_profiles.py"]
     if header:
         lines += [
             "header.begin",

@@ -4,11 +4,10 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import PROFILES_TOML
+from conftest import MODELS, PROFILES_TOML
 from scipy.optimize import brentq
 
 from rail_mj.contact import geometry
@@ -16,7 +15,6 @@ from rail_mj.contact.geometry import Track, contact_table, gaps
 from rail_mj.contact.profiles import Profile, rail_60e1, s1002
 from rail_mj.layout import LayoutError, load_layout
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
 LAMBDA, R0 = 0.05, 0.46
 
 
@@ -29,11 +27,6 @@ def cone_wheel(lam=LAMBDA):
 def knife_rail():
     """A knife edge: the apex at (0, 0), 45-degree sides down to 20 mm below it."""
     return Profile("knife", "rail", np.array([-0.02, 0.0, 0.02]), np.array([-0.02, 0.0, -0.02]))
-
-
-@pytest.fixture(scope="module")
-def standard():
-    return contact_table(Track(s1002(), rail_60e1()))
 
 
 def exact_cone_on_knives(y, track, apex):

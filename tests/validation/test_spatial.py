@@ -8,17 +8,17 @@ from __future__ import annotations
 
 import copy
 import tomllib
-from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
+from conftest import DATA, MODELS
 from scipy.linalg import eigh
 
 from rail_mj.layout import LayoutError, layout_from_dict
 from rail_mj.vehicle.spec import Vehicle
 
-SPATIAL = tomllib.loads((Path(__file__).parent / "data" / "manchester-coach-spatial.toml").read_text())
+SPATIAL = tomllib.loads((DATA / "manchester-coach-spatial.toml").read_text())
 G = 9.81
 
 
@@ -721,7 +721,7 @@ def test_gravitational_stiffness_is_the_drop_of_the_attachment_points(coach_grav
 
 # --- the shipped spatial coach (models/manchester-coach-spatial) ---------------------------------
 
-SHIPPED_SPATIAL = Path(__file__).parent.parent / "models" / "manchester-coach-spatial" / "manchester-coach-spatial.toml"
+SHIPPED_SPATIAL = MODELS / "manchester-coach-spatial" / "manchester-coach-spatial.toml"
 
 
 def test_shipped_coach_carbody_modes_match_closed_forms():

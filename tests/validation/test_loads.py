@@ -8,13 +8,12 @@ from __future__ import annotations
 import copy
 import json
 import tomllib
-from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import MODELS, assert_callbacks_agree
+from conftest import DATA, MODELS, assert_callbacks_agree
 from test_spatial import SPATIAL, G
 
 from rail_mj.cli import cli
@@ -146,7 +145,7 @@ def test_loads_change_the_creep_forces():
 def test_run_reports_wheel_loads_and_derailment_quotients(tmp_path):
     """run --json carries the largest Y/Q and the smallest Q, the CSV each wheel's Q, Y and
     Y/Q; per wheelset the wheels' Y add up to its Sigma Y and the quotient is Y/Q, outward."""
-    layout = Path(__file__).parent / "data" / "manchester-coach-spatial.toml"
+    layout = DATA / "manchester-coach-spatial.toml"
     out = tmp_path / "coach.csv"
     result = CliRunner().invoke(
         cli, ["run", str(layout), "--speed", "40", "--distance", "200", "--json", "--out", str(out)]
@@ -472,7 +471,7 @@ def test_spatial_train_roll_balance_with_unequal_heights():
     springs, whose static forces the bodies' pitch on the Jacobs bogie's sag would load, 1.5e-4).
     The coupling acts midway between the bodies' heights, its two forces on one line; at each
     body's own height they would add a couple of 1 % here."""
-    data = tomllib.loads((Path(__file__).parent / "data" / "spatial-articulated-pair.toml").read_text())
+    data = tomllib.loads((DATA / "spatial-articulated-pair.toml").read_text())
     data["primary"]["axlebox"]["kx"] = data["secondary"]["spring"]["kx"] = 0.0
     data["primary"]["axlebox"].pop("cx", None)
     data["secondary"]["spring"].pop("cx", None)

@@ -1,5 +1,5 @@
 """Stability analysis against the closed forms of docs/creep.md (section numbers below are its own) and an
-independent planar state-space model (tests/planar.py)."""
+independent planar state-space model (tests/validation/planar.py)."""
 
 from __future__ import annotations
 
