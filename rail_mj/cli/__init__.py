@@ -1,6 +1,6 @@
 """The `rail-mj` command: a thin layer over the Python API (`rail_mj.cli:main`).
 
-    main.py        the command group and its subcommands
+main.py        the command group and its subcommands
 """
 
 from rail_mj import _lazy
