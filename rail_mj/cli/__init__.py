@@ -4,7 +4,15 @@ from rail_mj import _lazy
 from rail_mj.cli.main import cli, main
 
 __all__ = ["cli", "main"]
-__getattr__, _dir = _lazy.exports(__name__, {}, fallback="main")
+# What rail_mj.cli.main held before the commands moved to a module a job.
+_EXPORTS = {
+    **dict.fromkeys(("Failure", "EXIT_BAD_INPUT", "EXIT_RUN_FAILED"), "options"),
+    **dict.fromkeys(("generate_cmd", "run_cmd"), "run"),
+    **dict.fromkeys(("eigen_cmd", "critical_speed_cmd", "root_locus_cmd", "bifurcation_cmd"), "stability"),
+    **dict.fromkeys(("sweep_cmd", "map_cmd"), "studies"),
+    **dict.fromkeys(("contact_cmd", "creep_cmd", "profile_cmd", "conicity_cmd", "contact_geometry_cmd"), "contact"),
+}
+__getattr__, _dir = _lazy.exports(__name__, _EXPORTS, fallback="main")
 
 
 def __dir__() -> list[str]:
