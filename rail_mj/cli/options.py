@@ -101,6 +101,15 @@ def uses_stdout(*paths) -> bool:
     return any(p == STDOUT for p in paths)
 
 
+def csv_beside(out: str, csv_path: str | None, what: str) -> str:
+    """--csv, or else the plot `out` with .csv for its name (standard output for `-o -`);
+    `what` names the two for the one standard output they cannot share."""
+    csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
+    if csv_path == STDOUT and out == STDOUT:
+        raise Failure(f"-o - needs --csv FILE: {what} cannot both go to standard output", EXIT_BAD_INPUT)
+    return csv_path
+
+
 def check_outputs(
     layout: str | None, outputs: list[tuple[str, str | None]], folders: bool = False, source: str = "the layout file"
 ) -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import click
 
@@ -16,12 +15,13 @@ from rail_mj.cli.options import (
     check_outputs,
     check_speed,
     check_speed_range,
+    csv_beside,
     layout_of,
     span_of,
     status_line,
     uses_stdout,
 )
-from rail_mj.files import STDOUT, staged
+from rail_mj.files import staged
 from rail_mj.layout import Layout
 from rail_mj.layout.practice import RANGES
 from rail_mj.studies.span import LOCUS
@@ -189,9 +189,7 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
     """Frequency and damping of every mode of LAYOUT against speed, critical speed marked."""
     lay = layout_of(layout)
     vs = span_of("--speeds", speeds, LOCUS).values()
-    csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
-    if csv_path == STDOUT and out == STDOUT:
-        raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output", EXIT_BAD_INPUT)
+    csv_path = csv_beside(out, csv_path, "the plot and the data")
     check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.output.plots import locus_csv, root_locus, root_locus_png
 
@@ -236,9 +234,7 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
     lay = layout_of(layout)
     check_speed_range(vmin, vmax)
     step = _check_step(step)
-    csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
-    if csv_path == STDOUT and out == STDOUT:
-        raise Failure("-o - needs --csv FILE: the plot and the data cannot both go to standard output", EXIT_BAD_INPUT)
+    csv_path = csv_beside(out, csv_path, "the plot and the data")
     check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.analysis.bifurcation import bifurcation
     from rail_mj.output.plots import bifurcation_csv, bifurcation_png

@@ -12,12 +12,13 @@ from rail_mj.cli.options import (
     EXIT_BAD_INPUT,
     Failure,
     check_outputs,
+    csv_beside,
     layout_of,
     span_of,
     status_line,
     uses_stdout,
 )
-from rail_mj.files import STDOUT, staged
+from rail_mj.files import staged
 from rail_mj.studies.span import GRID, SPEEDS, Span
 
 
@@ -148,9 +149,7 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
     """The critical speed of LAYOUT as a map over two layout parameters."""
     lay = layout_of(layout)
     speed_span = span_of("--speeds", speeds, SPEEDS)
-    csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
-    if csv_path == STDOUT and out == STDOUT:
-        raise Failure("-o - needs --csv FILE: the map and the table cannot both go to standard output", EXIT_BAD_INPUT)
+    csv_path = csv_beside(out, csv_path, "the map and the table")
     _check_executor(workers, scheduler)
     check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.output.plots import stability_map_png
