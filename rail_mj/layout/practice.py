@@ -4,7 +4,8 @@ A value outside `refuse` cannot describe a rail vehicle on rails (or breaks the 
 assumptions) and is an error; a value inside `refuse` but outside `usual` is legal and
 far from railway practice, and gets a one-line warning. Each range says where it comes
 from; docs/practice.md explains them. One table serves the layout checks
-(`rail_mj.layout`) and the command line (speeds and initial disturbances).
+(`rail_mj.layout`) and the command line (speeds, initial disturbances, one contact
+ellipse's semi-axes, creepages and Poisson's ratio, the bifurcation step).
 
 Example:
 
@@ -103,6 +104,32 @@ RANGES = {
     # freight primaries of a few mm to soft coil or air secondaries of about 250 mm.
     "spatial.static_deflection": Range(
         (0.0, math.inf), (0.002, 0.3), "m", "a deflection", "freight primaries to soft secondary suspensions"
+    ),
+    # One contact ellipse (`rail-mj creep`). Its semi-axes: a micrometre and a metre are far
+    # beyond any rolling contact either way; wheel-rail ellipses run from about 0.5 mm (a
+    # flange) to 30 mm (a worn tread).
+    "contact.semi_axis": Range(
+        (1e-6, 1.0), (0.5e-3, 30e-3), "m", "far beyond any rolling contact either way", "wheel-rail contacts"
+    ),
+    # Beyond a creepage of 1 the surfaces slide faster than they roll; not warned about
+    # within it (saturated creep up to full slip is what the laws are for).
+    "contact.creepage": Range(
+        (-1.0, 1.0), (-1.0, 1.0), "", "beyond, the surfaces slide faster than they roll", "any creepage"
+    ),
+    # Spin of a radian per millimetre rolled; not warned about within it.
+    "contact.spin": Range((-1000.0, 1000.0), (-1000.0, 1000.0), "rad/m", "a radian per millimetre rolled", "any spin"),
+    # Kalker's coefficients are tabulated at nu = 0, 0.25 and 0.5 (an incompressible solid, the
+    # largest an isotropic elastic solid has) and interpolated between: outside, extrapolated.
+    # Steels are about 0.28-0.30; not warned about within the table.
+    "contact.poisson_ratio": Range(
+        (0.0, 0.5), (0.0, 0.5), "", "Kalker's table, from 0 to an incompressible 0.5", "Kalker's table"
+    ),
+    # The nonlinear critical speed's speed step, a fraction of the speed (rail_mj.analysis.
+    # bifurcation.STEP, 0.02, is the one rail-mj reports with): below 0.001 a descent from
+    # 150 to 5 m/s takes ln(30)/0.001 = 3400 dwells of 6 s simulated; above 0.2 the critical
+    # speed is known only to within a fifth. Not warned about within it.
+    "bifurcation.step": Range(
+        (0.001, 0.2), (0.001, 0.2), "", "3400 dwells from 150 to 5 m/s to within a fifth", "any step"
     ),
 }
 

@@ -1286,9 +1286,10 @@ def _contact(t: _Table, wheelset: Wheelset, profiled: bool = False):
         for key in ("rail_transverse_radius", "wheel_transverse_radius"):
             if key in t.data:
                 t.fail(key, "not used with [profiles]: the profiles give each contact point's curvatures")
+    poisson = RANGES["contact.poisson_ratio"].refuse  # Kalker's table
     contact = Contact(
         young_modulus=t.positive("young_modulus"),
-        poisson_ratio=t.number("poisson_ratio", low=0.0, high=0.5),
+        poisson_ratio=t.number("poisson_ratio", low=poisson[0], high=poisson[1]),
         rail_transverse_radius=None if profiled else t.positive("rail_transverse_radius"),
         wheel_transverse_radius=None if profiled else t.positive("wheel_transverse_radius", required=False),
     )

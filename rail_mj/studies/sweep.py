@@ -42,6 +42,7 @@ import numpy as np
 
 from rail_mj.files import is_special, staged
 from rail_mj.layout import LayoutError, layout_from_dict
+from rail_mj.studies.span import GRID, SEARCH, SWEEP, Span, SpanError
 
 METHODS = ("run", "eigen", "time", "nonlinear")
 DEFAULT_DISTANCE = 1000.0  # m a run
@@ -75,23 +76,11 @@ class SweepError(ValueError):
 
 
 def values_of(text: str, what: str) -> list[float]:
-    """`A:B:N` (N values from A to B, evenly) or `A:B:N:log` (geometrically)."""
-    parts = text.split(":")
+    """`A:B:N` (N values from A to B, evenly) or `A:B:N:log` (geometrically): a GRID span."""
     try:
-        if len(parts) not in (3, 4) or (len(parts) == 4 and parts[3] != "log"):
-            raise ValueError
-        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
-    except ValueError:
-        raise SweepError(f"{what} must be A:B:N or A:B:N:log, got {text!r}") from None
-    log = len(parts) == 4
-    if not (math.isfinite(a) and math.isfinite(b) and 1 <= n <= 100_000) or (n > 1 and a == b):
-        raise SweepError(f"{what} {text!r}: need finite A != B and 1 <= N <= 100000")
-    if log and not (a > 0 and b > 0):
-        raise SweepError(f"{what} {text!r}: a log range needs A > 0 and B > 0")
-    if n == 1:
-        return [a]
-    values = np.geomspace(a, b, n) if log else np.linspace(a, b, n)
-    return [float(v) for v in values]
+        return Span.parse(text, GRID, what).values()
+    except SpanError as e:
+        raise SweepError(str(e)) from None
 
 
 def parse_assignment(text: str, what: str) -> tuple[str, str]:
@@ -179,10 +168,12 @@ def plan(
     if method not in METHODS:
         raise SweepError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     a, b, n = speeds
-    if not (math.isfinite(a) and math.isfinite(b) and 0 < a <= b and 1 <= n <= 100_000):
-        raise SweepError(f"speeds need 0 < A <= B and 1 <= N, got {a}:{b}:{n}")
-    if method != "run" and not (a < b and n >= 2):
-        raise SweepError(f"a critical speed needs a speed range A < B with N >= 2 points, got {a}:{b}:{n}")
+    try:
+        span = Span.of(a, b, n, SWEEP, "speeds")
+        if method != "run":
+            span.check(SEARCH, "speeds")
+    except SpanError as e:
+        raise SweepError(str(e)) from None
     if not (math.isfinite(distance) and distance > 0):
         raise SweepError(f"distance must be a positive number, got {distance}")
     path = Path(layout_path)
@@ -219,7 +210,7 @@ def plan(
             if "unknown key" in str(e) or "must be a table" in str(e):
                 raise SweepError(f"--grid {key}: {e}") from None
     points = [dict(zip([k for k, _ in axes], combo)) for combo in itertools.product(*[v for _, v in axes])]
-    run_speeds = values_of(f"{a!r}:{b!r}:{n}", "--speeds") if method == "run" else [None]
+    run_speeds = _run_speeds(span) if method == "run" else [None]
     cases = []
     for point in points:
         variant = data
@@ -232,6 +223,14 @@ def plan(
             )
             cases.append(Case(index, method, variant, str(path), point, speed, (a, b, n), distance, recording))
     return cases
+
+
+def _run_speeds(span: Span) -> list[float]:
+    """Every speed a run is made at: the span's N values, checked as a grid (A != B for N > 1)."""
+    try:
+        return span.check(GRID, "--speeds").values()
+    except SpanError as e:
+        raise SweepError(str(e)) from None
 
 
 # --- one case ----------------------------------------------------------------------------

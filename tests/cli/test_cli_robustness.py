@@ -526,6 +526,66 @@ def test_the_yaw_limit_is_the_flange_geometry():
     assert RANGES["speed"].check(160.0) is None and RANGES["speed"].warning(160.0) is None
 
 
+CREEP = [
+    "creep",
+    "--semi-axes",
+    "0.007",
+    "0.005",
+    "--normal-force",
+    "1e5",
+    "--friction",
+    "0.3",
+    "--shear-modulus",
+    "8e10",
+    "--poisson",
+    "0.28",
+    "--law",
+    "fastsim",
+]
+
+
+@pytest.mark.parametrize(
+    "key, narrower, argv, message",
+    [
+        (
+            "contact.semi_axis",
+            ((1e-3, 0.006), (1e-3, 0.006)),
+            [*CREEP, "--creepages", "0", "0", "0"],
+            "--semi-axes must be between 0.001 and 0.006 m, got 0.007",
+        ),
+        (
+            "contact.creepage",
+            ((-0.5, 0.5), (-0.5, 0.5)),
+            [*CREEP, "--creepages", "0.6", "0", "0"],
+            "--creepages XI and ETA must be within +/-0.5",
+        ),
+        ("contact.spin", ((-10.0, 10.0), (-10.0, 10.0)), [*CREEP, "--creepages", "0", "0", "20"], "within +/-10 rad/m"),
+        (
+            "contact.poisson_ratio",
+            ((0.1, 0.25), (0.1, 0.25)),
+            [*CREEP, "--creepages", "0", "0", "0"],
+            "--poisson must be between 0.1 and 0.25, got 0.28",
+        ),
+        (
+            "bifurcation.step",
+            ((0.01, 0.1), (0.01, 0.1)),
+            ["critical-speed", WHEELSET, "--method", "nonlinear", "--step", "0.005"],
+            "--step must be between 0.01 and 0.1, got 0.005",
+        ),
+    ],
+)
+def test_the_command_line_takes_its_physical_ranges_from_the_table_of_practice(
+    key, narrower, argv, message, monkeypatch, capsys
+):
+    """Narrow a range in rail_mj.layout.practice and the command refuses what it then excludes."""
+    import dataclasses
+
+    refuse, usual = narrower
+    monkeypatch.setitem(RANGES, key, dataclasses.replace(RANGES[key], refuse=refuse, usual=usual))
+    status, _out, err = run(argv, capsys)
+    assert status == 2 and message in one_line(err)
+
+
 # --- 5. honest summaries -------------------------------------------------------------
 
 

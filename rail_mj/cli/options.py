@@ -1,0 +1,168 @@
+"""What every `rail-mj` command shares: its failures and exit statuses, the layout it reads,
+the checks of its speeds, ranges and outputs, and its one-line progress.
+
+Exit status: 0 success; 2 bad input (layout, arguments, output path); 3 a run that
+cannot be done or that diverged. Every failure is one line on stderr (`Failure`), and so
+is every warning (a legal value far outside railway practice: rail_mj.layout.practice).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import sys
+from pathlib import Path
+
+import click
+
+from rail_mj.files import STDOUT, is_special
+from rail_mj.layout import Layout, LayoutError, load_layout
+from rail_mj.layout.practice import RANGES
+from rail_mj.studies.span import Rules, Span, SpanError
+
+EXIT_BAD_INPUT = 2
+EXIT_RUN_FAILED = 3
+
+
+class Failure(Exception):
+    """What stops a command: its one line for stderr and the exit status."""
+
+    def __init__(self, message: str, status: int):
+        super().__init__(message)
+        self.status = status
+
+
+def layout_of(path: str) -> Layout:
+    """The checked layout; its warnings, one line each, on stderr."""
+    try:
+        layout = load_layout(path)
+    except LayoutError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    for warning in layout.warnings:
+        warn(warning)
+    return layout
+
+
+def warn(text: str) -> None:
+    click.echo(f"rail-mj: warning: {text}", err=True)
+
+
+def check_speed(option: str, value: float) -> float:
+    """A forward speed from the command line: positive, and not beyond any railway."""
+    return check_positive(option, value, "speed")
+
+
+def check_positive(option: str, value: float, key: str) -> float:
+    """A positive number from the command line within RANGES[key], with a warning outside
+    railway practice."""
+    if not (math.isfinite(value) and value > 0):
+        raise Failure(f"{option} must be a positive number, got {value}", EXIT_BAD_INPUT)
+    error = RANGES[key].check(value)
+    if error:
+        raise Failure(f"{option} {error}", EXIT_BAD_INPUT)
+    warning = RANGES[key].warning(value)
+    if warning:
+        warn(f"{option}: {warning}")
+    return value
+
+
+def check_speed_range(vmin: float, vmax: float) -> None:
+    if not (math.isfinite(vmin) and math.isfinite(vmax) and 0 < vmin < vmax):
+        raise Failure(f"need 0 < --vmin < --vmax, got {vmin} and {vmax}", EXIT_BAD_INPUT)
+    error = RANGES["speed"].check(vmax)
+    if error:
+        raise Failure(f"--vmax {error}", EXIT_BAD_INPUT)
+
+
+@contextlib.contextmanager
+def status_line(label: str):
+    """A one-line progress display on a terminal's stderr (nothing elsewhere): yields the
+    function that shows a new status, or None."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    width = 0
+
+    def show(text: str) -> None:
+        nonlocal width
+        line = f"{label}: {text}"
+        click.echo("\r" + line.ljust(width), err=True, nl=False)
+        width = len(line)
+
+    try:
+        yield show
+    finally:
+        if width:
+            click.echo("\r" + " " * width + "\r", err=True, nl=False)
+
+
+def uses_stdout(*paths) -> bool:
+    return any(p == STDOUT for p in paths)
+
+
+def csv_beside(out: str, csv_path: str | None, what: str) -> str:
+    """--csv, or else the plot `out` with .csv for its name (standard output for `-o -`);
+    `what` names the two for the one standard output they cannot share."""
+    csv_path = csv_path or (STDOUT if out == STDOUT else str(Path(out).with_suffix(".csv")))
+    if csv_path == STDOUT and out == STDOUT:
+        raise Failure(f"-o - needs --csv FILE: {what} cannot both go to standard output", EXIT_BAD_INPUT)
+    return csv_path
+
+
+def check_outputs(
+    layout: str | None, outputs: list[tuple[str, str | None]], folders: bool = False, source: str = "the layout file"
+) -> None:
+    """Refuse, before any work, outputs that cannot or must not be written: a folder
+    given for a file, the input (`layout`, called `source`) itself, two outputs on one path
+    (or on standard output), an unwritable place. `-` is standard output; a FIFO or a
+    device is written through."""
+    try:
+        _check_output_paths(layout, outputs, folders, source)
+    except (OSError, RuntimeError) as e:  # a link in a circle, a path too long ...
+        raise Failure(f"cannot use the output path: {e}", EXIT_BAD_INPUT) from None
+
+
+def _check_output_paths(layout: str | None, outputs: list[tuple[str, str | None]], folders: bool, source: str) -> None:
+    seen = {Path(layout).resolve(): source} if layout is not None else {}
+    on_stdout = None
+    for option, path in outputs:
+        if path is None:
+            continue
+        if path == STDOUT:
+            if folders:
+                raise Failure(f"{option} -: needs a folder, not standard output", EXIT_BAD_INPUT)
+            if on_stdout:
+                raise Failure(f"{option} -: standard output already takes {on_stdout}", EXIT_BAD_INPUT)
+            on_stdout = option
+            continue
+        target = Path(path)
+        if not folders and target.is_dir():
+            raise Failure(f"{option} {path}: is a folder, expected a file name", EXIT_BAD_INPUT)
+        real = target.resolve()
+        if real in seen:
+            raise Failure(f"{option} {path}: would overwrite {seen[real]}", EXIT_BAD_INPUT)
+        if is_special(path):  # a FIFO or a device: written through, never replaced
+            if not os.access(path, os.W_OK):
+                raise Failure(f"{option} {path}: cannot write to it", EXIT_BAD_INPUT)
+            continue
+        seen[real] = option
+        existing = real.parent if not folders else real
+        while not existing.exists():
+            existing = existing.parent
+        if not existing.is_dir() or not os.access(existing, os.W_OK):
+            raise Failure(f"{option} {path}: cannot write in {existing}", EXIT_BAD_INPUT)
+
+
+def check_finite(option: str, *values: float) -> None:
+    if not all(math.isfinite(v) for v in values):
+        shown = " ".join(f"{v:g}" for v in values)
+        raise Failure(f"{option} must be finite, got {shown}", EXIT_BAD_INPUT)
+
+
+def span_of(option: str, text: str, rules: Rules) -> Span:
+    """An `A:B:N[:log]` option read and checked by its rules (rail_mj.studies.span)."""
+    try:
+        return Span.parse(text, rules, option)
+    except SpanError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None

@@ -1,0 +1,256 @@
+"""`rail-mj generate` and `rail-mj run`: a layout's MuJoCo model, and one run of it with its
+summary, samples and recording."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+import click
+
+from rail_mj.cli.options import (
+    EXIT_BAD_INPUT,
+    EXIT_RUN_FAILED,
+    Failure,
+    check_outputs,
+    check_speed,
+    layout_of,
+    uses_stdout,
+)
+from rail_mj.files import staged
+from rail_mj.layout import Layout
+from rail_mj.layout.practice import max_initial_yaw
+
+
+@click.command("generate")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Folder for <name>.xml, scene.xml and assets/.",
+)
+def generate_cmd(layout, out_dir):
+    """Generate the MJCF model of LAYOUT."""
+    from rail_mj.vehicle.mjcf import generate
+
+    lay = layout_of(layout)
+    check_outputs(layout, [("-o", out_dir)], folders=True)
+    try:
+        written = generate(lay, out_dir)
+    except ValueError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    except OSError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    for path in written:
+        click.echo(str(path))
+
+
+@click.command("run")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("--speed", type=float, required=True, help="Forward speed, m/s.")
+@click.option("--distance", type=float, required=True, help="Distance to run, m.")
+@click.option(
+    "--initial-lateral",
+    type=float,
+    default=0.002,
+    show_default=True,
+    help="Start with the whole vehicle shifted left by this much, m.",
+)
+@click.option(
+    "--initial-yaw",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Start with every wheelset yawed nose-left by this much, rad.",
+)
+@click.option("--rrd", type=click.Path(dir_okay=False), help="Write a Rerun recording here.")
+@click.option(
+    "--rrd-rate",
+    default="auto",
+    show_default=True,
+    help="Samples per second in the recording: auto (chosen from the motion), a number, or full (every sample).",
+)
+@click.option("--out", type=click.Path(dir_okay=False), help="Write the samples as CSV here.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate, out, as_json):
+    """Run LAYOUT at constant speed on straight track and summarise each wheelset's motion.
+
+    Outputs may be `-` (standard output; the summary then goes to stderr), a FIFO or a
+    device: they are written through, never replaced."""
+    lay = layout_of(layout)
+    check_speed("--speed", speed)
+    if not (math.isfinite(distance) and distance > 0):
+        raise Failure(f"--distance must be a positive number, got {distance}", EXIT_BAD_INPUT)
+    _check_disturbance(lay, initial_lateral, initial_yaw)
+    rate = _recording_rate(rrd_rate)
+    check_outputs(layout, [("--out", out), ("--rrd", rrd)])
+    from rail_mj.analysis import summary
+    from rail_mj.simulation.runner import SimulationError
+
+    try:
+        run = _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw)
+    except SimulationError as e:
+        raise Failure(str(e), EXIT_RUN_FAILED) from None
+    except ValueError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    result = summary(run)
+    outputs = [p for p in (out, rrd) if p]
+    try:
+        with staged(outputs) as temps:  # both or neither
+            for tmp, path in zip(temps, outputs):
+                if path == out:
+                    tmp.write_bytes(_csv_bytes(run))
+                else:
+                    from rail_mj.output.recording import recorded_samples, sample_rate, save_recording
+
+                    save_recording(run, tmp, rate)
+                    keep = recorded_samples(run, rate)
+                    result["rrd_rate_per_s"] = sample_rate(run) / (keep[1] - keep[0]) if len(keep) > 1 else None
+    except OSError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    if out:
+        result["csv"] = out
+    if rrd:
+        result["rrd"] = rrd
+    to_stderr = uses_stdout(out, rrd)
+    if as_json:
+        click.echo(json.dumps(result, indent=2), err=to_stderr)
+    else:
+        _print_summary(result, to_stderr)
+
+
+def _csv_bytes(run) -> bytes:
+    import io
+
+    import numpy as np
+
+    names, values = run.table()
+    buf = io.StringIO()
+    np.savetxt(buf, values, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
+    return buf.getvalue().encode()
+
+
+def _recording_rate(text: str) -> float | None:
+    """--rrd-rate: None (auto), math.inf (full) or a positive number of samples/s."""
+    if text == "auto":
+        return None
+    if text == "full":
+        return math.inf
+    try:
+        rate = float(text)
+    except ValueError:
+        rate = math.nan
+    if not (math.isfinite(rate) and rate > 0):
+        raise Failure(
+            f"--rrd-rate must be auto, full or a positive number of samples per second, got {text!r}", EXIT_BAD_INPUT
+        )
+    return rate
+
+
+def _check_disturbance(layout: Layout, lateral: float, yaw: float) -> None:
+    """Refuse a start the wheelsets cannot have on the rails: shifted past the flangeway
+    clearance (the flange would start inside the rail), or yawed so far that the flange
+    fronts cross the rails."""
+    w = layout.wheelset
+    for option, value in (("--initial-lateral", lateral), ("--initial-yaw", yaw)):
+        if not math.isfinite(value):
+            raise Failure(f"{option} must be a finite number, got {value}", EXIT_BAD_INPUT)
+    if abs(lateral) > w.flangeway_clearance:
+        raise Failure(
+            f"--initial-lateral {lateral:g} m: a wheelset shifted past its flangeway "
+            f"clearance ({w.flangeway_clearance:g} m) would start with its flange inside the "
+            f"rail; give at most {w.flangeway_clearance:g} m",
+            EXIT_BAD_INPUT,
+        )
+    limit = max_initial_yaw(w.rolling_radius, w.flangeway_clearance)
+    if abs(yaw) > limit:
+        raise Failure(
+            f"--initial-yaw {yaw:g} rad: yawed more than {limit:.3g} rad, a wheelset's "
+            f"flange fronts would cross the rails (clearance {w.flangeway_clearance:g} m); "
+            f"angles of attack on track are a few mrad",
+            EXIT_BAD_INPUT,
+        )
+
+
+def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw):
+    from rail_mj.simulation.runner import simulate
+
+    if not sys.stderr.isatty():
+        return simulate(lay, speed, distance, initial_lateral, initial_yaw)
+    with click.progressbar(length=1000, label=f"{lay.name} at {speed:g} m/s", file=sys.stderr) as bar:
+        done = [0]
+
+        def progress(fraction: float) -> None:
+            step = int(fraction * 1000)
+            if step > done[0]:
+                bar.update(step - done[0])
+                done[0] = step
+
+        return simulate(lay, speed, distance, initial_lateral, initial_yaw, progress=progress)
+
+
+def _fmt(value, spec: str) -> str:
+    """`value` formatted by `spec`, or a dash as wide for a value there is not."""
+    if value is None:
+        return format("-", spec.rstrip("efgEFG").split(".")[0])
+    return format(value, spec)
+
+
+def _print_summary(result: dict, err: bool = False) -> None:
+    def say(text: str) -> None:
+        click.echo(text, err=err)
+
+    say(
+        f"{result['layout']}: {result['distance_m']:g} m at {result['speed_m_per_s']:g} m/s "
+        f"({result['duration_s']:.3g} s, timestep {result['timestep_s']:.3g} s)"
+    )
+    say("wheelset  max|y| (mm)  end|y| (mm)  growth (1/s)  frequency (Hz)  wavelength (m)")
+    for w in result["wheelsets"]:
+        line = (
+            f"{w['wheelset']:>8}  {w['max_abs_lateral_m'] * 1e3:>11.3f}  "
+            f"{w['final_abs_lateral_m'] * 1e3:>11.3f}  {_fmt(w['growth_rate_per_s'], '>12.4f')}  "
+            f"{_fmt(w['frequency_hz'], '>14.4f')}  {_fmt(w['wavelength_m'], '>14.3f')}"
+        )
+        if w["decayed"]:
+            line += f"  decayed by {w['decayed_by_s']:.3g} s ({w['decayed_by_m']:.4g} m)"
+        say(line)
+    if any(w["decayed"] for w in result["wheelsets"]):
+        say(
+            "decayed: |y| below 5 % of its largest value from then to the end; growth, frequency and "
+            "wavelength are those of the motion before"
+        )
+    h = result.get("hunting")
+    if h is not None:
+        worst = max(h["max_rms_n"])
+        say(
+            f"hunting (EN 14363, rms Sigma Y over 100 m, band-passed at {h['frequency_hz']:.2f} +/- 2 Hz): "
+            f"{'YES' if h['hunting'] else 'no'}, largest {worst / 1e3:.1f} kN against a limit of "
+            f"{h['limit_n'] / 1e3:.1f} kN"
+        )
+    elif result.get("hunting_note"):
+        say(f"hunting (EN 14363): not assessed, {result['hunting_note']}")
+    if result.get("largest_y_over_q") is not None:
+        at, low = result["largest_y_over_q_at"], result["smallest_wheel_load_at"]
+        exceeded = "EXCEEDS the limit " if result["y_over_q_exceeded"] else "limit "
+        line = (
+            f"wheel loads ({result['wheel_loads_from']}): largest Y/Q {result['largest_y_over_q']:.3f} over "
+            f"{result['y_over_q_window_m']:g} m ({exceeded}{result['y_over_q_limit']:g}; peak "
+            f"{result['largest_y_over_q_peak']:.3f}), wheelset {at['wheelset']} {at['wheel']} at "
+            f"x = {at['x_m']:.4g} m"
+        )
+        if result["wheel_loads_from"] != "static share":
+            line += (
+                f"; smallest Q {result['smallest_wheel_load_n'] / 1e3:.1f} kN (wheelset {low['wheelset']} "
+                f"{low['wheel']} at x = {low['x_m']:.4g} m)"
+            )
+        say(line)
+    if "csv" in result:
+        say(f"samples: {result['csv']}")
+    if "rrd" in result:
+        rate = result.get("rrd_rate_per_s")
+        at = f", {rate:.4g} samples/s" if rate else ""
+        say(f"recording: {result['rrd']}{at}  (open it with: rerun {result['rrd']})")

@@ -1,0 +1,206 @@
+"""`rail-mj sweep` and `rail-mj map`: many variants of a layout, in a table or a stability map
+(rail_mj.studies.sweep)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from rail_mj.cli.options import (
+    EXIT_BAD_INPUT,
+    Failure,
+    check_outputs,
+    csv_beside,
+    layout_of,
+    span_of,
+    status_line,
+    uses_stdout,
+)
+from rail_mj.files import staged
+from rail_mj.studies.span import GRID, SPEEDS, Span
+
+
+@click.command("sweep")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option(
+    "--speeds",
+    required=True,
+    help="A:B:N. run: every one of N speeds from A to B m/s is a case; eigen, time, nonlinear: "
+    "the range the critical speed is searched in, N scan points.",
+)
+@click.option(
+    "--set",
+    "sets",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="A layout key set for every case, e.g. creep.friction=0.2 (repeatable).",
+)
+@click.option(
+    "--grid",
+    "grids",
+    multiple=True,
+    metavar="KEY=A:B:N[:log]",
+    help="A layout key varied over N values, e.g. wheelset.conicity=0.05:0.3:6 (repeatable: "
+    "every combination is a case).",
+)
+@click.option(
+    "--method",
+    type=click.Choice(["run", "eigen", "time", "nonlinear"]),
+    default="run",
+    show_default=True,
+    help="run: a simulation and its summary per case; eigen, time, nonlinear: "
+    "a critical speed per case (as critical-speed --method).",
+)
+@click.option("--distance", type=float, default=1000.0, show_default=True, help="run: distance of each run, m.")
+@click.option("--workers", type=int, help="Threads on this machine [default: every core].")
+@click.option("--scheduler", help="Address of a Dask distributed scheduler to run the cases on instead.")
+@click.option(
+    "--rrd-dir", type=click.Path(file_okay=False), help="run: write a Rerun recording of each case into this folder."
+)
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="The table, .csv or .parquet. Run again, the same sweep keeps its finished rows.",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print a summary as JSON.")
+def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler, rrd_dir, out, as_json):
+    """Run LAYOUT over speeds and layout parameters: one row per case, in a table."""
+    layout_of(layout)
+    speed_span = span_of("--speeds", speeds, SPEEDS)
+    _check_executor(workers, scheduler)
+    if Path(out).suffix not in (".csv", ".parquet"):
+        raise Failure(f"-o {out}: the table must be .csv or .parquet", EXIT_BAD_INPUT)
+    check_outputs(layout, [("-o", out)])
+    if rrd_dir:
+        check_outputs(layout, [("--rrd-dir", rrd_dir)], folders=True)
+    from rail_mj.studies.sweep import SweepError, summarise, sweep
+
+    try:
+        with status_line("sweep") as show:
+
+            def progress(done, total, row):
+                if show is not None:
+                    show(f"{done}/{total}, last: case {row['case']} {row['status']}")
+
+            table = sweep(
+                layout,
+                (speed_span.a, speed_span.b, speed_span.n),
+                sets=sets,
+                grids=grids,
+                method=method,
+                distance=distance,
+                workers=workers,
+                scheduler=scheduler,
+                out=out,
+                recordings=rrd_dir,
+                progress=progress,
+            )
+    except SweepError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    except OSError as e:
+        raise Failure(f"-o {out}: {e.strerror or e}", EXIT_BAD_INPUT) from None
+    result = summarise(table)
+    result["table"] = out
+    if as_json:
+        click.echo(json.dumps(result, indent=2))
+        return
+    counts = ", ".join(f"{k} {v}" for k, v in result["by_status"].items() if v)
+    click.echo(f"{result['cases']} cases ({counts}), {result['wall_time_s']:.1f} s of computing: {out}")
+    for bracket in result.get("brackets", []):
+        where = ", ".join(f"{k} = {v:g}" for k, v in bracket.items() if k != "critical_speed_bracket_m_per_s")
+        span = bracket["critical_speed_bracket_m_per_s"]
+        found = f"between {span[0]:g} and {span[1]:g} m/s" if span else "not within the speeds run"
+        click.echo(f"the motion stops decaying {found}" + (f" ({where})" if where else ""))
+
+
+def _check_executor(workers: int | None, scheduler: str | None) -> None:
+    if workers is not None and scheduler is not None:
+        raise Failure("give --workers or --scheduler, not both", EXIT_BAD_INPUT)
+    if workers is not None and not 1 <= workers <= 1024:
+        raise Failure(f"--workers must be between 1 and 1024, got {workers}", EXIT_BAD_INPUT)
+
+
+@click.command("map")
+@click.argument("layout", type=click.Path(dir_okay=False))
+@click.option("--x", "x_axis", required=True, metavar="KEY=A:B:N[:log]", help="The parameter along x.")
+@click.option("--y", "y_axis", required=True, metavar="KEY=A:B:N[:log]", help="The parameter along y.")
+@click.option(
+    "--method",
+    type=click.Choice(["eigen", "nonlinear"]),
+    default="eigen",
+    show_default=True,
+    help="The critical speed mapped: linear (eigen) or nonlinear.",
+)
+@click.option(
+    "--speeds", default="5:150:60", show_default=True, help="A:B:N, the speed range searched, m/s, with N scan points."
+)
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="A layout key set everywhere.")
+@click.option("--workers", type=int, help="Threads on this machine [default: every core].")
+@click.option("--scheduler", help="Address of a Dask distributed scheduler to run the cells on instead.")
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="The map, PNG.")
+@click.option(
+    "--csv", "csv_path", type=click.Path(dir_okay=False), help="The table as CSV [default: the map's name with .csv]."
+)
+def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, out, csv_path):
+    """The critical speed of LAYOUT as a map over two layout parameters."""
+    lay = layout_of(layout)
+    speed_span = span_of("--speeds", speeds, SPEEDS)
+    csv_path = csv_beside(out, csv_path, "the map and the table")
+    _check_executor(workers, scheduler)
+    check_outputs(layout, [("-o", out), ("--csv", csv_path)])
+    from rail_mj.output.plots import stability_map_png
+    from rail_mj.studies.sweep import SweepError, parse_assignment, sweep
+
+    axes = (("--x", x_axis), ("--y", y_axis))
+    try:
+        keys = [parse_assignment(text, option)[0] for option, text in axes]
+        if keys[0] == keys[1]:
+            raise SweepError(f"--x and --y both vary {keys[0]}")
+        with status_line("map") as show:
+
+            def progress(done, total, row):
+                if show is not None:
+                    show(f"{done}/{total} cells")
+
+            table = sweep(
+                layout,
+                (speed_span.a, speed_span.b, speed_span.n),
+                sets=sets,
+                grids=(x_axis, y_axis),
+                method=method,
+                workers=workers,
+                scheduler=scheduler,
+                progress=progress,
+            )
+    except SweepError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    logs = [Span.parse(parse_assignment(text, option)[1], GRID, option).log for option, text in axes]
+    import io
+
+    import pyarrow.csv as pacsv
+
+    try:
+        with staged([csv_path, out]) as (csv_tmp, png_tmp):
+            buffer = io.BytesIO()
+            pacsv.write_csv(table, buffer)
+            csv_tmp.write_bytes(buffer.getvalue())
+            png_tmp.write_bytes(stability_map_png(table, keys[0], keys[1], *logs, method, lay.name))
+    except OSError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    err = uses_stdout(out, csv_path)
+    rows = table.to_pylist()
+    found = [r["critical_speed_m_per_s"] for r in rows if r["critical_speed_m_per_s"] is not None]
+    unstable = sum(r["outcome"] == "unstable" for r in rows)
+    stable = sum(r["outcome"] == "stable" for r in rows)
+    other = len(rows) - len(found) - unstable - stable
+    click.echo(f"map: {out}\ndata: {csv_path}", err=err)
+    found_span = f"critical speed from {min(found):.1f} to {max(found):.1f} m/s" if found else "no critical speed"
+    click.echo(
+        f"{found_span} over {len(rows)} cells; {unstable} unstable from {speed_span.a:g} m/s, {stable} stable to "
+        f"{speed_span.b:g} m/s, {other} other (see the table's status and note)",
+        err=err,
+    )
