@@ -31,7 +31,8 @@ from rail_mj.output.recording import (
     write_recording,
     yaw_path,
 )
-from rail_mj.simulation.runner import Run, simulate
+from rail_mj.simulation.run import Run
+from rail_mj.simulation.runner import simulate
 from rail_mj.vehicle.spec import Vehicle
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 if TYPE_CHECKING:
-    from rail_mj.simulation.runner import Run
+    from rail_mj.simulation.run import Run
 
 # scipy.signal takes most of a second to import: it is imported where it is used.
 

@@ -55,7 +55,7 @@ import rerun.blueprint as rrb
 
 from rail_mj.analysis import flange_strikes
 from rail_mj.files import staged
-from rail_mj.simulation.runner import Run
+from rail_mj.simulation.run import Run
 from rail_mj.units import MM_PER_M, MRAD_PER_RAD, N_PER_KN
 from rail_mj.vehicle.looks import RAIL_HEAD_WIDTH
 
