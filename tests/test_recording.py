@@ -31,6 +31,7 @@ from rail_mj.output.recording import (
     write_recording,
     yaw_path,
 )
+from rail_mj.output.samples import table
 from rail_mj.simulation.run import Run
 from rail_mj.simulation.runner import simulate
 from rail_mj.vehicle.spec import Vehicle
@@ -252,7 +253,7 @@ def test_six_wheelsets_each_series_readable(tmp_path):
 
 def test_table_columns(tmp_path):
     run = simulate(load_layout(COACH), speed=40.0, distance=10.0, initial_lateral=0.002)
-    names, values = run.table()
+    names, values = table(run)
     n = run.n_wheelsets
     assert names[: 2 + 2 * n] == ["t", "x"] + [f"{q}{i + 1}" for i in range(n) for q in ("y", "psi")]
     assert names[2 + 2 * n :] == (
@@ -270,7 +271,7 @@ def test_table_columns(tmp_path):
     assert np.max(np.abs(column["y_carbody"])) > 1e-3  # the car body moves with the 2 mm start
     # The fixed car body of the shipped bogie has no columns.
     bogie = simulate(load_layout(MODELS / "bogie" / "bogie.toml"), speed=25.0, distance=2.0)
-    assert bogie.table()[0][-2:] == ["y_bogie1", "psi_bogie1"]
+    assert table(bogie)[0][-2:] == ["y_bogie1", "psi_bogie1"]
 
 
 def test_cli_writes_recording_and_csv(tmp_path, capsys):

@@ -134,17 +134,6 @@ def generate_cmd(layout, out_dir):
         click.echo(str(path))
 
 
-def _csv_bytes(run) -> bytes:
-    import io
-
-    import numpy as np
-
-    names, values = run.table()
-    buf = io.StringIO()
-    np.savetxt(buf, values, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
-    return buf.getvalue().encode()
-
-
 def _check_outputs(
     layout: str | None, outputs: list[tuple[str, str | None]], folders: bool = False, source: str = "the layout file"
 ) -> None:
@@ -229,6 +218,7 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
     rate = _recording_rate(rrd_rate)
     _check_outputs(layout, [("--out", out), ("--rrd", rrd)])
     from rail_mj.analysis import summary
+    from rail_mj.output.samples import csv_bytes
     from rail_mj.simulation.runner import SimulationError
 
     try:
@@ -243,7 +233,7 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
         with staged(outputs) as temps:  # both or neither
             for tmp, path in zip(temps, outputs):
                 if path == out:
-                    tmp.write_bytes(_csv_bytes(run))
+                    tmp.write_bytes(csv_bytes(run))
                 else:
                     from rail_mj.output.recording import recorded_samples, sample_rate, save_recording
 

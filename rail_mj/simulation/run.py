@@ -183,57 +183,16 @@ class Run:
         return _spatial_angles(self.body_quat[:, self._frame_ids])[0]
 
     @property
+    def frame_pitch(self) -> np.ndarray:
+        """(n_samples, n_frames): a spatial vehicle's frames' pitch, rad (about y)."""
+        return _spatial_angles(self.body_quat[:, self._frame_ids])[1]
+
+    @property
     def frame_bounce(self) -> np.ndarray:
         """(n_samples, n_frames): a spatial vehicle's frames' vertical displacement from the
         static equilibrium (the centred state), m."""
         rest = self.vehicle.model.body_pos[self._frame_ids, 2]
         return self.body_pos[:, self._frame_ids, 2] - rest
-
-    def table(self) -> tuple[list[str], np.ndarray]:
-        """Columns and their values, SI units (s, m, rad, N), one row per sample:
-
-        t, x, y1, psi1, y2, psi2, ...   time, distance, each wheelset's lateral displacement and yaw
-        sum_y1, flange1, sum_y2, ...    each wheelset's sum of guiding forces Sigma Y and the
-                                        flange's part of it (the rail's lateral force on the
-                                        wheelset, positive to the left; 0 off the flange; on
-                                        profiles the normal forces' lateral part, gravitational
-                                        stiffness included)
-        y_bogie1, psi_bogie1, ...       each moving frame's lateral displacement and yaw
-        (y_carbody, psi_carbody)        (bogies, then the car body unless it is fixed)
-        q_left1, q_right1, ...          each wheel's vertical load Q and lateral force Y (the
-        ylat_left1, ylat_right1, ...    rail's, + to the left) and its derailment quotient Y/Q
-        y_over_q_left1, ...             (`derailment_quotients`; NaN where the wheel is off its
-                                        rail), for a spatial vehicle (the summary has them for all)
-        bounce_bogie1, roll_bogie1,     a spatial vehicle's frames' and car bodies' vertical
-        pitch_bogie1, ...               displacement from the static equilibrium (m), roll and pitch
-        """
-        names = ["t", "x"]
-        cols = [self.t, self.x]
-        y, psi = self.y, self.psi
-        for i in range(self.n_wheelsets):
-            names += [f"y{i + 1}", f"psi{i + 1}"]
-            cols += [y[:, i], psi[:, i]]
-        forces = self.contact_forces()
-        for i in range(self.n_wheelsets):
-            names += [f"sum_y{i + 1}", f"flange{i + 1}"]
-            cols += [forces.lateral[:, i], forces.flange_lateral[:, i]]
-        frame_y, frame_psi = self.frame_y, self.frame_psi
-        for k, name in enumerate(self.frame_names):
-            names += [f"y_{name}", f"psi_{name}"]
-            cols += [frame_y[:, k], frame_psi[:, k]]
-        if self.layout.spatial is not None:  # a planar run's columns stay as they were
-            q = self.wheel_loads()
-            lateral, quotient = self.wheel_lateral_forces(), self.derailment_quotients()
-            for i in range(self.n_wheelsets):
-                for what, values in (("q", q), ("ylat", lateral), ("y_over_q", quotient)):
-                    names += [f"{what}_left{i + 1}", f"{what}_right{i + 1}"]
-                    cols += [values[:, i, 0], values[:, i, 1]]
-            roll, pitch, _ = _spatial_angles(self.body_quat[:, self._frame_ids])
-            bounce = self.frame_bounce
-            for k, name in enumerate(self.frame_names):
-                names += [f"bounce_{name}", f"roll_{name}", f"pitch_{name}"]
-                cols += [bounce[:, k], roll[:, k], pitch[:, k]]
-        return names, np.column_stack(cols)
 
 
 def _yaw(quat: np.ndarray) -> np.ndarray:
