@@ -11,6 +11,7 @@ from conftest import BOGIE_FRAME, MODELS, WHEELSET
 from rerun.chunk import RrdReader
 
 from rail_mj.analysis import flange_strikes, late_motion, oscillation
+from rail_mj.analysis.en14363 import derailment_quotients
 from rail_mj.cli import main
 from rail_mj.layout import layout_from_dict, load_layout
 from rail_mj.output.recording import (
@@ -344,7 +345,7 @@ def test_spatial_recording_plots_roll_bounce_and_wheel_loads(tmp_path):
     rrd = write_recording(run, tmp_path / "spatial.rrd", rate=math.inf)
     series = read_series(rrd)
     np.testing.assert_allclose(series[wheel_load_path(1, "right")][2], run.wheel_loads()[:, 1, 1] / 1e3, rtol=1e-12)
-    np.testing.assert_allclose(series[quotient_path(0, "left")][2], run.derailment_quotients()[:, 0, 0], rtol=1e-12)
+    np.testing.assert_allclose(series[quotient_path(0, "left")][2], derailment_quotients(run)[:, 0, 0], rtol=1e-12)
     carbody = run.frame_names.index("carbody")
     np.testing.assert_allclose(series[frame_roll_path("carbody")][2], run.frame_roll[:, carbody] * 1e3, rtol=1e-12)
     np.testing.assert_allclose(series[frame_bounce_path("bogie2")][2], run.frame_bounce[:, 1] * 1e3, rtol=1e-12)

@@ -15,6 +15,7 @@ import io
 
 import numpy as np
 
+from rail_mj.analysis.en14363 import derailment_quotients
 from rail_mj.simulation.run import Run
 
 
@@ -31,7 +32,7 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
     (y_carbody, psi_carbody)        (bogies, then the car body unless it is fixed)
     q_left1, q_right1, ...          each wheel's vertical load Q and lateral force Y (the
     ylat_left1, ylat_right1, ...    rail's, + to the left) and its derailment quotient Y/Q
-    y_over_q_left1, ...             (`derailment_quotients`; NaN where the wheel is off its
+    y_over_q_left1, ...             (rail_mj.analysis.en14363; NaN where the wheel is off its
                                     rail), for a spatial vehicle (the summary has them for all)
     bounce_bogie1, roll_bogie1,     a spatial vehicle's frames' and car bodies' vertical
     pitch_bogie1, ...               displacement from the static equilibrium (m), roll and pitch
@@ -52,7 +53,7 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
         cols += [frame_y[:, k], frame_psi[:, k]]
     if run.layout.spatial is not None:  # a planar run's columns stay as they were
         q = run.wheel_loads()
-        lateral, quotient = run.wheel_lateral_forces(), run.derailment_quotients()
+        lateral, quotient = run.wheel_lateral_forces(), derailment_quotients(run)
         for i in range(run.n_wheelsets):
             for what, values in (("q", q), ("ylat", lateral), ("y_over_q", quotient)):
                 names += [f"{what}_left{i + 1}", f"{what}_right{i + 1}"]

@@ -122,15 +122,6 @@ class Run:
         f = self.contact_forces()
         return np.stack([f.lateral_left, f.lateral_right], axis=-1)
 
-    def derailment_quotients(self) -> np.ndarray:
-        """(n_samples, n_wheelsets, 2): Y/Q of each wheel (EN 14363), Y the force the wheel puts
-        on its rail towards the outside of the track (positive: the flange-climbing direction:
-        the left wheel pushing its rail to the left). NaN where a wheel is off its rail (Q = 0)."""
-        outward = self.wheel_lateral_forces() * np.array([-1.0, 1.0])
-        q = self.wheel_loads()
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.where(q > 0.0, outward / np.where(q > 0.0, q, 1.0), np.nan)
-
     @property
     def layout(self) -> Layout:
         return self.vehicle.layout
