@@ -90,6 +90,24 @@ class Running:
     def t(self) -> np.ndarray:
         return np.arange(self.count) * (self.every * self.prepared.timestep)  # exact, unlike data.time
 
+    def record(self, sensors, readings: np.ndarray) -> slice:
+        """Put a chunk's sensor readings (a row a sample) after the samples recorded; their slice."""
+        mine = slice(self.done, self.done + len(readings))
+        self.pos[mine, 0], self.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
+        sensors.poses(readings, self.pos[mine], self.quat[mine])
+        sensors.rates(readings, self.rates[mine])
+        sensors.loads(readings, self.loads[mine])
+        return mine
+
+    def left_rails(self, mine: slice, derailment_lateral: float) -> tuple[int, int] | None:
+        """(sample, wheelset) where a wheelset first left the rails among the samples `mine`
+        (|y| past `derailment_lateral`, or the end of the profiles' table), or None."""
+        lateral = np.abs(self.pos[mine][:, self.prepared.vehicle.wheelset_ids, 1])
+        off = np.nonzero(np.max(lateral, axis=1) > self.prepared.derailment(derailment_lateral))[0]
+        if not len(off):
+            return None
+        return mine.start + off[0], int(np.argmax(lateral[off[0]]))
+
     def run(self, final) -> Run:
         p = self.prepared
         return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads)
@@ -335,37 +353,15 @@ def drive(
         pack.share(time.perf_counter() - started)
         warning = _warnings(pack.data)
         if warning or not (np.all(np.isfinite(readings)) and np.all(np.isfinite(pack.state))):
-            for r in runs:
-                if pack.alone:
-                    at = (min(r.done + count, r.count) - 1) * (every * dt)
-                    speed = r.prepared.request.speed
-                    done(
-                        r.index,
-                        SimulationError(
-                            f"diverged by t = {at:.4g} s (x = {speed * at:.4g} m): MuJoCo reported "
-                            f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at "
-                            f"{speed:g} m/s; the suspension or creep stiffness is too high for "
-                            f"this step",
-                            r.partial(r.done),
-                        ),
-                        r.seconds,
-                    )
-                else:
-                    done(r.index, step_alone(r.prepared, derailment_lateral), r.seconds)
+            _diverged(pack, runs, count, warning, done, derailment_lateral)
             return later
         first, ended = runs[0].done, []
         for m, r in zip(going, runs):
-            place = pack.places[m]
             n = min(count, r.count - r.done)
-            mine = slice(r.done, r.done + n)
-            r.pos[mine, 0], r.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
-            place.sensors.poses(readings[:n], r.pos[mine], r.quat[mine])
-            place.sensors.rates(readings[:n], r.rates[mine])
-            place.sensors.loads(readings[:n], r.loads[mine])
-            lateral = np.abs(r.pos[mine][:, r.prepared.vehicle.wheelset_ids, 1])
-            off = np.nonzero(np.max(lateral, axis=1) > r.prepared.derailment(derailment_lateral))[0]
-            if len(off):
-                j, worst = r.done + off[0], int(np.argmax(lateral[off[0]]))
+            mine = r.record(pack.places[m].sensors, readings[:n])
+            off = r.left_rails(mine, derailment_lateral)
+            if off is not None:
+                j, worst = off
 
                 def make(r=r, j=j, worst=worst):
                     return _derailed(r.prepared, worst, j, r.t(), derailment_lateral, forces, r.partial(j + 1))
@@ -381,26 +377,59 @@ def drive(
                 ended.append(m)
             else:
                 r.done += n
-        for m in ended:
-            # The longest run waiting of the same vehicle takes the place: only the speed changes.
-            item = queue.take_like(pack.runs[m].prepared) if queue is not None else None
-            pack.runs[m] = None if item is None else Running(*item)
-            if item is not None:
-                set_speed(pack.model, item[1].request.speed, vehicle=m)
-            pack.start(m)
+        _refill(pack, ended, queue)
         if progress is not None:
             progress(min(first + count, runs[0].count - 1) / max(runs[0].count - 1, 1))
         empty = len(pack.runs) - len(pack.going())
         if queue is not None and empty and 2 * empty >= len(pack.runs):
-            # Half the places empty: the runs going continue in a new model, with runs waiting.
-            keep = pack.going()
-            for m in keep:
-                pack.runs[m].state = pack.state_of(m, pack.state)
-            items = queue.take(PACK - len(keep), dt)
-            runs = [pack.runs[m] for m in keep] + [Running(k, p) for k, p in items]
-            if not runs:
+            pack = _repacked(pack, queue, dt)
+            if pack is None:
                 return later
-            pack = Pack(runs)
+
+
+def _diverged(pack: Pack, runs: list[Running], count: int, warning: str | None, done, derailment_lateral: float):
+    """Tell each run of a chunk that failed numerically its result: alone, the failure; in a
+    pack of several, the run again on its own (the failure may be another run's)."""
+    for r in runs:
+        if pack.alone:
+            dt = r.prepared.timestep
+            at = (min(r.done + count, r.count) - 1) * (r.every * dt)
+            speed = r.prepared.request.speed
+            done(
+                r.index,
+                SimulationError(
+                    f"diverged by t = {at:.4g} s (x = {speed * at:.4g} m): MuJoCo reported "
+                    f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at "
+                    f"{speed:g} m/s; the suspension or creep stiffness is too high for "
+                    f"this step",
+                    r.partial(r.done),
+                ),
+                r.seconds,
+            )
+        else:
+            done(r.index, step_alone(r.prepared, derailment_lateral), r.seconds)
+
+
+def _refill(pack: Pack, ended: list[int], queue: Waiting | None) -> None:
+    """Give the places of the runs that ended to runs waiting, or leave them empty."""
+    for m in ended:
+        # The longest run waiting of the same vehicle takes the place: only the speed changes.
+        item = queue.take_like(pack.runs[m].prepared) if queue is not None else None
+        pack.runs[m] = None if item is None else Running(*item)
+        if item is not None:
+            set_speed(pack.model, item[1].request.speed, vehicle=m)
+        pack.start(m)
+
+
+def _repacked(pack: Pack, queue: Waiting, timestep: float) -> Pack | None:
+    """Half the places empty: the runs going continue in a new model, with runs waiting
+    (None when there are none of either)."""
+    keep = pack.going()
+    for m in keep:
+        pack.runs[m].state = pack.state_of(m, pack.state)
+    items = queue.take(PACK - len(keep), timestep)
+    runs = [pack.runs[m] for m in keep] + [Running(k, p) for k, p in items]
+    return Pack(runs) if runs else None
 
 
 _STEPPING = threading.Lock()
