@@ -44,8 +44,10 @@ from rail_mj.analysis.stability import Stability
 from rail_mj.layout import layout_from_dict, load_layout
 from rail_mj.output.plots import root_locus
 from rail_mj.simulation import native
+from rail_mj.simulation.batch import PACK, simulate_many
 from rail_mj.simulation.callback import CreepForces, installed
-from rail_mj.simulation.runner import PACK, Request, prepare, simulate, simulate_many
+from rail_mj.simulation.run import Request
+from rail_mj.simulation.runner import prepare, simulate
 from rail_mj.studies.sweep import sweep
 from rail_mj.vehicle.spec import Vehicle
 
@@ -107,10 +109,10 @@ def batches(layout, turns: int = 5) -> dict[str, tuple[float, float]]:
 def packed_steps(layout, n: int = 4000, repeats: int = 7) -> tuple[float, float]:
     """CPU seconds of one coach's RK4 step in a model of PACK coaches (20-100 m/s, from the
     2 mm start), bare and with the native creep callback, alternating (best of each)."""
-    from rail_mj.simulation.runner import _Pack, _Running, _stepping  # the runner's own packing and options
+    from rail_mj.simulation.stepping import Pack, Running, stepping  # the runner's own packing and options
 
-    runs = [_Running(k, prepare(Request(layout, v, 1000.0, 0.002))) for k, v in enumerate(np.linspace(20, 100, PACK))]
-    pack = _Pack(runs)
+    runs = [Running(k, prepare(Request(layout, v, 1000.0, 0.002))) for k, v in enumerate(np.linspace(20, 100, PACK))]
+    pack = Pack(runs)
     model, data = pack.model, pack.data
     mujoco.mj_setState(model, data, pack.state, pack.STATE)
 
@@ -120,7 +122,7 @@ def packed_steps(layout, n: int = 4000, repeats: int = 7) -> tuple[float, float]
         return (time.thread_time() - started) / n / PACK
 
     bare, fast = [], []
-    with _stepping():
+    with stepping():
         for _ in range(repeats):
             bare.append(per_coach())
             with native.installed():

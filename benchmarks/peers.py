@@ -46,7 +46,8 @@ import numpy as np
 
 from rail_mj.layout import load_layout
 from rail_mj.simulation.callback import contact_parameters
-from rail_mj.simulation.runner import Run, simulate
+from rail_mj.simulation.run import Run
+from rail_mj.simulation.runner import simulate
 from rail_mj.vehicle.spec import Vehicle
 
 COACH = Path(__file__).resolve().parent.parent / "models" / "manchester-coach" / "manchester-coach.toml"

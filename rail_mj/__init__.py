@@ -75,11 +75,11 @@ _EXPORTS = {
     "Vehicle": "vehicle.spec",
     "generate": "vehicle.mjcf",
     # simulation
-    "Run": "simulation.runner",
-    "SimulationError": "simulation.runner",
+    "Run": "simulation.run",
+    "SimulationError": "simulation.run",
     "simulate": "simulation.runner",
-    "simulate_many": "simulation.runner",
-    "Request": "simulation.runner",
+    "simulate_many": "simulation.batch",
+    "Request": "simulation.run",
     # analysis
     "summary": "analysis.motion",
     "Stability": "analysis.stability",

@@ -1,6 +1,7 @@
 """What runs and linearisations show.
 
-    motion.py          amplitude, growth, frequency; EN 14363's running-instability and Y/Q quantities
+    motion.py          amplitude, growth, frequency, flange strikes; the summary of a run
+    en14363.py         EN 14363: the running-instability criterion on Sigma Y, Y/Q, wheel safety
     stability.py       eigenvalues, named modes, critical speeds (eigen and time)
     train_modes.py     the names of a train's modes
     spatial_modes.py   the names of a spatial vehicle's modes
@@ -13,6 +14,22 @@ from rail_mj import _lazy
 
 _EXPORTS = {
     "summary": "motion",
+    "derailment_quotients": "en14363",
+    "wheel_safety": "en14363",
+    "hunting": "en14363",
+    "hunting_assessable": "en14363",
+    "hunting_rms": "en14363",
+    "hunting_limit": "en14363",
+    "band_pass": "en14363",
+    "dominant_frequency": "en14363",
+    "sliding_rms": "en14363",
+    "sliding_mean": "en14363",
+    "Y_OVER_Q_LIMIT": "en14363",
+    "Y_OVER_Q_WINDOW": "en14363",
+    "HUNTING_WINDOW": "en14363",
+    "HUNTING_BAND": "en14363",
+    "FILTER_ORDER": "en14363",
+    "WHEELS": "en14363",
     "Stability": "stability",
     "CriticalSpeed": "stability",
     "time_critical_speed": "stability",

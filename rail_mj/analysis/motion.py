@@ -16,8 +16,10 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from rail_mj.analysis.en14363 import hunting, hunting_assessable, wheel_safety
+
 if TYPE_CHECKING:
-    from rail_mj.simulation.runner import Run
+    from rail_mj.simulation.run import Run
 
 # scipy.signal takes most of a second to import: it is imported where it is used.
 
@@ -47,107 +49,6 @@ def oscillation(t: np.ndarray, s: np.ndarray) -> tuple[float, float]:
     else:
         sigma = math.nan
     return float(freq), sigma
-
-
-# EN 14363's running-instability criterion (after Prud'homme): the rms of each wheelset's
-# sum of guiding forces, band-pass filtered around the instability frequency f0 (f0 +/- 2 Hz),
-# over a sliding 100 m of track, against half Prud'homme's track-shift limit,
-# (10 + 2*Q0/3)/2 kN = (10 + P0/3)/2 kN with Q0 the static wheel load and P0 = 2*Q0 the
-# static axle load, in kN (alpha = 1: passenger vehicles and locomotives). The filter keeps
-# the hunting and drops its flange-contact harmonics (and, on real track, the
-# irregularities' broad band).
-# EN 14363's limit on the derailment quotient Y/Q of a wheel, for curve radii of 250 m and more
-# (tangent track included); the quotient itself is the one Nadal's formula bounds.
-Y_OVER_Q_LIMIT = 0.8
-Y_OVER_Q_WINDOW = 2.0  # m: EN 14363 assesses Y/Q as its sliding mean over 2 m of track
-HUNTING_WINDOW = 100.0  # m
-HUNTING_BAND = 2.0  # Hz either side of f0
-FILTER_ORDER = 4  # Butterworth, run forwards and backwards (no phase shift)
-
-
-def hunting_limit(axle_load: float) -> float:
-    """The rms limit of Sigma Y, N, for a static axle load in N: (10 kN + P0/3)/2."""
-    return (10e3 + axle_load / 3.0) / 2.0
-
-
-def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:
-    """rms of `signal` (samples along axis 0) over the `window` (m) of x ending at each
-    sample; nan until one full window has passed."""
-    signal = np.asarray(signal, dtype=float)
-    cumulative = np.concatenate([np.zeros((1,) + signal.shape[1:]), np.cumsum(signal**2, axis=0)])
-    start = np.searchsorted(x, x - window, side="left")
-    count = (np.arange(1, len(x) + 1) - start).reshape((-1,) + (1,) * (signal.ndim - 1))
-    rms = np.sqrt(np.maximum(cumulative[1:] - cumulative[start], 0.0) / count)
-    full = (x - x[0] >= window).reshape(count.shape)
-    return np.where(full, rms, np.nan)
-
-
-def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
-    """The frequency (Hz) of the highest peak of the signals' summed periodogram (samples
-    along axis 0, evenly spaced), leaving out the mean: the instability frequency f0."""
-    from scipy.signal import periodogram
-
-    freq, power = periodogram(signal, fs=1.0 / (t[1] - t[0]), axis=0)
-    power = power.reshape(len(freq), -1).sum(axis=1)
-    return float(freq[1:][np.argmax(power[1:])])
-
-
-def band_pass(t: np.ndarray, signal: np.ndarray, f0: float) -> np.ndarray:
-    """EN 14363's filter: f0 +/- 2 Hz (a low-pass at f0 + 2 Hz where f0 <= 2 Hz, for slow
-    car-body instabilities), Butterworth, without phase shift. Samples along axis 0."""
-    from scipy.signal import butter, sosfiltfilt
-
-    fs = 1.0 / (t[1] - t[0])
-    high = min(f0 + HUNTING_BAND, 0.45 * fs)
-    # An f0 past the filter's top (only for samples far sparser than a run's) keeps the
-    # low-pass: the band cannot be resolved there.
-    if f0 > HUNTING_BAND and f0 - HUNTING_BAND < high:
-        sos = butter(FILTER_ORDER, [f0 - HUNTING_BAND, high], btype="bandpass", fs=fs, output="sos")
-    else:
-        sos = butter(FILTER_ORDER, high, btype="lowpass", fs=fs, output="sos")
-    return sosfiltfilt(sos, signal, axis=0)
-
-
-def hunting_rms(run: Run, guiding: np.ndarray | None = None) -> tuple[float, np.ndarray]:
-    """EN 14363's f0 (Hz) and the band-passed sliding rms of each wheelset's Sigma Y (N,
-    shape (n_samples, n_wheelsets), nan before the first full window). `guiding`: the
-    run's guiding forces, if already computed."""
-    guiding = run.guiding_forces() if guiding is None else guiding
-    f0 = dominant_frequency(run.t, guiding)
-    return f0, sliding_rms(run.x, band_pass(run.t, guiding, f0), HUNTING_WINDOW)
-
-
-def hunting_assessable(run: Run) -> str | None:
-    """Why EN 14363's criterion cannot be applied to `run` (None when it can): no wheel
-    load, less than one 100 m window, or samples too sparse or too few for the filter."""
-    if run.layout.wheelset.wheel_load is None:
-        return "no wheel load: give wheelset.wheel_load or a car body with mass"
-    if run.x[-1] < HUNTING_WINDOW:
-        return f"the run is shorter than EN 14363's {HUNTING_WINDOW:g} m window"
-    # The zero-phase filter pads each end by 3 x (2 x sections + 1) samples; a run needs
-    # a few filter lengths beyond that before its rms means anything.
-    if len(run.t) < 10 * 3 * (2 * FILTER_ORDER + 1):
-        return f"the run has only {len(run.t)} samples, too few for the band-pass filter"
-    return None
-
-
-def hunting(run: Run) -> dict | None:
-    """The instability criterion per wheelset; None when it cannot be applied
-    (`hunting_assessable` says why)."""
-    if hunting_assessable(run) is not None:
-        return None
-    f0, rms = hunting_rms(run)
-    if not np.any(np.isfinite(rms)):
-        return None
-    worst = np.nanmax(rms, axis=0)
-    limit = hunting_limit(2.0 * run.layout.wheelset.wheel_load)
-    return {
-        "criterion": "EN 14363: rms over 100 m of the sum of guiding forces, band-passed f0 +/- 2 Hz",
-        "frequency_hz": f0,
-        "limit_n": limit,
-        "max_rms_n": [float(v) for v in worst],
-        "hunting": bool(np.any(worst > limit)),
-    }
 
 
 class Strike(NamedTuple):
@@ -238,86 +139,4 @@ def summary(run: Run) -> dict:
         "hunting": hunting(run),
         "hunting_note": hunting_assessable(run),
         **safety["run"],
-    }
-
-
-WHEELS = ("left", "right")
-
-
-def sliding_mean(values: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
-    """The mean of `values` (samples along axis 0, at distances `x`, m) over `window` metres of
-    track centred on each sample, as EN 14363 processes Y/Q; NaN where the window holds a NaN (a
-    wheel off its rail), and only there. At the run's ends the end values stand for the track
-    beyond (the whole run if it is shorter than the window)."""
-    step = float(x[1] - x[0]) if len(x) > 1 else 0.0
-    n = max(1, round(window / step)) if step > 0 else 1
-    n = min(n, len(values))
-    half = n // 2
-    padded = np.concatenate([np.repeat(values[:1], half, axis=0), values, np.repeat(values[-1:], n - 1 - half, axis=0)])
-    missing = np.isnan(padded)
-    zero = np.zeros((1,) + values.shape[1:])
-    total = np.concatenate([zero, np.cumsum(np.where(missing, 0.0, padded), axis=0)])
-    holes = np.concatenate([zero, np.cumsum(missing, axis=0)])
-    mean = (total[n:] - total[:-n]) / n
-    return np.where(holes[n:] - holes[:-n] > 0, np.nan, mean)
-
-
-def wheel_safety(run: Run) -> dict:
-    """The largest derailment quotient Y/Q and the smallest wheel load Q, per wheelset and over
-    the run, with where they happened (None when the layout gives no wheel loads). Y/Q as
-    EN 14363 assesses it, its mean over Y_OVER_Q_WINDOW of track; its largest sample beside it
-    (a flange impact's peak: on a rigid flange, and with the creep forces left out of the
-    wheelset's vertical balance, an upper bound; docs/spatial.md)."""
-    q, peaks = run.wheel_loads(), run.derailment_quotients()
-    if np.isnan(q).all():
-        none = {"largest_y_over_q": None, "largest_y_over_q_peak": None, "smallest_wheel_load_n": None}
-        return {"wheelsets": [dict(none) for _ in range(run.n_wheelsets)], "run": dict(none)}
-    quotient = sliding_mean(peaks, run.x, Y_OVER_Q_WINDOW)
-
-    def at(values, pick) -> tuple[float | None, dict | None]:
-        finite = np.where(np.isnan(values), -np.inf if pick is np.nanargmax else np.inf, values)
-        if not np.isfinite(finite).any():
-            return None, None
-        j, i, side = np.unravel_index(pick(finite), values.shape)
-        return float(values[j, i, side]), {
-            "wheelset": int(i) + 1,
-            "wheel": WHEELS[side],
-            "x_m": float(run.x[j]),
-            "t_s": float(run.t[j]),
-        }
-
-    per = []
-    for i in range(run.n_wheelsets):
-        per.append(
-            {
-                "largest_y_over_q": at(quotient[:, i : i + 1], np.nanargmax)[0],
-                "largest_y_over_q_peak": at(peaks[:, i : i + 1], np.nanargmax)[0],
-                "smallest_wheel_load_n": at(q[:, i : i + 1], np.nanargmin)[0],
-            }
-        )
-    largest, where_largest = at(quotient, np.nanargmax)
-    smallest, where_smallest = at(q, np.nanargmin)
-    # Where Q comes from: a spatial vehicle's suspension (rail_mj.vehicle.loads); on profiles the contact's
-    # equilibrium under the static axle load; on a planar vehicle's cones the static share.
-    spatial = run.layout.spatial
-    source = (
-        "suspension"
-        if spatial is not None and spatial.gravity
-        else "profile contact, static axle load"
-        if run.layout.profiles is not None
-        else "static share"
-    )
-    return {
-        "wheelsets": per,
-        "run": {
-            "largest_y_over_q": largest,
-            "largest_y_over_q_at": where_largest,
-            "wheel_loads_from": source,
-            "largest_y_over_q_peak": at(peaks, np.nanargmax)[0],
-            "y_over_q_window_m": Y_OVER_Q_WINDOW,
-            "smallest_wheel_load_n": smallest,
-            "smallest_wheel_load_at": where_smallest,
-            "y_over_q_limit": Y_OVER_Q_LIMIT,
-            "y_over_q_exceeded": largest is not None and largest > Y_OVER_Q_LIMIT,
-        },
     }

@@ -28,7 +28,8 @@ from scipy.optimize import brentq
 from rail_mj.analysis import late_motion, oscillation
 from rail_mj.layout import Layout
 from rail_mj.simulation.linear import RIGID_TOLERANCE, modal_roots, state_matrix
-from rail_mj.simulation.runner import Derailed, simulate
+from rail_mj.simulation.run import Derailed
+from rail_mj.simulation.runner import simulate
 from rail_mj.vehicle.block import set_speed
 from rail_mj.vehicle.joints import LATERAL, YAW
 from rail_mj.vehicle.spec import Vehicle

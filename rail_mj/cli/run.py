@@ -89,6 +89,7 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
     rate = _recording_rate(rrd_rate)
     check_outputs(layout, [("--out", out), ("--rrd", rrd)])
     from rail_mj.analysis import summary
+    from rail_mj.output.samples import csv_bytes
     from rail_mj.simulation.runner import SimulationError
 
     try:
@@ -103,7 +104,7 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
         with staged(outputs) as temps:  # both or neither
             for tmp, path in zip(temps, outputs):
                 if path == out:
-                    tmp.write_bytes(_csv_bytes(run))
+                    tmp.write_bytes(csv_bytes(run))
                 else:
                     from rail_mj.output.recording import recorded_samples, sample_rate, save_recording
 
@@ -121,17 +122,6 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
         click.echo(json.dumps(result, indent=2), err=to_stderr)
     else:
         _print_summary(result, to_stderr)
-
-
-def _csv_bytes(run) -> bytes:
-    import io
-
-    import numpy as np
-
-    names, values = run.table()
-    buf = io.StringIO()
-    np.savetxt(buf, values, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
-    return buf.getvalue().encode()
 
 
 def _recording_rate(text: str) -> float | None:

@@ -1,5 +1,6 @@
 """Files a person opens: Rerun recordings, run tables and figures.
 
+samples.py     a run's samples as a table: the CSV columns of `rail-mj run --out`
 recording.py   the Rerun recording of a run
 plots.py       root loci, bifurcation diagrams, stability maps, profiles (matplotlib)
 """

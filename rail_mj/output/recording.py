@@ -55,7 +55,7 @@ import rerun.blueprint as rrb
 
 from rail_mj.analysis import flange_strikes
 from rail_mj.files import staged
-from rail_mj.simulation.runner import Run
+from rail_mj.simulation.run import Run
 from rail_mj.units import MM_PER_M, MRAD_PER_RAD, N_PER_KN
 from rail_mj.vehicle.looks import RAIL_HEAD_WIDTH
 
@@ -301,9 +301,9 @@ def plots(run: Run) -> list[Plot]:
 def _wheel_plots(run: Run, wheelsets) -> list[Plot]:
     """Each wheel's vertical load Q and derailment quotient Y/Q (EN 14363's limit in the title),
     the right wheel a darker shade of its wheelset's colour."""
-    from rail_mj.analysis import Y_OVER_Q_LIMIT
+    from rail_mj.analysis.en14363 import Y_OVER_Q_LIMIT, derailment_quotients
 
-    loads, quotients = run.wheel_loads(), run.derailment_quotients()
+    loads, quotients = run.wheel_loads(), derailment_quotients(run)
 
     def series(path, unit, values):
         out = []

@@ -3,17 +3,21 @@
 callback.py    the contact law as a Python passive-force callback: the readable reference
 native.py      the same law as a native (C) callback: no Python in a step, thread-safe
 linear.py      the model linearised about its reference state (timestep, eigenvalues)
-runner.py      timestep choice, `simulate` -> `Run`, `simulate_many`: several runs in one model
+timestep.py    the timestep: RK4's limit for the fastest linear mode
+run.py         `Request` (a run to make) and `Run` (its samples, their kinematics and contact forces)
+stepping.py    MuJoCo stepped in chunks: a model holding one run or a pack of several, the checks
+runner.py      `simulate`: one run, checked and prepared (`prepare`)
+batch.py       `simulate_many`: many runs, packed several to a model, on several threads
 """
 
 from rail_mj import _lazy
 
 _EXPORTS = {
-    "Run": "runner",
-    "Request": "runner",
-    "SimulationError": "runner",
-    "Derailed": "runner",
+    "Run": "run",
+    "Request": "run",
+    "SimulationError": "run",
+    "Derailed": "run",
     "simulate": "runner",
-    "simulate_many": "runner",
+    "simulate_many": "batch",
 }
 __getattr__, __dir__ = _lazy.exports(__name__, _EXPORTS)

@@ -2,7 +2,7 @@
 
 A sweep is a list of cases: every combination of the `grid` values (layout keys such as
 `primary.yaw_stiffness`), with the `sets` applied to all, and for `method="run"` every
-speed as well. Runs are stepped many at a time (rail_mj.simulation.runner.simulate_many: eight
+speed as well. Runs are stepped many at a time (rail_mj.simulation.batch.simulate_many: eight
 vehicles to a MuJoCo model, a model on each thread), each with exactly the result it
 would have alone, and each row is summarised as its run ends; critical speeds are
 computed a case a thread (`run_case`). Every row is a function of its case alone, so
@@ -250,10 +250,10 @@ def run_case(case: Case) -> dict:
 
 def tasks(cases: list[Case], packs_per_task: int = 1) -> list[list[Case]]:
     """The units of work of a Dask cluster: runs in the order of their duration,
-    `packs_per_task` models of PACK vehicles at a time (rail_mj.simulation.runner.simulate_many steps
+    `packs_per_task` models of PACK vehicles at a time (rail_mj.simulation.batch.simulate_many steps
     them together); every other case alone. Packing changes no result (each run is the one
     `simulate` gives, bit for bit), so executors may cut the work as suits them."""
-    from rail_mj.simulation.runner import PACK
+    from rail_mj.simulation.batch import PACK
 
     size = PACK * packs_per_task
     runs = sorted((c for c in cases if c.method == "run"), key=lambda c: (c.distance / c.speed, c.index))
@@ -269,10 +269,11 @@ def run_task(cases: list[Case], threads: int = 1) -> list[dict]:
 
 def run_rows(cases: list[Case], threads: int = 1) -> Iterator[dict]:
     """The rows of run cases as their runs end, in any order: the runs stepped together
-    (rail_mj.simulation.runner.simulate_many on `threads` threads), each row summarised by the thread
+    (rail_mj.simulation.batch.simulate_many on `threads` threads), each row summarised by the thread
     that stepped its run, while the others step on. Never raises; closing the iterator
     stops the runs still going."""
-    from rail_mj.simulation.runner import Request, simulate_many
+    from rail_mj.simulation.batch import simulate_many
+    from rail_mj.simulation.run import Request
 
     owners, requests = [], []
     for case in cases:
@@ -316,7 +317,7 @@ def run_rows(cases: list[Case], threads: int = 1) -> Iterator[dict]:
 
 def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> dict:
     """A case's row from `compute`, which may raise: status and message say what happened."""
-    from rail_mj.simulation.runner import RunRefused, SimulationError
+    from rail_mj.simulation.run import RunRefused, SimulationError
 
     started = time.perf_counter()
     row = {"case": case.index, **case.params, "speed_m_per_s": case.speed}

@@ -437,7 +437,7 @@ def test_a_derailment_from_a_stable_speed_blames_the_start(tmp_path):
     """Through the Python API a violent start can still throw a stable vehicle off the
     rails: the message blames the start, not the speed."""
     from rail_mj import load_layout, simulate
-    from rail_mj.simulation.runner import Derailed
+    from rail_mj.simulation.run import Derailed
 
     with pytest.raises(Derailed, match=r"stable.*start") as e:
         simulate(load_layout(BOGIE), speed=40.0, distance=50.0, initial_lateral=0.0, initial_yaw=3.0)

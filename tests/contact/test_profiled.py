@@ -271,7 +271,7 @@ def test_linearisation_is_the_describing_function(tmp_path):
 
 
 def test_a_wheelset_past_the_table_has_climbed_its_flange(coach):
-    from rail_mj.simulation.runner import Derailed
+    from rail_mj.simulation.run import Derailed
 
     with pytest.raises(Derailed, match="climbed the flange"):
         simulate(coach, 30.0, 50.0, 0.0105)

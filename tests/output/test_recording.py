@@ -11,6 +11,7 @@ from conftest import BOGIE_FRAME, MODELS, WHEELSET
 from rerun.chunk import RrdReader
 
 from rail_mj.analysis import flange_strikes, late_motion, oscillation
+from rail_mj.analysis.en14363 import derailment_quotients
 from rail_mj.cli import main
 from rail_mj.layout import layout_from_dict, load_layout
 from rail_mj.output.recording import (
@@ -31,7 +32,9 @@ from rail_mj.output.recording import (
     write_recording,
     yaw_path,
 )
-from rail_mj.simulation.runner import Run, simulate
+from rail_mj.output.samples import table
+from rail_mj.simulation.run import Run
+from rail_mj.simulation.runner import simulate
 from rail_mj.vehicle.spec import Vehicle
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
@@ -251,7 +254,7 @@ def test_six_wheelsets_each_series_readable(tmp_path):
 
 def test_table_columns(tmp_path):
     run = simulate(load_layout(COACH), speed=40.0, distance=10.0, initial_lateral=0.002)
-    names, values = run.table()
+    names, values = table(run)
     n = run.n_wheelsets
     assert names[: 2 + 2 * n] == ["t", "x"] + [f"{q}{i + 1}" for i in range(n) for q in ("y", "psi")]
     assert names[2 + 2 * n :] == (
@@ -269,7 +272,7 @@ def test_table_columns(tmp_path):
     assert np.max(np.abs(column["y_carbody"])) > 1e-3  # the car body moves with the 2 mm start
     # The fixed car body of the shipped bogie has no columns.
     bogie = simulate(load_layout(MODELS / "bogie" / "bogie.toml"), speed=25.0, distance=2.0)
-    assert bogie.table()[0][-2:] == ["y_bogie1", "psi_bogie1"]
+    assert table(bogie)[0][-2:] == ["y_bogie1", "psi_bogie1"]
 
 
 def test_cli_writes_recording_and_csv(tmp_path, capsys):
@@ -342,7 +345,7 @@ def test_spatial_recording_plots_roll_bounce_and_wheel_loads(tmp_path):
     rrd = write_recording(run, tmp_path / "spatial.rrd", rate=math.inf)
     series = read_series(rrd)
     np.testing.assert_allclose(series[wheel_load_path(1, "right")][2], run.wheel_loads()[:, 1, 1] / 1e3, rtol=1e-12)
-    np.testing.assert_allclose(series[quotient_path(0, "left")][2], run.derailment_quotients()[:, 0, 0], rtol=1e-12)
+    np.testing.assert_allclose(series[quotient_path(0, "left")][2], derailment_quotients(run)[:, 0, 0], rtol=1e-12)
     carbody = run.frame_names.index("carbody")
     np.testing.assert_allclose(series[frame_roll_path("carbody")][2], run.frame_roll[:, carbody] * 1e3, rtol=1e-12)
     np.testing.assert_allclose(series[frame_bounce_path("bogie2")][2], run.frame_bounce[:, 1] * 1e3, rtol=1e-12)

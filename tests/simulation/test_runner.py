@@ -11,17 +11,11 @@ from conftest import MODELS, SHIPPED, free_truck
 from rail_mj.cli import main
 from rail_mj.layout import load_layout
 from rail_mj.simulation import native
+from rail_mj.simulation.batch import simulate_many
 from rail_mj.simulation.callback import CreepForces
-from rail_mj.simulation.runner import (
-    MAX_TIMESTEP,
-    STEP_FRACTION,
-    Request,
-    RunRefused,
-    SimulationError,
-    simulate,
-    simulate_many,
-    stable_timestep,
-)
+from rail_mj.simulation.run import Request, RunRefused, SimulationError
+from rail_mj.simulation.runner import simulate
+from rail_mj.simulation.timestep import MAX_TIMESTEP, STEP_FRACTION, stable_timestep
 from rail_mj.vehicle.spec import Vehicle
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
@@ -84,7 +78,7 @@ def test_a_flat_vehicle_is_linearised_on_its_flanges():
     centred, so the 1 ms cap holds, with which a 90 m/s flange-hunting run agrees with one at
     0.25 ms to 0.1 % in amplitude and 3e-4 in frequency (measured)."""
     from rail_mj.simulation.linear import state_matrix
-    from rail_mj.simulation.runner import _table_header
+    from rail_mj.simulation.timestep import table_header
 
     steps = []
     for name in ("manchester-coach-s1002", "manchester-coach-spatial"):
@@ -92,7 +86,7 @@ def test_a_flat_vehicle_is_linearised_on_its_flanges():
         native.set_speed(vehicle.model, 60.0)
         steps.append(stable_timestep(vehicle))
     assert steps[0] < 0.7 * MAX_TIMESTEP  # the flange's rate sets the planar coach's
-    shift = vehicle.layout.wheelset.flangeway_clearance - 0.5 * _table_header(vehicle.model)[1]
+    shift = vehicle.layout.wheelset.flangeway_clearance - 0.5 * table_header(vehicle.model)[1]
     pressed = np.zeros(vehicle.model.nq)
     pressed[vehicle.root_lateral_dofs] = shift
     rate = lambda qpos0: np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, None, qpos0=qpos0))))  # noqa: E731

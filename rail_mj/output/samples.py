@@ -1,0 +1,73 @@
+"""A run's samples as a table: the CSV columns of `rail-mj run --out` (their names and order are
+a file format: they do not change).
+
+Example:
+
+    >>> from rail_mj import load_layout, simulate
+    >>> run = simulate(load_layout("models/wheelset/wheelset.toml"), speed=30.0, distance=10.0)
+    >>> table(run)[0]
+    ['t', 'x', 'y1', 'psi1', 'sum_y1', 'flange1']
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+from rail_mj.analysis.en14363 import derailment_quotients
+from rail_mj.simulation.run import Run
+
+
+def table(run: Run) -> tuple[list[str], np.ndarray]:
+    """Columns and their values, SI units (s, m, rad, N), one row per sample:
+
+    t, x, y1, psi1, y2, psi2, ...   time, distance, each wheelset's lateral displacement and yaw
+    sum_y1, flange1, sum_y2, ...    each wheelset's sum of guiding forces Sigma Y and the
+                                    flange's part of it (the rail's lateral force on the
+                                    wheelset, positive to the left; 0 off the flange; on
+                                    profiles the normal forces' lateral part, gravitational
+                                    stiffness included)
+    y_bogie1, psi_bogie1, ...       each moving frame's lateral displacement and yaw
+    (y_carbody, psi_carbody)        (bogies, then the car body unless it is fixed)
+    q_left1, q_right1, ...          each wheel's vertical load Q and lateral force Y (the
+    ylat_left1, ylat_right1, ...    rail's, + to the left) and its derailment quotient Y/Q
+    y_over_q_left1, ...             (rail_mj.analysis.en14363; NaN where the wheel is off its
+                                    rail), for a spatial vehicle (the summary has them for all)
+    bounce_bogie1, roll_bogie1,     a spatial vehicle's frames' and car bodies' vertical
+    pitch_bogie1, ...               displacement from the static equilibrium (m), roll and pitch
+    """
+    names = ["t", "x"]
+    cols = [run.t, run.x]
+    y, psi = run.y, run.psi
+    for i in range(run.n_wheelsets):
+        names += [f"y{i + 1}", f"psi{i + 1}"]
+        cols += [y[:, i], psi[:, i]]
+    forces = run.contact_forces()
+    for i in range(run.n_wheelsets):
+        names += [f"sum_y{i + 1}", f"flange{i + 1}"]
+        cols += [forces.lateral[:, i], forces.flange_lateral[:, i]]
+    frame_y, frame_psi = run.frame_y, run.frame_psi
+    for k, name in enumerate(run.frame_names):
+        names += [f"y_{name}", f"psi_{name}"]
+        cols += [frame_y[:, k], frame_psi[:, k]]
+    if run.layout.spatial is not None:  # a planar run's columns stay as they were
+        q = run.wheel_loads()
+        lateral, quotient = run.wheel_lateral_forces(), derailment_quotients(run)
+        for i in range(run.n_wheelsets):
+            for what, values in (("q", q), ("ylat", lateral), ("y_over_q", quotient)):
+                names += [f"{what}_left{i + 1}", f"{what}_right{i + 1}"]
+                cols += [values[:, i, 0], values[:, i, 1]]
+        roll, pitch, bounce = run.frame_roll, run.frame_pitch, run.frame_bounce
+        for k, name in enumerate(run.frame_names):
+            names += [f"bounce_{name}", f"roll_{name}", f"pitch_{name}"]
+            cols += [bounce[:, k], roll[:, k], pitch[:, k]]
+    return names, np.column_stack(cols)
+
+
+def csv_bytes(run: Run) -> bytes:
+    """The table as CSV: a header of the column names, then one row a sample (10 digits)."""
+    names, values = table(run)
+    buf = io.StringIO()
+    np.savetxt(buf, values, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
+    return buf.getvalue().encode()

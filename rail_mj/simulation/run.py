@@ -1,0 +1,203 @@
+"""A run: what is asked of it (`Request`) and what it gives (`Run`), or why it failed.
+
+A `Run` holds the samples MuJoCo's sensors recorded (every body's pose, each wheelset's
+rates and a spatial vehicle's axle loads) and the kinematics read from them; the contact
+forces are the creep law's, recomputed from those samples. What the samples show (EN
+14363's quantities, the summary) is rail_mj.analysis's; the CSV columns, rail_mj.output.samples's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+
+from rail_mj.contact.creep import ContactForces, contact_forces
+from rail_mj.layout import Layout
+from rail_mj.vehicle.block import contact_parameters
+from rail_mj.vehicle.loads import AxleLoads
+from rail_mj.vehicle.spec import Vehicle
+
+
+@dataclasses.dataclass
+class Request:
+    """One run to make: a layout at a speed for a distance, from a disturbed start (or from
+    `state` = (qpos, qvel), to continue a run)."""
+
+    layout: Layout
+    speed: float
+    distance: float
+    initial_lateral: float = 0.0
+    initial_yaw: float = 0.0
+    state: tuple[np.ndarray, np.ndarray] | None = None
+
+
+class SimulationError(RuntimeError):
+    """A run that cannot be done or that diverged; the message says why, in one line."""
+
+    def __init__(self, message: str, run: Run | None = None):
+        super().__init__(message)
+        self.run = run  # what was simulated before the failure, if anything
+
+
+class RunRefused(SimulationError):
+    """A run refused before it started: it would take too many steps."""
+
+
+class Derailed(SimulationError):
+    """A wheelset left the rails: hunting that linear creep cannot bound."""
+
+
+@dataclasses.dataclass
+class Run:
+    """A simulated run: samples in time, each wheelset's y and psi (wheelset 1 leads).
+
+    y and psi are absolute, in the track frame: metres and radians, arrays of shape
+    (n_samples, n_wheelsets).
+    """
+
+    vehicle: Vehicle
+    speed: float
+    timestep: float
+    t: np.ndarray
+    body_pos: np.ndarray  # (n_samples, nbody, 3): every body's position in the moving frame
+    body_quat: np.ndarray  # (n_samples, nbody, 4): and orientation, MuJoCo's w, x, y, z
+    wheelset_rates: np.ndarray  # (n_samples, n_wheelsets, 2): y_dot (m/s) and psi_dot (rad/s)
+    final_state: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at the end
+    # (n_samples, n_wheelsets, 2): a spatial vehicle's axle load P (N) and roll moment M (N m)
+    # from its suspension (rail_mj.vehicle.loads); None or NaN: the wheels carry the layout's static load.
+    axle_loads: np.ndarray | None = None
+
+    def contact_forces(self) -> ContactForces:
+        """The rails' forces on each wheelset at every sample, by origin: arrays of shape
+        (n_samples, n_wheelsets). One call of the creep law over every sample, from the
+        states the run recorded (once: the summary, the CSV and the recording share it)."""
+        return self._contact_forces
+
+    @functools.cached_property
+    def _contact_forces(self) -> ContactForces:
+        params = contact_parameters(self.vehicle.model, len(self.vehicle.wheelset_names))
+        rates = self.wheelset_rates
+        loads = self.axle_loads
+        if loads is None or np.isnan(loads).all():
+            return contact_forces(
+                params,
+                self.y,
+                self.psi,
+                rates[..., 0],
+                rates[..., 1],
+                self.speed,
+                nominal=self.layout.wheelset.wheel_load,
+            )
+        axle = AxleLoads.of(self.vehicle.model, self.vehicle.wheelset_names)
+        return contact_forces(
+            params,
+            self.y,
+            self.psi,
+            rates[..., 0],
+            rates[..., 1],
+            self.speed,
+            loads[..., 0],
+            loads[..., 1],
+            **axle.contact(),
+        )
+
+    def guiding_forces(self) -> np.ndarray:
+        """(n_samples, n_wheelsets): the sum of guiding forces (Sigma Y, N) of each
+        wheelset, creep and flange."""
+        return self.contact_forces().lateral
+
+    def wheel_loads(self) -> np.ndarray:
+        """(n_samples, n_wheelsets, 2): each wheel's vertical load Q (N), left then right. A
+        spatial vehicle's come from its suspension (rail_mj.vehicle.loads) and the contact; a planar
+        one's are the static share, or on profiles the contact's equilibrium under it (NaN
+        when the layout gives no wheel load)."""
+        f = self.contact_forces()
+        return np.stack([f.load_left, f.load_right], axis=-1)
+
+    def wheel_lateral_forces(self) -> np.ndarray:
+        """(n_samples, n_wheelsets, 2): the rail's lateral force Y on each wheel (N, track
+        frame, + to the left), creep, flange and the normal force's lateral part."""
+        f = self.contact_forces()
+        return np.stack([f.lateral_left, f.lateral_right], axis=-1)
+
+    @property
+    def layout(self) -> Layout:
+        return self.vehicle.layout
+
+    @functools.cached_property
+    def y(self) -> np.ndarray:
+        return self.body_pos[:, self.vehicle.wheelset_ids, 1]
+
+    @functools.cached_property
+    def psi(self) -> np.ndarray:
+        return _yaw(self.body_quat[:, self.vehicle.wheelset_ids])
+
+    @property
+    def x(self) -> np.ndarray:
+        """Distance travelled, m."""
+        return self.speed * self.t
+
+    @property
+    def n_wheelsets(self) -> int:
+        return self.y.shape[1]
+
+    @property
+    def frame_names(self) -> tuple[str, ...]:
+        """The moving bodies other than the wheelsets: the bogie frames (bogie1, ...), then the
+        car body unless it is fixed. A fixed car body (no joints) has no motion to show."""
+        return tuple(self.vehicle.model.body(b).name for b in self._frame_ids)
+
+    @property
+    def _frame_ids(self) -> list[int]:
+        model = self.vehicle.model
+        wheelsets = set(self.vehicle.wheelset_ids.tolist())
+        moving = [b for b in range(1, model.nbody) if b not in wheelsets and model.body_dofnum[b] > 0]
+        return sorted(moving, key=lambda b: (model.body(b).name == "carbody", b))
+
+    @property
+    def frame_y(self) -> np.ndarray:
+        """(n_samples, n_frames): lateral displacement of each of `frame_names`, m (absolute,
+        track frame, like `y`)."""
+        return self.body_pos[:, self._frame_ids, 1]
+
+    @property
+    def frame_psi(self) -> np.ndarray:
+        """(n_samples, n_frames): yaw of each of `frame_names`, rad (absolute, like `psi`)."""
+        quat = self.body_quat[:, self._frame_ids]
+        return _yaw(quat) if self.layout.spatial is None else _spatial_angles(quat)[2]
+
+    @property
+    def frame_roll(self) -> np.ndarray:
+        """(n_samples, n_frames): a spatial vehicle's frames' roll, rad (about x, left side up)."""
+        return _spatial_angles(self.body_quat[:, self._frame_ids])[0]
+
+    @property
+    def frame_pitch(self) -> np.ndarray:
+        """(n_samples, n_frames): a spatial vehicle's frames' pitch, rad (about y)."""
+        return _spatial_angles(self.body_quat[:, self._frame_ids])[1]
+
+    @property
+    def frame_bounce(self) -> np.ndarray:
+        """(n_samples, n_frames): a spatial vehicle's frames' vertical displacement from the
+        static equilibrium (the centred state), m."""
+        rest = self.vehicle.model.body_pos[self._frame_ids, 2]
+        return self.body_pos[:, self._frame_ids, 2] - rest
+
+
+def _yaw(quat: np.ndarray) -> np.ndarray:
+    """Yaw of MuJoCo quaternions (w, x, y, z) over the last axis. The bodies turn about z
+    alone (lateral and yaw joints): quaternion (cos psi/2, 0, 0, sin psi/2)."""
+    return 2.0 * np.arctan2(quat[..., 3], quat[..., 0])
+
+
+def _spatial_angles(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(roll, pitch, yaw) of a spatial body's quaternions (w, x, y, z), its joints turning it
+    by yaw, then roll, then pitch (rail_mj.vehicle.joints: R = Rz(psi) Rx(phi) Ry(theta)): from R's
+    entries R21 = sin(phi), R20 = -cos(phi) sin(theta), R01 = -sin(psi) cos(phi)."""
+    w, x, y, z = (quat[..., k] for k in range(4))
+    roll = np.arcsin(np.clip(2.0 * (y * z + w * x), -1.0, 1.0))
+    pitch = np.arctan2(-2.0 * (x * z - w * y), 1.0 - 2.0 * (x * x + y * y))
+    yaw = np.arctan2(-2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z))
+    return roll, pitch, yaw

@@ -1,0 +1,524 @@
+"""MuJoCo stepped in chunks: a model holding one run or several (a pack), the checks between
+chunks, and the runs' records.
+
+A run is stepped in its vehicle's own model (`step_alone`: what `simulate` does) or in a pack
+of up to PACK vehicles, each attached under its own name prefix with its own speed in the
+native block (rail_mj.simulation.batch fills and refills the packs from its queue). Either
+way `drive` steps it in chunks of CHECK_EVERY samples (`mujoco.rollout`), reads every body's
+pose from MuJoCo's sensors, and stops it where it diverges or leaves the rails, saying why.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import functools
+import math
+import threading
+import time
+from typing import Protocol
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from rail_mj.simulation import native
+from rail_mj.simulation.callback import CreepForces, installed
+from rail_mj.simulation.run import Derailed, Request, Run, SimulationError
+from rail_mj.simulation.timestep import linearly_stable, table_header
+from rail_mj.vehicle import block
+from rail_mj.vehicle.block import contact_parameters, set_speed
+from rail_mj.vehicle.joints import YAW
+from rail_mj.vehicle.loads import AxleLoads, ShearCouples
+from rail_mj.vehicle.spec import Vehicle
+
+SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
+CHECK_EVERY = 500  # samples between divergence checks (and progress reports)
+
+# Vehicles a model when runs are stepped together: a coach's step in a model of eight
+# costs two thirds of its step alone (no drawn shapes, MuJoCo's overheads shared) and far
+# fewer Python round trips; models of 16 or 32 save 1-2 % more, and balance worse.
+PACK = 8
+
+
+class Waiting(Protocol):
+    """The runs waiting to take an empty place in a pack (rail_mj.simulation.batch's queue)."""
+
+    @property
+    def cancelled(self) -> bool: ...
+
+    def take(self, n: int, timestep: float | None = None) -> list[tuple[int, Prepared]]: ...
+
+    def take_like(self, prepared: Prepared) -> tuple[int, Prepared] | None: ...
+
+
+@dataclasses.dataclass
+class Prepared:
+    """A request checked, its vehicle built and its timestep chosen."""
+
+    request: Request
+    vehicle: Vehicle
+    timestep: float
+    n_steps: int
+    forces: CreepForces | None = None  # the Python callback, when asked for; None: the native one
+    seconds: float = 0.0  # the time it took
+
+    def derailment(self, lateral: float) -> float:
+        """|y| past which a wheelset has left the rails: `lateral`, or on profiles the end of
+        their contact table (10 mm: far up the flange, where a rigid wheel climbs it)."""
+        return min(lateral, self.table_end)
+
+    @functools.cached_property
+    def table_end(self) -> float:
+        """|y| where a profiled vehicle's contact table ends; inf on coned wheels."""
+        return -table_header(self.vehicle.model)[0] if self.request.layout.profiles is not None else math.inf
+
+
+class Running:
+    """A run being stepped: what it has recorded, how far it has come, and the state (qpos,
+    qvel) it starts or continues from (None: its request's disturbance)."""
+
+    def __init__(self, index: int, prepared: Prepared):
+        self.index, self.prepared = index, prepared
+        self.every = max(1, round(SAMPLE_INTERVAL / prepared.timestep))
+        self.count = -(-prepared.n_steps // self.every) + 1  # samples: the last at or past the distance
+        self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, self.count)
+        self.done = 0  # samples recorded
+        self.state = prepared.request.state
+        self.seconds = prepared.seconds  # and its share of the time of the models it was stepped in
+
+    def t(self) -> np.ndarray:
+        return np.arange(self.count) * (self.every * self.prepared.timestep)  # exact, unlike data.time
+
+    def record(self, sensors, readings: np.ndarray) -> slice:
+        """Put a chunk's sensor readings (a row a sample) after the samples recorded; their slice."""
+        mine = slice(self.done, self.done + len(readings))
+        self.pos[mine, 0], self.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
+        sensors.poses(readings, self.pos[mine], self.quat[mine])
+        sensors.rates(readings, self.rates[mine])
+        sensors.loads(readings, self.loads[mine])
+        return mine
+
+    def left_rails(self, mine: slice, derailment_lateral: float) -> tuple[int, int] | None:
+        """(sample, wheelset) where a wheelset first left the rails among the samples `mine`
+        (|y| past `derailment_lateral`, or the end of the profiles' table), or None."""
+        lateral = np.abs(self.pos[mine][:, self.prepared.vehicle.wheelset_ids, 1])
+        off = np.nonzero(np.max(lateral, axis=1) > self.prepared.derailment(derailment_lateral))[0]
+        if not len(off):
+            return None
+        return mine.start + off[0], int(np.argmax(lateral[off[0]]))
+
+    def run(self, final) -> Run:
+        p = self.prepared
+        return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads)
+
+    def partial(self, k: int) -> Run:
+        """The Run of its first k samples (what was simulated before a failure)."""
+        p = self.prepared
+        return Run(
+            p.vehicle,
+            p.request.speed,
+            p.timestep,
+            self.t()[:k],
+            self.pos[:k].copy(),
+            self.quat[:k].copy(),
+            self.rates[:k].copy(),
+            axle_loads=self.loads[:k].copy(),
+        )
+
+
+@dataclasses.dataclass
+class _Place:
+    """Where one vehicle sits in the model that is stepped: its sensors, and its qpos and
+    qvel entries."""
+
+    sensors: object  # rail_mj.vehicle.sensors.Sensors
+    qpos: np.ndarray
+    qvel: np.ndarray
+    lateral: np.ndarray  # qpos entries of its root lateral joints
+    yaw: np.ndarray  # qpos entries of its wheelsets' yaw joints
+
+    @classmethod
+    def whole(cls, vehicle: Vehicle) -> _Place:
+        model = vehicle.model
+        return cls(
+            vehicle.sensors,
+            np.arange(model.nq),
+            np.arange(model.nv),
+            vehicle.root_lateral_dofs,
+            vehicle.wheelset_dofs(YAW),
+        )
+
+
+class Pack:
+    """A model that one thread steps and the runs in it, each at its place; a place whose
+    run has ended is empty (None), its vehicle at rest in the centre."""
+
+    STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+    def __init__(self, runs: list[Running], alone: bool = False):
+        started = time.perf_counter()
+        self.runs: list[Running | None] = list(runs)
+        self.alone = alone  # the run's own vehicle model (drawn shapes and all), as `simulate` steps it
+        if alone:
+            vehicle = runs[0].prepared.vehicle
+            self.model, self.places = vehicle.model, [_Place.whole(vehicle)]
+        else:
+            self.model, self.places = _pack(
+                [r.prepared.vehicle for r in runs], [r.prepared.request.speed for r in runs]
+            )
+        model = self.model
+        model.opt.timestep = runs[0].prepared.timestep
+        # A run that blows up must stay blown up (non-finite), not be reset by MuJoCo to its
+        # start: that is how it is told from the runs stepped beside it.
+        model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+        if _unconstrained(model):  # nothing to constrain: the constraint stages are skipped, same result
+            model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+        self.data = mujoco.MjData(model)
+        self.state = np.empty(mujoco.mj_stateSize(model, self.STATE))
+        mujoco.mj_getState(model, self.data, self.state, self.STATE)
+        for m in range(len(runs)):
+            self.start(m)
+        self.share(time.perf_counter() - started)
+
+    def start(self, m: int) -> None:
+        """Put run m's starting state at its place (or its vehicle at rest, if empty)."""
+        place, run, nq = self.places[m], self.runs[m], self.model.nq
+        self.state[1 + place.qpos] = self.model.qpos0[place.qpos]
+        self.state[1 + nq + place.qvel] = 0.0
+        if run is None:
+            return
+        if run.state is None:
+            self.state[1 + place.lateral] = run.prepared.request.initial_lateral
+            self.state[1 + place.yaw] = run.prepared.request.initial_yaw
+        else:
+            self.state[1 + place.qpos], self.state[1 + nq + place.qvel] = run.state
+
+    def state_of(self, m: int, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(qpos, qvel) of run m in a state vector of this model."""
+        place = self.places[m]
+        return vector[1 + place.qpos].copy(), vector[1 + self.model.nq + place.qvel].copy()
+
+    def going(self) -> list[int]:
+        return [m for m, run in enumerate(self.runs) if run is not None]
+
+    def share(self, seconds: float) -> None:
+        going = self.going()
+        for m in going:
+            self.runs[m].seconds += seconds / len(going)
+
+
+def _unconstrained(model: mujoco.MjModel) -> bool:
+    """Whether nothing in the model makes a constraint: no contacts, equalities, limits,
+    friction loss or tendons (so mjDSBL_CONSTRAINT changes nothing but the time)."""
+    return (
+        bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
+        and model.neq == 0
+        and model.ntendon == 0
+        and model.nflex == 0
+        and not np.any(model.jnt_limited)
+        and not np.any(model.dof_frictionloss)
+    )
+
+
+def _pack(vehicles: list[Vehicle], speeds: list[float]):
+    """One model holding every vehicle, attached under the prefixes v0/, v1/, ..., the
+    native block listing them all with their speeds."""
+    from rail_mj.numerics import NUMERIC_NATIVE
+    from rail_mj.vehicle.sensors import Sensors
+    from rail_mj.vehicle.spec import compile_spec
+
+    parent = mujoco.MjSpec()
+    first = vehicles[0].spec
+    parent.option.timestep = first.option.timestep
+    parent.option.integrator = first.option.integrator
+    parent.option.disableflags = first.option.disableflags
+    native_numeric = parent.add_numeric(name=NUMERIC_NATIVE, data=[0.0])  # first: the block
+    for k, vehicle in enumerate(vehicles):
+        child = vehicle.spec.copy()
+        # The drawn shapes touch nothing and weigh nothing, yet MuJoCo places each one at
+        # every stage of every step (a fifth of a coach's step): a packed model goes without
+        # them, and each Run keeps its own vehicle's, for its recording.
+        for geom in list(child.geoms):
+            child.delete(geom)
+        for mesh in list(child.meshes):
+            child.delete(mesh)
+        parent.attach(child, prefix=f"v{k}/", frame=parent.worldbody.add_frame())
+    layout = vehicles[0].layout
+    model = compile_spec(parent, layout)
+    entries = []
+    for k, (vehicle, speed) in enumerate(zip(vehicles, speeds)):
+        bodies = [model.body(f"v{k}/{w}").id for w in vehicle.wheelset_names]
+        loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
+        entries.append(
+            block.vehicle_block(
+                model,
+                bodies,
+                contact_parameters(vehicle.model, len(bodies)),
+                speed,
+                loads,
+                prefix=f"v{k}/",
+                couples=ShearCouples.of(vehicle.model),
+            )
+        )
+    native_numeric.data = block.block(entries).tolist()
+    model = compile_spec(parent, layout)
+    places = []
+    for k, vehicle in enumerate(vehicles):
+        own = vehicle.model
+        joints = [model.joint(f"v{k}/{own.joint(j).name}").id for j in range(own.njnt)]
+        qpos = np.array([model.jnt_qposadr[j] for j in joints], dtype=np.int64)
+        qvel = np.array([model.jnt_dofadr[j] for j in joints], dtype=np.int64)
+        # Each own joint is one coordinate (slide or hinge): own index -> packed index.
+        places.append(
+            _Place(
+                Sensors(model, vehicle.wheelset_names, prefix=f"v{k}/"),
+                qpos,
+                qvel,
+                qpos[vehicle.root_lateral_dofs],
+                qpos[vehicle.wheelset_dofs(YAW)],
+            )
+        )
+    return model, places
+
+
+class Roller:
+    """One thread's `mujoco.rollout` on the calling thread, into buffers it keeps: states
+    and sensor readings, views valid until the next call."""
+
+    def __init__(self):
+        self._rollout = rollout.Rollout(nthread=0)
+        self._states, self._readings = np.empty(0), np.empty(0)
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, start: np.ndarray, nstep: int):
+        nstate, nsensor = start.size, model.nsensordata
+        if self._states.size < nstep * nstate:
+            self._states = np.empty(nstep * nstate)
+        if self._readings.size < nstep * nsensor:
+            self._readings = np.empty(nstep * nsensor)
+        states = self._states[: nstep * nstate].reshape(1, nstep, nstate)
+        readings = self._readings[: nstep * nsensor].reshape(1, nstep, nsensor)
+        self._rollout.rollout(
+            [model], [data], start[None], skip_checks=True, nstep=nstep, state=states, sensordata=readings
+        )
+        return states[0], readings[0]
+
+
+def step_alone(prepared: Prepared, derailment_lateral: float, progress=None) -> Run | SimulationError:
+    """One run on its own, in its vehicle's own model: what `simulate` steps."""
+    outcome = []
+    forces = prepared.forces
+    with installed(forces) if forces else native.installed(), stepping():
+        later = drive(
+            Pack([Running(0, prepared)], alone=True),
+            Roller(),
+            lambda k, result, seconds: outcome.append(result),
+            derailment_lateral,
+            forces,
+            None,
+            progress,
+        )
+    for make in later:  # outside the callback's block: the cause linearises
+        outcome.append(make())
+    (result,) = outcome
+    return result
+
+
+def drive(
+    pack: Pack, roller: Roller, done, derailment_lateral: float, forces, queue: Waiting | None, progress=None
+) -> list:
+    """Step `pack` until its runs have covered their distances (and those that take their
+    places from `queue`), telling `done(k, result, seconds)` each result. MuJoCo steps in
+    chunks of CHECK_EVERY samples (`mujoco.rollout`) and measures every body with its
+    sensors. A step's sensor values are those of the state it started from (sensors are
+    computed in the forward pass, before integration), so step j's record is the sample
+    at step j. Every run starts at the start of a chunk, so each meets the same chunks and
+    checks as on its own. A run that leaves the rails is stopped there (its place emptied,
+    so that it cannot disturb the others); a numerical failure stops every run still going,
+    and in a pack of several, each is run again on its own. Returns the Derailed results
+    still to make when `forces` (the Python callback) is installed: thunks for the caller."""
+    later = []
+    while True:
+        going = pack.going()
+        if not going or (queue is not None and queue.cancelled):
+            return later
+        runs = [pack.runs[m] for m in going]
+        every, dt = runs[0].every, runs[0].prepared.timestep
+        count = min(CHECK_EVERY, max(r.count - r.done for r in runs))
+        started = time.perf_counter()
+        start = pack.state
+        states, readings = roller(pack.model, pack.data, start, count * every)
+        readings = readings[::every]
+        pack.state = states[-1].copy()
+        pack.share(time.perf_counter() - started)
+        warning = _warnings(pack.data)
+        if warning or not (np.all(np.isfinite(readings)) and np.all(np.isfinite(pack.state))):
+            _diverged(pack, runs, count, warning, done, derailment_lateral)
+            return later
+        first, ended = runs[0].done, []
+        for m, r in zip(going, runs):
+            n = min(count, r.count - r.done)
+            mine = r.record(pack.places[m].sensors, readings[:n])
+            off = r.left_rails(mine, derailment_lateral)
+            if off is not None:
+                j, worst = off
+
+                def make(r=r, j=j, worst=worst):
+                    return _derailed(r.prepared, worst, j, r.t(), derailment_lateral, forces, r.partial(j + 1))
+
+                if forces is None:
+                    done(r.index, make(), r.seconds)
+                else:
+                    later.append(make)
+                ended.append(m)
+            elif r.done + n == r.count:  # its last sample: the state the run ends in
+                last = n - 1
+                done(r.index, r.run(pack.state_of(m, states[last * every - 1] if last > 0 else start)), r.seconds)
+                ended.append(m)
+            else:
+                r.done += n
+        _refill(pack, ended, queue)
+        if progress is not None:
+            progress(min(first + count, runs[0].count - 1) / max(runs[0].count - 1, 1))
+        empty = len(pack.runs) - len(pack.going())
+        if queue is not None and empty and 2 * empty >= len(pack.runs):
+            pack = _repacked(pack, queue, dt)
+            if pack is None:
+                return later
+
+
+def _diverged(pack: Pack, runs: list[Running], count: int, warning: str | None, done, derailment_lateral: float):
+    """Tell each run of a chunk that failed numerically its result: alone, the failure; in a
+    pack of several, the run again on its own (the failure may be another run's)."""
+    for r in runs:
+        if pack.alone:
+            dt = r.prepared.timestep
+            at = (min(r.done + count, r.count) - 1) * (r.every * dt)
+            speed = r.prepared.request.speed
+            done(
+                r.index,
+                SimulationError(
+                    f"diverged by t = {at:.4g} s (x = {speed * at:.4g} m): MuJoCo reported "
+                    f"{warning or 'non-finite positions'} with timestep {dt:.3g} s at "
+                    f"{speed:g} m/s; the suspension or creep stiffness is too high for "
+                    f"this step",
+                    r.partial(r.done),
+                ),
+                r.seconds,
+            )
+        else:
+            done(r.index, step_alone(r.prepared, derailment_lateral), r.seconds)
+
+
+def _refill(pack: Pack, ended: list[int], queue: Waiting | None) -> None:
+    """Give the places of the runs that ended to runs waiting, or leave them empty."""
+    for m in ended:
+        # The longest run waiting of the same vehicle takes the place: only the speed changes.
+        item = queue.take_like(pack.runs[m].prepared) if queue is not None else None
+        pack.runs[m] = None if item is None else Running(*item)
+        if item is not None:
+            set_speed(pack.model, item[1].request.speed, vehicle=m)
+        pack.start(m)
+
+
+def _repacked(pack: Pack, queue: Waiting, timestep: float) -> Pack | None:
+    """Half the places empty: the runs going continue in a new model, with runs waiting
+    (None when there are none of either)."""
+    keep = pack.going()
+    for m in keep:
+        pack.runs[m].state = pack.state_of(m, pack.state)
+    items = queue.take(PACK - len(keep), timestep)
+    runs = [pack.runs[m] for m in keep] + [Running(k, p) for k, p in items]
+    return Pack(runs) if runs else None
+
+
+_STEPPING = threading.Lock()
+_stepping_users = 0
+_stepping_previous: tuple = ()
+
+
+@contextlib.contextmanager
+def stepping():
+    """While any thread steps: MuJoCo's warnings are not printed nor appended to
+    MUJOCO_LOG.TXT in the working folder (the runner reports a failure itself, in one
+    line, naming the warning from the data's warning counters), and MuJoCo's pipeline
+    timers (data.timer, a clock read at every stage, 2 % of a step) are off."""
+    global _stepping_users, _stepping_previous
+    with _STEPPING:
+        if _stepping_users == 0:
+            _stepping_previous = (mujoco.get_mju_user_warning(), mujoco.get_mjcb_time())
+            mujoco.set_mju_user_warning(lambda message: None)
+            mujoco.set_mjcb_time(_untimed())
+        _stepping_users += 1
+    try:
+        yield
+    finally:
+        with _STEPPING:
+            _stepping_users -= 1
+            if _stepping_users == 0:
+                mujoco.set_mju_user_warning(_stepping_previous[0])
+                mujoco.set_mjcb_time(_stepping_previous[1])
+
+
+@functools.cache
+def _untimed():
+    """A native clock that always reads 0 (MuJoCo's default reads the system clock)."""
+    import ctypes
+
+    import numba
+
+    @numba.cfunc(numba.types.float64(), cache=True)
+    def zero():
+        return 0.0
+
+    return ctypes.CFUNCTYPE(ctypes.c_double)(zero.address)
+
+
+def _records(vehicle: Vehicle, n_samples: int):
+    """Empty arrays for a run's body positions, quaternions and rates, filled as it goes
+    (the memory is touched then, a chunk at a time, not all before the first step)."""
+    nbody, n = vehicle.model.nbody, vehicle.n_wheelsets
+    return (
+        np.empty((n_samples, nbody, 3)),
+        np.empty((n_samples, nbody, 4)),
+        np.empty((n_samples, n, 2)),
+        np.empty((n_samples, n, 2)),
+    )
+
+
+def _derailed(p: Prepared, worst: int, j: int, t, derailment_lateral: float, forces, run) -> Derailed:
+    """Why a wheelset left the rails: the speed (a linear mode grows) or the start."""
+    r = p.request
+    derailment_lateral = p.derailment(derailment_lateral)
+    why = (
+        "its wheel climbed the flange (past the profiles' contact table)"
+        if r.layout.profiles
+        else "the flanges did not hold it"
+        if r.layout.flange
+        else "without [flange] contact nothing bounds the motion"
+    )
+    if linearly_stable(p.vehicle, forces):
+        start = (
+            f"the start (shifted {r.initial_lateral:g} m, yawed {r.initial_yaw:g} rad)"
+            if r.state is None
+            else "the state it started from"
+        )
+        cause = (
+            f"At {r.speed:g} m/s the centred vehicle is stable (every linear mode decays), "
+            f"so {start} was too large a disturbance and {why}; start nearer the centre"
+        )
+    else:
+        cause = (
+            f"{r.speed:g} m/s is above this vehicle's critical speed (a linear mode grows), "
+            f"and {why}; lower --speed or shorten --distance"
+        )
+    return Derailed(
+        f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
+        f"x = {r.speed * t[j]:.4g} m (t = {t[j]:.4g} s). {cause}",
+        run,
+    )
+
+
+def _warnings(data) -> str | None:
+    raised = np.flatnonzero(data.warning.number)
+    return mujoco.mjtWarning(int(raised[0])).name if raised.size else None
