@@ -10,10 +10,15 @@ kinetic-energy measure (m|y|^2, Iz|psi|^2, m|z|^2, Ix|phi|^2, Iy|theta|^2) decid
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from rail_mj.layout import Layout
+from rail_mj.layout.kinds import SpatialVehicle
 from rail_mj.vehicle.joints import LATERAL, PITCH, ROLL, VERTICAL, YAW
+
+if TYPE_CHECKING:
+    from rail_mj.analysis.train_modes import TrainModes
 
 MOTIONS = (LATERAL, YAW, VERTICAL, ROLL, PITCH)
 # A sway's roll centre nearer the centre of mass than this (m): the body rolls about itself.
@@ -23,18 +28,20 @@ ROLL_ABOUT_ITSELF = 0.05
 class SpatialModes:
     """Names and energy shares of a spatial vehicle's modes from their eigenvectors."""
 
-    def __init__(self, layout: Layout, model, train_modes=None):
+    def __init__(self, vehicle: SpatialVehicle, model, train_modes: TrainModes | None = None):
         """`train_modes`: a spatial train's rail_mj.analysis.train_modes.TrainModes (its snaking test)."""
-        self.layout, self.train_modes = layout, train_modes
+        self.layout, self.train_modes = vehicle.layout, train_modes
         dof = lambda body, m: int(model.joint(f"{body}_{m}").dofadr[0])  # noqa: E731
-        n = len(layout.bogie.wheelset_positions)
-        bogies = [f"bogie{i + 1}" for i in range(len(layout.carbody.bogie_positions))]
-        train = layout.train
+        bogies = [f"bogie{i + 1}" for i in range(len(vehicle.bogies.positions))]
+        train = vehicle.train
         self.cars = ["carbody"] if train is None else [f"carbody{k + 1}" for k in range(len(train.cars))]
-        self.groups = {c: [] for c in self.cars} | {
-            b: [f"wheelset{i * n + j + 1}" for j in range(n)] for i, b in enumerate(bogies)
+        self.groups: dict[str, list[str]] = {c: [] for c in self.cars} | {
+            b: vehicle.bogies.wheelsets_of(i) for i, b in enumerate(bogies)
         }
-        self.dofs, self.inertia, self.x, self.half = {}, {}, {}, {}
+        self.dofs: dict[str, list[int]] = {}
+        self.inertia: dict[str, np.ndarray] = {}
+        self.x: dict[str, float] = {}
+        self.half: dict[str, float] = {}
         for body in [*self.cars, *bogies]:
             self.dofs[body] = [dof(body, m) for m in MOTIONS]
         for _group, wheelsets in self.groups.items():
@@ -46,14 +53,14 @@ class SpatialModes:
             self.inertia[name] = np.array([m, iz, m, ix, iy])
             self.x[name] = model.body_pos[b][0]
         # Half the length over which a frame's pitch and yaw move its ends (bogie or wheelset spacing).
-        xs = layout.carbody.bogie_positions
+        xs = vehicle.bogies.positions
         if train is None:
             self.half["carbody"] = max(abs(x) for x in xs)
         else:  # each car body over its own bogies
             for c, car in zip(self.cars, train.cars):
                 self.half[c] = max(abs(xs[i - 1] - car.position) for i in car.bogies)
-        for b, design in zip(bogies, layout.bogie_designs):  # each bogie's own wheelbase ([bogies.N])
-            self.half[b] = max(abs(x) for x in design.wheelset_positions)
+        for frame, design in zip(bogies, vehicle.bogies.designs):  # each bogie's own wheelbase ([bogies.N])
+            self.half[frame] = max(abs(x) for x in design.wheelset_positions)
 
     def energies(self, q: np.ndarray) -> dict[str, np.ndarray]:
         """Each body's kinetic-energy measures per motion (its own coordinates only)."""
@@ -73,13 +80,13 @@ class SpatialModes:
         cars = sum(group_energy[c] for c in self.cars)
         if cars >= 1.0 - cars:
             return self._car_name(q, share, energy)
-        top = max((g for g in group_energy if g not in self.cars), key=group_energy.get)
+        top = max((g for g in group_energy if g not in self.cars), key=group_energy.__getitem__)
         wheelsets = self.groups[top]
         label = self._label(top)
         if wheelsets and sum(share[w] for w in wheelsets) > share[top]:
             relative = sum(self._relative(q, top, w) for w in wheelsets)
             absolute = sum(energy[w].sum() for w in wheelsets)
-            ws = max(wheelsets, key=share.get).removeprefix("wheelset")
+            ws = max(wheelsets, key=share.__getitem__).removeprefix("wheelset")
             if relative >= 0.5 * absolute:
                 return f"wheelset {ws} (secondary hunting)"
             return f"{label} {'/'.join(self._planar(top, energy))} (primary hunting)"
@@ -91,7 +98,7 @@ class SpatialModes:
         those with at least SUBSTANTIAL of the top one's energy, the top one's motion), or the
         train's snaking, when the bodies move in the lateral plane (lateral, yaw, roll above
         bounce and pitch) and TrainModes calls it snaking."""
-        top = max(self.cars, key=share.get)
+        top = max(self.cars, key=share.__getitem__)
         if self.train_modes is None:
             return f"{self._label(top)} {self._motion(q, top, energy)}"
         from rail_mj.analysis.train_modes import SNAKING, SUBSTANTIAL

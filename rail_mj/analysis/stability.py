@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -27,12 +28,17 @@ from scipy.optimize import brentq
 
 from rail_mj.analysis import late_motion, oscillation
 from rail_mj.layout import Layout
+from rail_mj.layout.kinds import SpatialVehicle, TrainOfCars, vehicle_kind
 from rail_mj.simulation.linear import RIGID_TOLERANCE, modal_roots, state_matrix
 from rail_mj.simulation.run import Derailed
 from rail_mj.simulation.runner import simulate
 from rail_mj.vehicle.block import set_speed
 from rail_mj.vehicle.joints import LATERAL, YAW
 from rail_mj.vehicle.spec import Vehicle
+
+if TYPE_CHECKING:
+    from rail_mj.analysis.spatial_modes import SpatialModes
+    from rail_mj.analysis.train_modes import TrainModes
 
 CRITICAL_XTOL = 1e-4  # relative; the issue asks for 0.1 % or better
 # Speeds (m/s) at which A(V) = A0 + D/V + G*V is sampled: spread by factors of 4, so that
@@ -135,7 +141,7 @@ class Stability:
                 f"wheels are cones, the same at every amplitude"
             )
         self.vehicle = Vehicle(layout)
-        self._speed_terms = None  # A0, D, G of state_matrix, once fitted
+        self._speed_terms: np.ndarray | None = None  # A0, D, G of state_matrix, once fitted
         model = self.vehicle.model
         self.model, self.data = model, mujoco.MjData(model)
         mujoco.mj_kinematics(model, self.data)
@@ -151,16 +157,18 @@ class Stability:
             self._absolute[name] = (jacp[1].copy(), jacr[2].copy())
         self._mass = {n: (model.body(n).mass[0], model.body(n).inertia[2]) for n in self.bodies}
         self._yaw_arm = {n: self._arm(n) for n in self.bodies}
-        self._spatial_modes = self._train_modes = None
-        if layout.train is not None:
+        self._spatial_modes: SpatialModes | None = None
+        self._train_modes: TrainModes | None = None
+        vehicle = vehicle_kind(layout)
+        if isinstance(vehicle, TrainOfCars | SpatialVehicle) and vehicle.train is not None:
             from rail_mj.analysis.train_modes import TrainModes
 
-            self._train_modes = TrainModes(layout, self.model, self._absolute, self._mass)
+            self._train_modes = TrainModes(layout, vehicle.train, vehicle.bogies, self.model, self._absolute, self._mass)
             self._yaw_arm.update(self._train_modes.arms())
-        if layout.spatial is not None:  # a spatial train's names: both (docs/trains.md)
+        if isinstance(vehicle, SpatialVehicle):  # a spatial train's names: both (docs/trains.md)
             from rail_mj.analysis.spatial_modes import SpatialModes
 
-            self._spatial_modes = SpatialModes(layout, model, self._train_modes)
+            self._spatial_modes = SpatialModes(vehicle, model, self._train_modes)
 
     @property
     def equivalent_conicity(self) -> float:
@@ -264,7 +272,7 @@ class Stability:
         A train's modes are named by rail_mj.analysis.train_modes.TrainModes (which body or bogie, and
         the snaking of its car bodies).
         """
-        if self.layout.train is not None:
+        if self._train_modes is not None:
             return self._train_modes.name(q, share, motion, self._direction)
         groups: dict[str, list[str]] = {}
         for name in self.bodies:
@@ -274,12 +282,12 @@ class Stability:
             else:
                 groups.setdefault(name, [])
         group_energy = {g: share.get(g, 0.0) + sum(share[w] for w in ws) for g, ws in groups.items()}
-        top = max(group_energy, key=group_energy.get)
+        top = max(group_energy, key=group_energy.__getitem__)
         wheelsets = groups[top]
         label = "car body" if top == "carbody" else f"{top.replace('bogie', 'bogie ')} frame"
         if not wheelsets:
             return f"{label} {self._direction(top, motion)[0]}"
-        ws = max(wheelsets, key=share.get)
+        ws = max(wheelsets, key=share.__getitem__)
         if top not in share:  # the frame is fixed
             return f"wheelset {ws.removeprefix('wheelset')} (wheelset hunting)"
         relative = sum(self._relative_energy(q, w) for w in wheelsets)

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from rail_mj.layout import Layout
+from rail_mj.layout.kinds import Bogies
+from rail_mj.layout.reader import Train
 
 # Car bodies must carry at least this share of a mode's kinetic energy for it to be
 # named after them, and a body's yaw counts in the alternation when it is at least
@@ -29,26 +31,23 @@ SNAKING = "train snaking (car bodies yawing in alternation)"
 class TrainModes:
     """Mode names for a train layout, from the eigenvector's absolute body motions."""
 
-    def __init__(self, layout: Layout, model, absolute: dict, mass: dict):
+    def __init__(self, layout: Layout, train: Train, bogies: Bogies, model, absolute: dict, mass: dict):
         self.layout, self.model, self.absolute, self.mass = layout, model, absolute, mass
-        train, bogie = layout.train, layout.bogie
+        self.train, self.bogies = train, bogies
         self.cars = [f"carbody{k + 1}" for k in range(len(train.cars))]
-        n = len(bogie.wheelset_positions)
-        self.bogie_x = layout.carbody.bogie_positions
-        self.groups = {
-            f"bogie{i + 1}": [f"wheelset{i * n + j + 1}" for j in range(n)] for i in range(len(self.bogie_x))
-        }
+        self.bogie_x = bogies.positions
+        self.groups = {f"bogie{i + 1}": bogies.wheelsets_of(i) for i in range(len(self.bogie_x))}
         self.wheelset_x = dict(zip((f"wheelset{i + 1}" for i in range(layout.n_wheelsets)), layout.wheelset_x))
 
     def arms(self) -> dict[str, float]:
         """(Half a body's length)^2 * m / Iz: yaw energy as end-lateral energy (see
         Stability._arm): a car body's half length over its bogies, a bogie's wheelbase."""
-        train, out = self.layout.train, {}
-        for name, car in zip(self.cars, train.cars):
+        out = {}
+        for name, car in zip(self.cars, self.train.cars):
             half = max(abs(self.bogie_x[i - 1] - car.position) for i in car.bogies)
             out[name] = half**2 * car.mass / car.inertia[2]
-        half = max(abs(x) for x in self.layout.bogie.wheelset_positions)
-        b = self.layout.bogie
+        b = self.bogies.bogie
+        half = max(abs(x) for x in b.wheelset_positions)
         for name in self.groups:
             out[name] = half**2 * b.mass / b.inertia[2]
         return out
@@ -78,7 +77,7 @@ class TrainModes:
         if body.startswith("carbody"):
             return f"car body {body.removeprefix('carbody')}"
         i = int(body.removeprefix("bogie"))
-        jacobs = " (Jacobs)" if len(self.layout.train.cars_on(i)) == 2 else ""
+        jacobs = " (Jacobs)" if len(self.train.cars_on(i)) == 2 else ""
         return f"bogie {i}{jacobs} frame"
 
     def name(self, q: np.ndarray, share: dict[str, float], motion: dict, direction) -> str:
@@ -88,7 +87,7 @@ class TrainModes:
             return SNAKING
         energy = {c: share[c] for c in self.cars}
         energy.update({g: share[g] + sum(share[w] for w in ws) for g, ws in self.groups.items()})
-        top = max(energy, key=energy.get)
+        top = max(energy, key=energy.__getitem__)
         first, second = direction(top, motion)
         if top in self.cars:
             # Car bodies that move with it, each with at least SUBSTANTIAL of its energy.
@@ -101,7 +100,7 @@ class TrainModes:
                 return f"car bodies ({numbers}) {'lateral' if lateral >= yaw else 'yaw'}"
             return f"{self.label(top)} {first}"
         wheelsets = self.groups[top]
-        ws = max(wheelsets, key=share.get)
+        ws = max(wheelsets, key=share.__getitem__)
         # The wheelsets' motion relative to their frame: the primary suspension's deflection.
         jy, jpsi = self.absolute[top]
         y_f, psi_f = jy @ q, jpsi @ q

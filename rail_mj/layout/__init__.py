@@ -2,6 +2,7 @@
 
     reader.py      TOML -> `Layout`, one reader per table; every bad input one `LayoutError` line
     practice.py    what is impossible (refused) and what is far from railway practice (warned), with sources
+    kinds.py       which vehicle a layout describes, as a type: Planar, TrainOfCars, SpatialVehicle
 
 Example:
 
@@ -18,4 +19,4 @@ __getattr__, _dir = _lazy.exports(__name__, {}, fallback="reader")
 
 
 def __dir__() -> list[str]:
-    return [*__all__, "practice", "reader"]
+    return [*__all__, "kinds", "practice", "reader"]

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.layout import Layout
+from rail_mj.layout.kinds import Planar, SpatialVehicle
 from rail_mj.units import SIDES
 from rail_mj.vehicle.rounding import _g6
 from rail_mj.vehicle.wheel import wheel_profile, wheel_stl
@@ -143,10 +144,10 @@ def add_wheelset_geoms(body, name: str, layout: Layout, spring_top: float) -> No
         )
 
 
-def add_bogie_frame(body, name: str, layout: Layout, wheelset_positions=None) -> None:
+def add_bogie_frame(body, name: str, layout: Layout, wheelset_positions: tuple[float, ...]) -> None:
     """A bogie frame's geoms in its body (origin BOGIE_HEIGHT above the rail), over its wheelsets
-    (`wheelset_positions`, x from its centre; None: [bogie]'s)."""
-    xs = sorted(wheelset_positions or layout.bogie.wheelset_positions)
+    (`wheelset_positions`, x from its centre)."""
+    xs = sorted(wheelset_positions)
     ys = spring_spacing(layout)
     middle = (xs[0] + xs[-1]) / 2
     # Heights in this body's frame; its origin is BOGIE_HEIGHT above the rail.
@@ -187,19 +188,18 @@ def add_bogie_frame(body, name: str, layout: Layout, wheelset_positions=None) ->
         )
 
 
-def add_carbody_shell(body, layout: Layout) -> None:
+def add_carbody_shell(body, vehicle: Planar | SpatialVehicle) -> None:
     """The car body's geoms: a coach (underframe, side walls with a window strip, ends,
     roof) over the bogies or wheelsets; a fixed body is only a translucent underframe,
     the frame the suspension is held by."""
-    c = layout.carbody
-    xs = c.bogie_positions if layout.bogie else c.wheelset_positions
+    layout, bogies = vehicle.layout, vehicle.bogies
+    xs = vehicle.supports
     middle = (max(xs) + min(xs)) / 2
-    if c.fixed:  # a plate over the running gear, reaching 0.5 m past the wheels
+    if layout.carbody.fixed:  # a plate over the running gear, reaching 0.5 m past the wheels
         half_width = CARBODY_HALF_WIDTH
         bottom = underframe_bottom(layout) - CARBODY_HEIGHT
-        reach = (
-            (max(layout.bogie.wheelset_positions) - min(layout.bogie.wheelset_positions)) / 2 if layout.bogie else 0.0
-        )
+        wheelbase = bogies.bogie.wheelset_positions if bogies is not None else (0.0,)
+        reach = (max(wheelbase) - min(wheelbase)) / 2
         half_length = (max(xs) - min(xs)) / 2 + reach + wheel_radius(layout) + 0.5
         _box(
             body,

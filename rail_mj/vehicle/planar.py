@@ -27,6 +27,7 @@ Example:
 from __future__ import annotations
 
 from rail_mj.layout import Layout
+from rail_mj.layout.kinds import Bogies, Planar
 from rail_mj.vehicle.joints import _add_planar_joints, _set_inertia
 from rail_mj.vehicle.looks import (
     BOGIE_HEIGHT,
@@ -51,17 +52,17 @@ def add_wheelset(parent, name: str, x: float, z: float, layout: Layout, spring_t
     add_wheelset_geoms(body, name, layout, spring_top)
 
 
-def add_bogie(parent, name: str, x: float, z: float, layout: Layout, first_wheelset: int) -> None:
+def add_bogie(parent, name: str, x: float, z: float, layout: Layout, bogies: Bogies, first_wheelset: int) -> None:
     """A bogie frame at (x, z) in the car body, on the secondary suspension, with its wheelsets.
 
     Drawn as an outside-frame bogie: two side frames over the axleboxes, joined by a
     transom between each pair of wheelsets, carrying the secondary springs.
     """
-    bogie = layout.bogie
+    bogie = bogies.bogie
     body = parent.add_body(name=name, pos=_pos(x, z))
     _set_inertia(body, bogie.mass, bogie.inertia)
-    _add_planar_joints(body, layout.secondary)
-    add_bogie_frame(body, name, layout)
+    _add_planar_joints(body, bogies.secondary)
+    add_bogie_frame(body, name, layout, bogie.wheelset_positions)
     bottom = side_frame_heights(layout)[0] - BOGIE_HEIGHT  # in this body's frame
     for i, x in enumerate(bogie.wheelset_positions):
         add_wheelset(
@@ -74,20 +75,22 @@ def add_bogie(parent, name: str, x: float, z: float, layout: Layout, first_wheel
         )
 
 
-def add_carbody(worldbody, layout: Layout) -> None:
+def add_carbody(worldbody, vehicle: Planar) -> None:
     """The car body (held over the centreline when fixed) with everything under it."""
+    layout = vehicle.layout
     c = layout.carbody
     body = worldbody.add_body(name="carbody", pos=[0, 0, CARBODY_HEIGHT])
     if not c.fixed:
+        assert c.mass is not None and c.inertia is not None  # the reader requires both of a free body
         _set_inertia(body, c.mass, c.inertia)
         _add_planar_joints(body, None)
-    add_carbody_shell(body, layout)
-    if layout.bogie:
-        n = len(layout.bogie.wheelset_positions)
-        for k, x in enumerate(c.bogie_positions):
-            add_bogie(body, f"bogie{k + 1}", x, BOGIE_HEIGHT - CARBODY_HEIGHT, layout, k * n + 1)
+    add_carbody_shell(body, vehicle)
+    if vehicle.bogies is not None:
+        n = vehicle.bogies.wheelsets_per_bogie
+        for k, x in enumerate(vehicle.bogies.positions):
+            add_bogie(body, f"bogie{k + 1}", x, BOGIE_HEIGHT - CARBODY_HEIGHT, layout, vehicle.bogies, k * n + 1)
     else:
-        for i, x in enumerate(c.wheelset_positions):
+        for i, x in enumerate(vehicle.hung_wheelsets):
             add_wheelset(
                 body,
                 f"wheelset{i + 1}",

@@ -11,6 +11,8 @@ import dataclasses
 import mujoco
 
 from rail_mj.layout import Layout
+from rail_mj.layout.kinds import SpatialVehicle, vehicle_kind
+from rail_mj.layout.reader import Spatial
 from rail_mj.units import SIDES
 from rail_mj.vehicle.joints import (
     LATERAL,
@@ -40,7 +42,8 @@ def point_motion(body: str, r, joints) -> tuple[dict[str, float], dict[str, floa
     ux = {PITCH: rz, YAW: -ry}
     uy = {LATERAL: 1.0, YAW: rx, ROLL: -rz}
     uz = {VERTICAL: 1.0, ROLL: ry, PITCH: -rx}
-    return tuple({f"{body}_{m}": c for m, c in u.items() if m in joints and c != 0.0} for u in (ux, uy, uz))
+    x, y, z = ({f"{body}_{m}": c for m, c in u.items() if m in joints and c != 0.0} for u in (ux, uy, uz))
+    return x, y, z
 
 
 def spring_tendons(
@@ -62,7 +65,9 @@ def spring_tendons(
         _tendon(spec, f"{name}_{axis}", coefficients, k, c, keep=measured)
 
 
-def deflections(point, lower: tuple[str, tuple, tuple], upper: tuple[str, tuple, tuple]) -> tuple[dict, dict, dict]:
+def deflections(
+    point, lower: tuple[str, tuple, tuple], upper: tuple[str, tuple, tuple]
+) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
     """The deflections (x, y, z) u_upper - u_lower at `point` of two bodies, each (body, centre, joints)
     as in `spring_tendons`: each a {joint name: coefficient}."""
     motions = []
@@ -75,7 +80,8 @@ def deflections(point, lower: tuple[str, tuple, tuple], upper: tuple[str, tuple,
         for joint, c in low.items():
             coefficients[joint] = coefficients.get(joint, 0.0) - c
         out.append(coefficients)
-    return tuple(out)
+    x, y, z = out
+    return x, y, z
 
 
 def secondary_elements(
@@ -84,7 +90,7 @@ def secondary_elements(
     x: float,
     frame: tuple[str, tuple, tuple],
     carbody: tuple[str, tuple, tuple],
-    sp,
+    sp: Spatial,
     share: float = 1.0,
 ) -> None:
     """The secondary elements of a spatial vehicle besides its springs (`sp`: layout.spatial;
@@ -111,36 +117,44 @@ def secondary_elements(
             0.0,
         )
     if sp.bump_stop:
-        e = sp.bump_stop
-        lateral = deflections((x, 0.0, e.height), frame, carbody)[1]
+        stop = sp.bump_stop
+        lateral = deflections((x, 0.0, stop.height), frame, carbody)[1]
         # The piecewise-linear table as a sum of deadband springs: MuJoCo's tendon spring is idle
         # within springlength [lo, hi] and linear outside, so each breakpoint's spring adds its
         # rise of slope from there on (BumpStop.deadbands).
-        for i, (play, k) in enumerate(e.deadbands(), start=1):
+        for i, (play, k) in enumerate(stop.deadbands(), start=1):
             tendon = _tendon(spec, f"{name}_bump_stop_{i}", lateral, share * k, 0.0)
             if tendon is not None:
                 tendon.springlength = _g6(-play, play)
 
 
-def spatial_carbodies(layout: Layout) -> list[tuple[str, tuple, tuple]]:
+def spatial_carbodies(vehicle: SpatialVehicle) -> list[tuple[str, tuple, tuple]]:
     """A spatial vehicle's car bodies as (name, centre (x, 0, height), joints): its one `carbody`, or
     a spatial train's carbody1, carbody2, ... each at its own x and height (docs/trains.md)."""
-    if layout.train is None:
-        return [("carbody", (0.0, 0.0, layout.spatial.carbody_height), SPATIAL_BODY)]
+    if vehicle.train is None:
+        return [("carbody", (0.0, 0.0, vehicle.spatial.carbody_height), SPATIAL_BODY)]
     return [
         (f"carbody{k}", (car.position, 0.0, car.height), SPATIAL_BODY)
-        for k, car in enumerate(layout.train.cars, start=1)
+        for k, car in enumerate(vehicle.train.cars, start=1)
     ]
 
 
-def carried(layout: Layout, bogie: int) -> list[tuple[tuple[str, tuple, tuple], float]]:
+def carried(vehicle: SpatialVehicle, bogie: int) -> list[tuple[tuple[str, tuple, tuple], float]]:
     """The car bodies bogie `bogie` (1-based) carries, each with its share of the secondary
     elements: the one car body's whole, or on a Jacobs bogie half to each of the two (as add_train)."""
-    bodies = spatial_carbodies(layout)
-    if layout.train is None:
+    bodies = spatial_carbodies(vehicle)
+    if vehicle.train is None:
         return [(bodies[0], 1.0)]
-    on = layout.train.cars_on(bogie)
+    on = vehicle.train.cars_on(bogie)
     return [(bodies[k - 1], 1.0 / len(on)) for k in on]
+
+
+def spatial_vehicle(layout: Layout) -> SpatialVehicle:
+    """`layout`'s spatial vehicle; a ValueError for any other kind."""
+    vehicle = vehicle_kind(layout)
+    if not isinstance(vehicle, SpatialVehicle):
+        raise ValueError(f"{layout.source}: not a spatial vehicle (no [spatial])")
+    return vehicle
 
 
 def _shared(spring, share: float):
@@ -150,7 +164,7 @@ def _shared(spring, share: float):
     return dataclasses.replace(spring, **{f"{k}{a}": share * getattr(spring, f"{k}{a}") for k in "kc" for a in AXES})
 
 
-def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
+def add_spatial(spec: mujoco.MjSpec, vehicle: SpatialVehicle) -> None:
     """A spatial vehicle (layout.spatial; docs/spatial.md), built flat: the car body and bogie
     frames children of the world with lateral, yaw, vertical, roll and pitch joints at their centres
     of mass, the wheelsets with lateral and yaw; each spring-damper element one fixed tendon per
@@ -158,26 +172,27 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
     <lower>_<upper>_<side>_<axis>, e.g. wheelset1_bogie1_left_z. A spatial train (docs/trains.md):
     car bodies carbody1, ... each at its place and height, a Jacobs bogie carrying half of each
     secondary element under each of its two bodies, the couplings as add_train's."""
-    sp, world = layout.spatial, spec.worldbody
+    layout, sp, world = vehicle.layout, vehicle.spatial, spec.worldbody
     hb, r0 = sp.bogie_height, layout.wheelset.rolling_radius
-    train = layout.train
+    train = vehicle.train
     couples = sp.gravity and sp.gravitational_stiffness  # rail_mj.vehicle.loads.ShearCouples
-    for k, (name, (x, _, h), _) in enumerate(spatial_carbodies(layout)):
+    for k, (name, (x, _, h), _) in enumerate(spatial_carbodies(vehicle)):
         body = world.add_body(name=name, pos=[0, 0, _g6(h)[0]] if train is None else _pos(x, h))
         if train is None:
+            assert layout.carbody.mass is not None and layout.carbody.inertia is not None  # free: the reader's rule
             _set_inertia(body, layout.carbody.mass, layout.carbody.inertia)
             _add_spatial_joints(body)
-            add_carbody_shell(body, layout)
+            add_carbody_shell(body, vehicle)
         else:
             car = train.cars[k]
             _set_inertia(body, car.mass, car.inertia)
             _add_spatial_joints(body)
             add_coach_shell(body, name, layout, 0.0, car.length / 2 - END_GAP)
     spring_top = side_frame_heights(layout)[0]
-    n = len(layout.bogie.wheelset_positions)  # every bogie's ([bogies.N] keeps it)
-    for i, (xb, design) in enumerate(zip(layout.carbody.bogie_positions, sp.bogies), start=1):
+    n = vehicle.bogies.wheelsets_per_bogie
+    for i, (xb, design) in enumerate(zip(vehicle.bogies.positions, sp.bogies), start=1):
         name = f"bogie{i}"
-        add_flat_bogie(world, name, xb, hb, layout, spatial=True, design=design)
+        add_flat_bogie(world, name, xb, hb, layout, design, spatial=True)
         frame = (name, (xb, 0.0, hb), SPATIAL_BODY)
         for j, xw in enumerate(design.wheelset_positions):
             wheelset = f"wheelset{(i - 1) * n + j + 1}"
@@ -193,7 +208,7 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
                     e,
                     couples,
                 )
-        for carbody, share in carried(layout, i):
+        for carbody, share in carried(vehicle, i):
             for side, sign in SIDES:
                 e = sp.secondary
                 spring_tendons(
@@ -208,7 +223,7 @@ def add_spatial(spec: mujoco.MjSpec, layout: Layout) -> None:
             secondary_elements(spec, name, xb, frame, carbody, sp, share)
     if train is not None:
         x_of = {f"carbody{k}": car.position for k, car in enumerate(train.cars, start=1)}
-        heights = {name: h for name, (_, _, h), _ in spatial_carbodies(layout)}
+        heights = {name: h for name, (_, _, h), _ in spatial_carbodies(vehicle)}
         _coupling_tendons(spec, train, x_of, heights)
 
 
@@ -216,9 +231,10 @@ def spatial_elements(layout: Layout):
     """The spring-damper elements of a spatial vehicle, as `add_spatial` joins them and in its
     order: (name, point, lower, upper, spring), the arguments `spring_tendons` takes (a Jacobs
     bogie's secondary springs once under each of its two bodies, each with half the spring)."""
-    sp, r0 = layout.spatial, layout.wheelset.rolling_radius
-    n = len(layout.bogie.wheelset_positions)
-    for i, (xb, design) in enumerate(zip(layout.carbody.bogie_positions, sp.bogies), start=1):
+    vehicle = spatial_vehicle(layout)
+    sp, r0 = vehicle.spatial, layout.wheelset.rolling_radius
+    n = vehicle.bogies.wheelsets_per_bogie
+    for i, (xb, design) in enumerate(zip(vehicle.bogies.positions, sp.bogies), start=1):
         frame = (f"bogie{i}", (xb, 0.0, sp.bogie_height), SPATIAL_BODY)
         e = design.axlebox
         for j, xw in enumerate(design.wheelset_positions):
@@ -226,7 +242,7 @@ def spatial_elements(layout: Layout):
             for side, sign in SIDES:
                 point = (xb + xw, sign * e.spacing, e.height)
                 yield f"{wheelset[0]}_{frame[0]}_{side}", point, wheelset, frame, e
-        for carbody, share in carried(layout, i):
+        for carbody, share in carried(vehicle, i):
             for side, sign in SIDES:
                 point = (xb, sign * sp.secondary.spacing, sp.secondary.height)
                 yield f"{frame[0]}_{carbody[0]}_{side}", point, frame, carbody, _shared(sp.secondary, share)

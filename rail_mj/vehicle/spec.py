@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.layout import GRAVITY, LAWS, Layout
+from rail_mj.layout.kinds import Planar, SpatialVehicle, TrainOfCars, vehicle_kind
 from rail_mj.numerics import (
     NUMERIC_CREEP,
     NUMERIC_ELLIPSE,
@@ -55,30 +56,16 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
     spec.add_numeric(name=NUMERIC_NATIVE, data=[0.0])  # first; filled in by `compiled`
     add_wheel_mesh(spec, layout)
     w = layout.wheelset
-    if layout.spatial is not None:
-        add_spatial(spec, layout)
-        if layout.spatial.gravity:  # the wheel loads come from the suspension (rail_mj.vehicle.loads)
-            from rail_mj.vehicle.loads import NUMERIC_LOADS
-
-            e = layout.spatial.primary
-            spin = w.inertia[1] if layout.spatial.gyroscopic else 0.0
-            cone_gravity = layout.spatial.gravitational_stiffness and layout.profiles is None
-            # Each wheelset's axlebox spacing and height after the defaults, when a bogie has its
-            # own ([bogies.N.axlebox]; rail_mj.vehicle.loads reads either form).
-            own = [(d.axlebox.spacing, d.axlebox.height) for d in layout.spatial.bogies for _ in d.wheelset_positions]
-            own = [] if all(a == (e.spacing, e.height) for a in own) else [v for a in own for v in a]
-            spec.add_numeric(
-                name=NUMERIC_LOADS,
-                data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin, float(cone_gravity), *own),
-            )
-            if layout.spatial.gravitational_stiffness:  # the preloads' shear couples (rail_mj.vehicle.loads)
-                from rail_mj.vehicle.loads import NUMERIC_COUPLES
-
-                spec.add_numeric(name=NUMERIC_COUPLES, data=[1.0])
-    elif layout.train is not None:
-        add_train(spec, layout)
-    else:
-        add_carbody(spec.worldbody, layout)
+    vehicle = vehicle_kind(layout)
+    match vehicle:
+        case SpatialVehicle():
+            add_spatial(spec, vehicle)
+            if vehicle.spatial.gravity:  # the wheel loads come from the suspension (rail_mj.vehicle.loads)
+                _add_loads(spec, vehicle)
+        case TrainOfCars():
+            add_train(spec, vehicle)
+        case Planar():
+            add_carbody(spec.worldbody, vehicle)
 
     c = layout.creep
     spec.add_numeric(
@@ -91,7 +78,10 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
         ),
     )
     spec.add_numeric(name=NUMERIC_CREEP, data=_g6(c.f11, c.f22, c.f23, c.f33))
-    limit = c.friction * w.wheel_load if c.law != "linear" else 0.0  # unused by the linear law
+    limit = 0.0  # unused by the linear law
+    if c.law != "linear":
+        assert c.friction is not None and w.wheel_load is not None  # the reader requires both of a saturating law
+        limit = c.friction * w.wheel_load
     spec.add_numeric(
         name=NUMERIC_SATURATION, data=_g6(LAWS[c.law], limit, c.falling_friction_ratio, c.falling_friction_rate)
     )
@@ -109,6 +99,29 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
             raise ValueError(f"{layout.source}: {e}") from None
         spec.add_numeric(name=NUMERIC_GEOMETRY, data=_g6(*table.reshape(-1)))
     return spec
+
+
+def _add_loads(spec: mujoco.MjSpec, vehicle: SpatialVehicle) -> None:
+    """The numerics rail_mj.vehicle.loads reads a spatial vehicle's wheel loads by: the axle's
+    weight, the nominal wheel load, the axleboxes' spacing and height, the wheelsets' spin
+    inertia and the switch of the cones' gravitational stiffness; the shear couples' switch."""
+    from rail_mj.vehicle.loads import NUMERIC_COUPLES, NUMERIC_LOADS
+
+    layout, sp = vehicle.layout, vehicle.spatial
+    w, e = layout.wheelset, sp.primary
+    spin = w.inertia[1] if sp.gyroscopic else 0.0
+    cone_gravity = sp.gravitational_stiffness and layout.profiles is None
+    # Each wheelset's axlebox spacing and height after the defaults, when a bogie has its
+    # own ([bogies.N.axlebox]; rail_mj.vehicle.loads reads either form).
+    own = [(d.axlebox.spacing, d.axlebox.height) for d in sp.bogies for _ in d.wheelset_positions]
+    flat = [] if all(a == (e.spacing, e.height) for a in own) else [v for a in own for v in a]
+    assert w.wheel_load is not None  # the reader's default: the static weight shared equally
+    spec.add_numeric(
+        name=NUMERIC_LOADS,
+        data=_g6(GRAVITY * w.mass, w.wheel_load, e.spacing, e.height, spin, float(cone_gravity), *flat),
+    )
+    if sp.gravitational_stiffness:  # the preloads' shear couples (rail_mj.vehicle.loads)
+        spec.add_numeric(name=NUMERIC_COUPLES, data=[1.0])
 
 
 def _ellipse(layout: Layout) -> tuple[float, ...]:
@@ -146,7 +159,7 @@ def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
 
     spec = build_spec(layout)
     model = compile_spec(spec, layout)
-    if layout.spatial is not None:
+    if layout.spatial is not None:  # a spatial vehicle's gravity: the only one with vertical motion
         if layout.spatial.gravity:
             q_eq = preload(spec, model)
             # After the preload, and so outside the K it solves with: these terms are made of its

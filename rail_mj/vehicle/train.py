@@ -8,6 +8,8 @@ from __future__ import annotations
 import mujoco
 
 from rail_mj.layout import Layout, Suspension
+from rail_mj.layout.kinds import TrainOfCars
+from rail_mj.layout.reader import Bogie, BogieDesign
 from rail_mj.vehicle.joints import LATERAL, ROLL, YAW, _add_planar_joints, _add_spatial_joints, _set_inertia
 from rail_mj.vehicle.looks import (
     BOGIE_HEIGHT,
@@ -21,13 +23,13 @@ from rail_mj.vehicle.planar import add_wheelset
 from rail_mj.vehicle.rounding import _g6, _pos
 
 
-def add_train(spec: mujoco.MjSpec, layout: Layout) -> None:
+def add_train(spec: mujoco.MjSpec, vehicle: TrainOfCars) -> None:
     """A train (layout.train; docs/trains.md): every car body, bogie frame and wheelset a child of
     the world with its own lateral slide and yaw hinge (absolute coordinates, no spring), and each
     suspension or inter-car element a pair of fixed tendons whose lengths are its lateral and yaw
     deflections, their stiffness and damping the element's. Bodies: carbodyK, bogieK, wheelsetN
     (numbered from the front)."""
-    train, bogie, world = layout.train, layout.bogie, spec.worldbody
+    layout, train, bogies, world = vehicle.layout, vehicle.train, vehicle.bogies, spec.worldbody
     x_of: dict[str, float] = {}
     for k, car in enumerate(train.cars, start=1):
         name = f"carbody{k}"
@@ -37,19 +39,19 @@ def add_train(spec: mujoco.MjSpec, layout: Layout) -> None:
         add_coach_shell(body, name, layout, 0.0, car.length / 2 - END_GAP)
         x_of[name] = car.position
     spring_top = side_frame_heights(layout)[0]
-    n = len(bogie.wheelset_positions)
-    for i, xb in enumerate(layout.carbody.bogie_positions, start=1):
+    n = bogies.wheelsets_per_bogie
+    for i, xb in enumerate(bogies.positions, start=1):
         name = f"bogie{i}"
-        add_flat_bogie(world, name, xb, BOGIE_HEIGHT, layout, spatial=False)
+        add_flat_bogie(world, name, xb, BOGIE_HEIGHT, layout, bogies.bogie, spatial=False)
         x_of[name] = xb
-        for j, xw in enumerate(bogie.wheelset_positions):
+        for j, xw in enumerate(bogies.bogie.wheelset_positions):
             wheelset = f"wheelset{(i - 1) * n + j + 1}"
             add_wheelset(world, wheelset, xb + xw, layout.wheelset.rolling_radius, layout, spring_top, nested=False)
             x_of[wheelset] = xb + xw
             _suspension_tendons(spec, wheelset, f"{name}", x_of, layout.primary)
         carried_by = train.cars_on(i)
         for k in carried_by:  # a Jacobs bogie shares [secondary] between its two bodies
-            _suspension_tendons(spec, name, f"carbody{k}", x_of, layout.secondary, 1.0 / len(carried_by))
+            _suspension_tendons(spec, name, f"carbody{k}", x_of, bogies.secondary, 1.0 / len(carried_by))
     _coupling_tendons(spec, train, x_of)
 
 
@@ -83,12 +85,12 @@ def _coupling_tendons(spec, train, x_of: dict[str, float], heights: dict[str, fl
         )
 
 
-def add_flat_bogie(world, name: str, x: float, height: float, layout: Layout, spatial: bool, design=None) -> None:
+def add_flat_bogie(
+    world, name: str, x: float, height: float, layout: Layout, design: Bogie | BogieDesign, spatial: bool
+) -> None:
     """A bogie frame as a child of the world at (x, height): planar (lateral, yaw) or spatial
     joints, with no spring (a train's or a spatial vehicle's; its wheelsets are added apart).
-    `design`: its mass, inertia and wheelset_positions (a spatial vehicle's BogieDesign); None:
-    [bogie]'s."""
-    design = design or layout.bogie
+    `design`: its mass, inertia and wheelset_positions ([bogie], or a spatial vehicle's BogieDesign)."""
     body = world.add_body(name=name, pos=_pos(x, height))
     _set_inertia(body, design.mass, design.inertia)
     if spatial:
