@@ -103,8 +103,9 @@ def nonlinear_critical_speed(
     dwell: float = DWELL,
     progress: Callable[[str], None] | None = None,
     amplitude: float | None = None,
-) -> tuple[CriticalSpeed, Branch]:
-    """Lowest speed at which the hunting limit cycle survives, with the branch it followed.
+) -> tuple[CriticalSpeed, Branch | None]:
+    """Lowest speed at which the hunting limit cycle survives, with the branch it followed
+    (None: no linear critical speed to start from, the note says why).
 
     Starts at 1.1 x the linear (eigen) critical speed on the limit cycle, reached from a
     disturbance of twice the flangeway clearance, and lowers the speed by `step` (a
@@ -212,12 +213,13 @@ def bifurcation(
     dwell: float = DWELL,
     progress: Callable[[str], None] | None = None,
     amplitude: float | None = None,
-) -> tuple[CriticalSpeed, Branch, Branch]:
+) -> tuple[CriticalSpeed, Branch | None, Branch | None]:
     """Both branches of the bifurcation diagram around the linear critical speed Vc:
     down from the limit cycle at 1.1*Vc until it dies, and, at the same speeds, runs from
     a small disturbance (5 % of the clearance) for twice as long, which decay below Vc
     and grow onto the limit cycle above it. Between the two critical speeds both the
-    centred state and the limit cycle are stable: the hysteresis of hunting."""
+    centred state and the limit cycle are stable: the hysteresis of hunting. Without a
+    linear critical speed to start from, both branches are None (the note says why)."""
     critical, down = nonlinear_critical_speed(layout, vmin, vmax, step, dwell, progress, amplitude)
     if down is None:
         return critical, None, None

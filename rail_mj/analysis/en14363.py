@@ -100,13 +100,14 @@ def hunting_assessable(run: Run) -> str | None:
 def hunting(run: Run) -> dict | None:
     """The instability criterion per wheelset; None when it cannot be applied
     (`hunting_assessable` says why)."""
-    if hunting_assessable(run) is not None:
+    wheel_load = run.layout.wheelset.wheel_load
+    if wheel_load is None or hunting_assessable(run) is not None:
         return None
     f0, rms = hunting_rms(run)
     if not np.any(np.isfinite(rms)):
         return None
     worst = np.nanmax(rms, axis=0)
-    limit = hunting_limit(2.0 * run.layout.wheelset.wheel_load)
+    limit = hunting_limit(2.0 * wheel_load)
     return {
         "criterion": "EN 14363: rms over 100 m of the sum of guiding forces, band-passed f0 +/- 2 Hz",
         "frequency_hz": f0,

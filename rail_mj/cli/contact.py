@@ -134,7 +134,7 @@ def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poiss
     if as_json:
         click.echo(json.dumps(result, indent=2))
         return
-    mu = "" if friction is None else f", mu {friction:g} (mu*N {limit / 1e3:.4g} kN)"
+    mu = "" if limit is None else f", mu {friction:g} (mu*N {limit / 1e3:.4g} kN)"
     click.echo(
         f"{law}: ellipse a = {a * 1e3:.4g} mm (rolling) x b = {b * 1e3:.4g} mm (a/b {a / b:.4g}), "
         f"N = {normal_force / 1e3:.4g} kN{mu}, G = {shear_modulus / 1e9:.4g} GPa, nu = {poisson:g}"

@@ -178,7 +178,7 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
             )
     except SweepError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
-    logs = [Span.parse(parse_assignment(text, option)[1], GRID, option).log for option, text in axes]
+    x_log, y_log = (Span.parse(parse_assignment(text, option)[1], GRID, option).log for option, text in axes)
     import io
 
     import pyarrow.csv as pacsv
@@ -188,7 +188,7 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
             buffer = io.BytesIO()
             pacsv.write_csv(table, buffer)
             csv_tmp.write_bytes(buffer.getvalue())
-            png_tmp.write_bytes(stability_map_png(table, keys[0], keys[1], *logs, method, lay.name))
+            png_tmp.write_bytes(stability_map_png(table, keys[0], keys[1], x_log, y_log, method, lay.name))
     except OSError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     err = uses_stdout(out, csv_path)

@@ -184,7 +184,9 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
     ys = sorted({r[y_key] for r in rows})
     speed = np.full((len(ys), len(xs)), np.nan)
     modes: dict[str, list[tuple[float, float]]] = {}
-    failed, stable, unstable = [], [], []
+    failed: list[tuple[float, float]] = []
+    stable: list[tuple[float, float]] = []
+    unstable: list[tuple[float, float]] = []
     for r in rows:
         i, j = ys.index(r[y_key]), xs.index(r[x_key])
         if r["status"] != "ok":

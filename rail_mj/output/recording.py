@@ -253,7 +253,9 @@ def plots(run: Run) -> list[Plot]:
     ]
     train = run.layout.train
     if train is not None:  # a train: each car's body, bogies and wheelsets together
-        per_bogie = len(run.layout.bogie.wheelset_positions)
+        bogie = run.layout.bogie
+        assert bogie is not None, "a train's cars rest on bogies (the layout reader refuses one without)"
+        per_bogie = len(bogie.wheelset_positions)
         lateral = frame_series(frame_lateral_path, "mm", run.frame_y * MM_PER_M)
         yaw = frame_series(frame_yaw_path, "mrad", run.frame_psi * MRAD_PER_RAD)
         wheel_lateral, wheel_yaw = out[0].series, out[1].series
@@ -298,7 +300,7 @@ def plots(run: Run) -> list[Plot]:
     return out
 
 
-def _wheel_plots(run: Run, wheelsets) -> list[Plot]:
+def _wheel_plots(run: Run, wheelsets: list[tuple[str, tuple[int, int, int]]]) -> list[Plot]:
     """Each wheel's vertical load Q and derailment quotient Y/Q (EN 14363's limit in the title),
     the right wheel a darker shade of its wheelset's colour."""
     from rail_mj.analysis.en14363 import Y_OVER_Q_LIMIT, derailment_quotients
@@ -309,7 +311,7 @@ def _wheel_plots(run: Run, wheelsets) -> list[Plot]:
         out = []
         for i, (label, colour) in enumerate(wheelsets):
             for k, side in enumerate(("left", "right")):
-                shade = colour if k == 0 else tuple(int(0.55 * c) for c in colour)
+                shade = colour if k == 0 else _darker(colour)
                 out.append(
                     Series(
                         path(i, side), f"{label} {side} ({unit})" if unit else f"{label} {side}", shade, values[:, i, k]
@@ -321,6 +323,12 @@ def _wheel_plots(run: Run, wheelsets) -> list[Plot]:
         Plot("Wheels: vertical load Q (kN)", series(wheel_load_path, "kN", loads / N_PER_KN), positive=True),
         Plot(f"Wheels: derailment quotient Y/Q (limit {Y_OVER_Q_LIMIT:g})", series(quotient_path, "", quotients)),
     ]
+
+
+def _darker(colour: tuple[int, int, int]) -> tuple[int, int, int]:
+    """A darker shade of `colour` (a wheelset's right wheel)."""
+    r, g, b = colour
+    return int(0.55 * r), int(0.55 * g), int(0.55 * b)
 
 
 def axis_range(values, floor: float = 0.0, positive: bool = False) -> list[float]:
@@ -355,7 +363,7 @@ def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
         )
         for p in shown
     ]
-    notes = [rrb.TextDocumentView(origin="/layout", name="Layout and run")]
+    notes: list[rrb.View] = [rrb.TextDocumentView(origin="/layout", name="Layout and run")]
     if _flanges(run):
         notes.append(rrb.TextLogView(origin=FLANGE_EVENTS, name="Flange strikes"))
     extent = _extent(run)
@@ -415,8 +423,11 @@ def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: lis
         rr.TimeColumn(TIME, duration=run.t[keep]),
         rr.TimeColumn(DISTANCE, sequence=np.round(run.x[keep] * 1000.0).astype(np.int64)),
     ]
-    logged = set()  # a series shown twice (a Jacobs bogie under two cars) is sent once
-    for series in (s for p in shown for s in p.series if not (s.path in logged or logged.add(s.path))):
+    logged: set[str] = set()  # a series shown twice (a Jacobs bogie under two cars) is sent once
+    for series in (s for p in shown for s in p.series):
+        if series.path in logged:
+            continue
+        logged.add(series.path)
         # MinMax: zoomed out, a pixel spans cycles of hunting; the default average flattens them.
         rec.log(
             series.path,
@@ -497,13 +508,13 @@ def _extent(run: Run) -> np.ndarray:
     model = run.vehicle.model
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    corners = []
+    corners: list[np.ndarray] = []
     for g in range(model.ngeom):
         centre, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
         local = centre + half * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
         corners.append(data.geom_xpos[g] + local @ data.geom_xmat[g].reshape(3, 3).T)
-    corners = np.vstack(corners)
-    return np.array([corners.min(axis=0), corners.max(axis=0)])
+    every = np.vstack(corners)
+    return np.array([every.min(axis=0), every.max(axis=0)])
 
 
 def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes) -> None:
@@ -521,7 +532,9 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes) ->
         if shape is not None:
             path = f"/world/vehicle/{body}/{model.geom(g).name}"
             rec.log(
-                path, rr.Transform3D(translation=model.geom_pos[g], quaternion=_xyzw(model.geom_quat[g])), static=True
+                path,
+                rr.Transform3D(translation=model.geom_pos[g], quaternion=rr.Quaternion(xyzw=_xyzw(model.geom_quat[g]))),
+                static=True,
             )
             rec.log(path, shape, static=True)
     root = model.body(_root(run)).id

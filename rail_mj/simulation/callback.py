@@ -56,7 +56,9 @@ class CreepForces:
         self._jacp = np.zeros((n, 3, nv))
         self._jacr = np.zeros((n, 3, nv))
 
-    def _kinematics(self, model, data):
+    def _kinematics(
+        self, model: mujoco.MjModel, data: mujoco.MjData
+    ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray, np.ndarray]:
         """(y, psi, y_dot, psi_dot) over wheelsets, and the lateral and yaw Jacobian rows."""
         for i, body in enumerate(self.body_ids):
             mujoco.mj_jacBody(model, data, self._jacp[i], self._jacr[i], body)

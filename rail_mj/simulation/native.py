@@ -39,6 +39,7 @@ import contextlib
 import ctypes
 import math
 import threading
+from typing import cast
 
 import mujoco
 import numba
@@ -92,13 +93,14 @@ def _ctype(declared, structs):
     raise NativeError(f"MuJoCo {mujoco.__version__}: cannot lay out a field of type {declared}")
 
 
-_LAYOUTS: dict[str, type] = {}
+_LAYOUTS: dict[str, type[ctypes.Structure]] = {}
 
 
-def _struct(name: str, structs) -> type:
+def _struct(name: str, structs) -> type[ctypes.Structure]:
     if name not in _LAYOUTS:
         fields = [(f.name, _ctype(f.type, structs)) for f in structs[name].fields]
-        _LAYOUTS[name] = type(name, (ctypes.Structure,), {"_fields_": fields})
+        # type() with three arguments is typed as returning a plain `type`: this one is a Structure.
+        _LAYOUTS[name] = cast(type[ctypes.Structure], type(name, (ctypes.Structure,), {"_fields_": fields}))
     return _LAYOUTS[name]
 
 

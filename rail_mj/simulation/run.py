@@ -91,6 +91,8 @@ class Run:
                 nominal=self.layout.wheelset.wheel_load,
             )
         axle = AxleLoads.of(self.vehicle.model, self.vehicle.wheelset_names)
+        # Axle loads are recorded only from a spatial vehicle's suspension (rail_mj.vehicle.sensors).
+        assert axle is not None, "axle loads recorded from a vehicle without a suspension's loads"
         return contact_forces(
             params,
             self.y,

@@ -16,6 +16,7 @@ import functools
 import math
 import threading
 import time
+from collections.abc import Callable
 from typing import Protocol
 
 import mujoco
@@ -199,13 +200,14 @@ class Pack:
         place = self.places[m]
         return vector[1 + place.qpos].copy(), vector[1 + self.model.nq + place.qvel].copy()
 
-    def going(self) -> list[int]:
-        return [m for m, run in enumerate(self.runs) if run is not None]
+    def going(self) -> list[tuple[int, Running]]:
+        """The runs still going, each with its place."""
+        return [(m, run) for m, run in enumerate(self.runs) if run is not None]
 
     def share(self, seconds: float) -> None:
         going = self.going()
-        for m in going:
-            self.runs[m].seconds += seconds / len(going)
+        for _, run in going:
+            run.seconds += seconds / len(going)
 
 
 def _unconstrained(model: mujoco.MjModel) -> bool:
@@ -326,7 +328,7 @@ def step_alone(prepared: Prepared, derailment_lateral: float, progress=None) -> 
 
 def drive(
     pack: Pack, roller: Roller, done, derailment_lateral: float, forces, queue: Waiting | None, progress=None
-) -> list:
+) -> list[Callable[[], Derailed]]:
     """Step `pack` until its runs have covered their distances (and those that take their
     places from `queue`), telling `done(k, result, seconds)` each result. MuJoCo steps in
     chunks of CHECK_EVERY samples (`mujoco.rollout`) and measures every body with its
@@ -337,12 +339,12 @@ def drive(
     so that it cannot disturb the others); a numerical failure stops every run still going,
     and in a pack of several, each is run again on its own. Returns the Derailed results
     still to make when `forces` (the Python callback) is installed: thunks for the caller."""
-    later = []
+    later: list[Callable[[], Derailed]] = []
     while True:
         going = pack.going()
         if not going or (queue is not None and queue.cancelled):
             return later
-        runs = [pack.runs[m] for m in going]
+        runs = [r for _, r in going]
         every, dt = runs[0].every, runs[0].prepared.timestep
         count = min(CHECK_EVERY, max(r.count - r.done for r in runs))
         started = time.perf_counter()
@@ -356,7 +358,7 @@ def drive(
             _diverged(pack, runs, count, warning, done, derailment_lateral)
             return later
         first, ended = runs[0].done, []
-        for m, r in zip(going, runs):
+        for m, r in going:
             n = min(count, r.count - r.done)
             mine = r.record(pack.places[m].sensors, readings[:n])
             off = r.left_rails(mine, derailment_lateral)
@@ -370,11 +372,11 @@ def drive(
                     done(r.index, make(), r.seconds)
                 else:
                     later.append(make)
-                ended.append(m)
+                ended.append((m, r))
             elif r.done + n == r.count:  # its last sample: the state the run ends in
                 last = n - 1
                 done(r.index, r.run(pack.state_of(m, states[last * every - 1] if last > 0 else start)), r.seconds)
-                ended.append(m)
+                ended.append((m, r))
             else:
                 r.done += n
         _refill(pack, ended, queue)
@@ -382,9 +384,10 @@ def drive(
             progress(min(first + count, runs[0].count - 1) / max(runs[0].count - 1, 1))
         empty = len(pack.runs) - len(pack.going())
         if queue is not None and empty and 2 * empty >= len(pack.runs):
-            pack = _repacked(pack, queue, dt)
-            if pack is None:
+            repacked = _repacked(pack, queue, dt)
+            if repacked is None:
                 return later
+            pack = repacked
 
 
 def _diverged(pack: Pack, runs: list[Running], count: int, warning: str | None, done, derailment_lateral: float):
@@ -410,11 +413,11 @@ def _diverged(pack: Pack, runs: list[Running], count: int, warning: str | None, 
             done(r.index, step_alone(r.prepared, derailment_lateral), r.seconds)
 
 
-def _refill(pack: Pack, ended: list[int], queue: Waiting | None) -> None:
-    """Give the places of the runs that ended to runs waiting, or leave them empty."""
-    for m in ended:
+def _refill(pack: Pack, ended: list[tuple[int, Running]], queue: Waiting | None) -> None:
+    """Give the places of the runs that ended (place, run) to runs waiting, or leave them empty."""
+    for m, run in ended:
         # The longest run waiting of the same vehicle takes the place: only the speed changes.
-        item = queue.take_like(pack.runs[m].prepared) if queue is not None else None
+        item = queue.take_like(run.prepared) if queue is not None else None
         pack.runs[m] = None if item is None else Running(*item)
         if item is not None:
             set_speed(pack.model, item[1].request.speed, vehicle=m)
@@ -425,10 +428,10 @@ def _repacked(pack: Pack, queue: Waiting, timestep: float) -> Pack | None:
     """Half the places empty: the runs going continue in a new model, with runs waiting
     (None when there are none of either)."""
     keep = pack.going()
-    for m in keep:
-        pack.runs[m].state = pack.state_of(m, pack.state)
+    for m, run in keep:
+        run.state = pack.state_of(m, pack.state)
     items = queue.take(PACK - len(keep), timestep)
-    runs = [pack.runs[m] for m in keep] + [Running(k, p) for k, p in items]
+    runs = [run for _, run in keep] + [Running(k, p) for k, p in items]
     return Pack(runs) if runs else None
 
 

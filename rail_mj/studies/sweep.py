@@ -145,8 +145,15 @@ class Case:
     recording: str | None = None  # .rrd path (run), or None
 
     @property
+    def run_speed(self) -> float:
+        """The speed of a run (method "run"), which every run case has."""
+        assert self.speed is not None, f"case {self.index}: a {self.method} case has no speed"
+        return self.speed
+
+    @property
     def key(self) -> str:
         """What determines the result: changes if the layout, method or case does."""
+        what: list[object]
         if self.method == "run":  # a run: its layout, speed and distance
             what = [self.method, self.layout, self.params, self.speed, self.distance]
         else:  # a critical speed: its layout and the range searched
@@ -186,7 +193,7 @@ def plan(
     for text in sets:
         key, value = parse_assignment(text, "--set")
         data = with_value(data, key, toml_value(value))
-    axes = []
+    axes: list[tuple[str, list[float]]] = []
     for text in grids:
         key, value = parse_assignment(text, "--grid")
         if key in (k for k, _ in axes):
@@ -211,11 +218,11 @@ def plan(
                 raise SweepError(f"--grid {key}: {e}") from None
     points = [dict(zip([k for k, _ in axes], combo)) for combo in itertools.product(*[v for _, v in axes])]
     run_speeds = _run_speeds(span) if method == "run" else [None]
-    cases = []
+    cases: list[Case] = []
     for point in points:
         variant = data
-        for key, value in point.items():
-            variant = with_value(variant, key, value)
+        for key, grid_value in point.items():
+            variant = with_value(variant, key, grid_value)
         for speed in run_speeds:
             index = len(cases)
             recording = (
@@ -256,7 +263,7 @@ def tasks(cases: list[Case], packs_per_task: int = 1) -> list[list[Case]]:
     from rail_mj.simulation.batch import PACK
 
     size = PACK * packs_per_task
-    runs = sorted((c for c in cases if c.method == "run"), key=lambda c: (c.distance / c.speed, c.index))
+    runs = sorted((c for c in cases if c.method == "run"), key=lambda c: (c.distance / c.run_speed, c.index))
     return [runs[k : k + size] for k in range(0, len(runs), size)] + [[c] for c in cases if c.method != "run"]
 
 
@@ -279,7 +286,7 @@ def run_rows(cases: list[Case], threads: int = 1) -> Iterator[dict]:
     for case in cases:
         try:
             layout = layout_from_dict(case.layout, source=case.source)
-            requests.append(Request(layout, case.speed, case.distance, DEFAULT_INITIAL_LATERAL))
+            requests.append(Request(layout, case.run_speed, case.distance, DEFAULT_INITIAL_LATERAL))
             owners.append((case, layout))
         except (LayoutError, ValueError):
             yield run_case(case)  # says why its layout is refused
@@ -342,7 +349,7 @@ def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> di
 def _run(case: Case, layout) -> dict:
     from rail_mj.simulation.runner import simulate
 
-    return _summarise_run(case, layout, simulate(layout, case.speed, case.distance, DEFAULT_INITIAL_LATERAL))
+    return _summarise_run(case, layout, simulate(layout, case.run_speed, case.distance, DEFAULT_INITIAL_LATERAL))
 
 
 def _summarise_run(case: Case, layout, run) -> dict:
@@ -518,8 +525,9 @@ def sweep(
     if output is not None and (is_special(output) or output.is_dir()):
         raise SweepError(f"-o {output}: a sweep keeps its table in a regular file (it resumes from it)")
     kept: dict[str, dict] = {}
-    journal = Journal(output) if output is not None else None
+    journal: Journal | None = None  # beside the output, if there is one
     if output is not None:
+        journal = Journal(output)
         wanted = {c.key: c for c in cases}
         for where, rows in ((output, read_table(output) if output.exists() else []), (journal.path, journal.read())):
             for row in rows:
@@ -548,6 +556,7 @@ def sweep(
     table = to_table(rows, columns)
     if output is not None:
         write_table(table, output)
+    if journal is not None:
         journal.remove()
     return table
 
@@ -581,9 +590,9 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
         yield from run_rows(runs, threads)
     pool = ThreadPoolExecutor(max_workers=threads)
     try:
-        futures = [pool.submit(run_case, case) for case in cases if case.method != "run"]
-        for future in as_completed(futures):
-            yield future.result()
+        pending = [pool.submit(run_case, case) for case in cases if case.method != "run"]
+        for done in as_completed(pending):
+            yield done.result()
     finally:  # interrupted (Ctrl-C): the queued cases are dropped, not waited for
         pool.shutdown(wait=False, cancel_futures=True)
 

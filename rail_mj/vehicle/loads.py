@@ -171,7 +171,7 @@ class AxleLoads:
                 elif side in SIDES and axis == "y":
                     mine.append((name, 0.0, height))
             tendons.append(tuple(mine))
-        shear = ()
+        shear: tuple[tuple[tuple[str, str], ...], ...] = ()
         if _couples_on(model, prefix):
             elements = _elements(set(names))
             shear = tuple(

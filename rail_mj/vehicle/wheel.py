@@ -57,4 +57,5 @@ def wheel_mesh(rolling_radius: float, conicity: float) -> trimesh.Trimesh:
 def wheel_stl(rolling_radius: float, conicity: float) -> bytes:
     """Binary STL of the wheel, byte-for-byte the same for the same inputs (made once for
     them: a sweep builds the same wheel for every case)."""
-    return wheel_mesh(rolling_radius, conicity).export(file_type="stl")
+    # The exporter `Trimesh.export(file_type="stl")` calls, whose type says it gives bytes.
+    return trimesh.exchange.stl.export_stl(wheel_mesh(rolling_radius, conicity))
