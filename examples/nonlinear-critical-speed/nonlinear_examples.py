@@ -26,7 +26,7 @@ def main() -> None:
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent))
     args = parser.parse_args()
     print(f"speed lowered in steps of {STEP:.0%}")
-    print("| vehicle | linear critical speed | nonlinear critical speed | limit cycle at 1.1 x linear |")
+    print("| vehicle | linear critical speed | nonlinear critical speed (2 % steps) | limit cycle at 1.1 x linear |")
     print("|---|---|---|---|")
     bogie = load_layout(MODELS / "bogie" / "bogie.toml")
     # Polach's falling friction with illustrative values (mu falls from 0.3 towards 0.12).

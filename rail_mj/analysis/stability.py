@@ -163,7 +163,9 @@ class Stability:
         if isinstance(vehicle, TrainOfCars | SpatialVehicle) and vehicle.train is not None:
             from rail_mj.analysis.train_modes import TrainModes
 
-            self._train_modes = TrainModes(layout, vehicle.train, vehicle.bogies, self.model, self._absolute, self._mass)
+            self._train_modes = TrainModes(
+                layout, vehicle.train, vehicle.bogies, self.model, self._absolute, self._mass
+            )
             self._yaw_arm.update(self._train_modes.arms())
         if isinstance(vehicle, SpatialVehicle):  # a spatial train's names: both (docs/trains.md)
             from rail_mj.analysis.spatial_modes import SpatialModes

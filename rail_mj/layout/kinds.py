@@ -100,7 +100,9 @@ def _bogies(layout: Layout) -> Bogies | None:
         raise ValueError(f"{layout.source}: [bogie] without [secondary] or bogie positions")
     positions = layout.carbody.bogie_positions
     designs: tuple[Bogie | BogieDesign, ...] = (
-        layout.spatial.bogies if layout.spatial is not None and layout.spatial.bogies else (layout.bogie,) * len(positions)
+        layout.spatial.bogies
+        if layout.spatial is not None and layout.spatial.bogies
+        else (layout.bogie,) * len(positions)
     )
     return Bogies(layout.bogie, layout.secondary, positions, designs)
 

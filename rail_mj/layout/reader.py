@@ -23,7 +23,7 @@ import math
 import re
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
 from rail_mj.contact.pair import STANDARD_PROFILES, Profiles, read_profiles, stamp
@@ -275,13 +275,10 @@ class Layout:
     @property
     def wheelset_x(self) -> tuple[float, ...]:
         """Each wheelset's x from the car-body centre, wheelset 1 (leading) first."""
-        if self.bogie is None:
-            return tuple(self.carbody.wheelset_positions)
-        return tuple(
-            xb + xw
-            for xb, design in zip(self.carbody.bogie_positions, self.bogie_designs)
-            for xw in design.wheelset_positions
-        )
+        xs = self.carbody.bogie_positions
+        if self.bogie is None or xs is None:
+            return tuple(self.carbody.wheelset_positions or ())
+        return tuple(xb + xw for xb, design in zip(xs, self.bogie_designs) for xw in design.wheelset_positions)
 
     @property
     def bogie_designs(self) -> tuple[Bogie | BogieDesign, ...]:
@@ -289,7 +286,9 @@ class Layout:
         else `bogie` for every one (its mass, inertia and wheelset_positions)."""
         if self.spatial is not None and self.spatial.bogies:
             return self.spatial.bogies
-        return (self.bogie,) * len(self.carbody.bogie_positions)
+        if self.bogie is None:
+            return ()
+        return (self.bogie,) * len(self.carbody.bogie_positions or ())
 
     @property
     def n_wheelsets(self) -> int:
@@ -309,7 +308,7 @@ class _Table:
         self.data = data
         self.used: set[str] = set()
 
-    def fail(self, key: str | None, what: str):
+    def fail(self, key: str | None, what: str) -> NoReturn:
         where = ".".join(k for k in (self.section, key) if k) or "(top level)"
         raise LayoutError(f"{self.source}: {where}: {what}")
 
@@ -438,8 +437,9 @@ def _practice(table: _Table, warnings: list[str], ranges: str | None = None, **v
 ENVELOPE_MARGIN = 1.5
 
 
-def _inertia_fits(table: _Table, mass: float, inertia, radius: float, what: str) -> None:
-    """Refuse an inertia that needs more room than the body has (radius: its envelope, m)."""
+def _inertia_fits(table: _Table, mass: float | None, inertia, radius: float, what: str) -> None:
+    """Refuse an inertia that needs more room than the body has (radius: its envelope, m);
+    nothing to check on a body without mass (a fixed car body)."""
     if mass is None or inertia is None:
         return
     radius *= ENVELOPE_MARGIN
@@ -597,7 +597,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             t.fail("fixed", f"must be true or false, got {_kind(fixed)}")
         carbody_mass = t.positive("mass", required=not fixed)
         carbody_inertia = t.vector3("inertia", required=not fixed)
-        if has_bogie:
+        if bogie is not None:
             if "wheelset_positions" in t.data:
                 t.fail("wheelset_positions", "not allowed with [bogie]: wheelsets hang from the bogies")
             extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
@@ -621,7 +621,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         t.done()
         _practice(t, warnings, mass=carbody.mass)
         # Ends overhang the outermost wheels by a few metres; about 2 m to the side and roof.
-        xs = carbody.bogie_positions or carbody.wheelset_positions
+        xs = carbody.bogie_positions or carbody.wheelset_positions or ()
         reach = max(abs(x) for x in xs) + (max(abs(x) for x in bogie.wheelset_positions) if bogie else 0.0)
         _inertia_fits(t, carbody.mass, carbody.inertia, math.hypot(reach + r0 + 3.0, 2.0), "car body")
     designs = _bogie_designs(top, warnings, bogie, primary_spring, carbody, is_spatial, wheel_diameter, r0, b)
@@ -629,10 +629,11 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         # The mean static wheel load, the nominal load the creep coefficients are given at: each
         # wheel's own for a symmetric vehicle. (A spatial vehicle's wheels carry their own static
         # loads, from its suspension: rail_mj.vehicle.loads.) fsum of equal masses is n times one, exactly.
-        n_wheelsets = len(carbody.wheelset_positions or ()) or len(carbody.bogie_positions) * len(
-            bogie.wheelset_positions
+        n_bogies = len(carbody.bogie_positions or ())
+        n_wheelsets = len(carbody.wheelset_positions or ()) or (
+            n_bogies * len(bogie.wheelset_positions) if bogie else 0
         )
-        masses = [d.mass for d in designs] or ([bogie.mass] * len(carbody.bogie_positions) if bogie else [])
+        masses = [d.mass for d in designs] or ([bogie.mass] * n_bogies if bogie else [])
         mass = carbody.mass + (math.fsum(masses) if bogie else 0.0)
         wheelset = dataclasses.replace(wheelset, wheel_load=GRAVITY * (mass / n_wheelsets + wheelset.mass) / 2)
     needs_load = "[contact]" if has_contact else f"creep law {law!r}" if law != "linear" else None
@@ -669,6 +670,8 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
             "body without mass gives no weight to share; give it in N",
         )
     creep_table.done()
+    # Given, or from [contact] or the profiles; each way without them has failed above.
+    assert coefficients is not None
     creep = Creep(**coefficients, law=law, friction=friction, **falling)
     flange = None
     if top.get("flange", None, required=False) is not None:
@@ -692,6 +695,9 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         t.done()
     spatial = None
     if is_spatial:
+        # With [spatial] the element tables are read, [primary.axlebox] always and
+        # [secondary.spring] with [bogie] (_spatial refuses a spatial vehicle without it).
+        assert primary_spring is not None
         spatial = _spatial(
             _Table(source, "spatial", top.get("spatial")),
             top,
@@ -794,11 +800,13 @@ def _bogie_designs(
             "bogies",
             "needs [spatial]: different bogies under one car body belong to a spatial vehicle (docs/spatial.md)",
         )
-    if not is_spatial or bogie is None:
+    xs = carbody.bogie_positions
+    if not is_spatial or bogie is None or xs is None:
         if data is not None:
             top.fail("bogies", "given without [bogie]: [bogies.N] changes [bogie]'s design for bogie N")
         return ()
-    n = len(carbody.bogie_positions)
+    assert primary is not None  # [primary.axlebox], read with [spatial]
+    n = len(xs)
     given = {}
     if data is not None:
         t = _Table(top.source, "bogies", data)
@@ -829,16 +837,14 @@ def _bogie_designs(
                 f"wheelsets are numbered per bogie)",
             )
         positions = positions or bogie.wheelset_positions
-        axlebox = e.get("axlebox", None, required=False)
-        if axlebox is not None:
-            axlebox = _spring(_Table(top.source, f"bogies.{i}.axlebox", axlebox), primary)
+        own = e.get("axlebox", None, required=False)
+        axlebox = primary if own is None else _spring(_Table(top.source, f"bogies.{i}.axlebox", own), primary)
         e.done()
         if "mass" in e.data:
             _practice(e, warnings, ranges="bogie", mass=mass)
         reach = max(abs(x) for x in positions) + r0  # as [bogie]'s
         _inertia_fits(e, mass, inertia, math.hypot(reach, b + 0.5), "bogie frame")
-        designs.append(BogieDesign(mass, inertia, positions, axlebox or primary))
-    xs = carbody.bogie_positions
+        designs.append(BogieDesign(mass, inertia, positions, axlebox))
     for k in range(1, n):  # [bogie]'s spacing check holds for its own wheelbase only
         front = xs[k - 1] + min(designs[k - 1].wheelset_positions)
         back = xs[k] + max(designs[k].wheelset_positions)
@@ -942,7 +948,7 @@ def _spatial(
     r0: float,
 ) -> Spatial:
     """[spatial], checked: a free car body on bogies, the heights of the centres of mass."""
-    if bogie is None:
+    if bogie is None or secondary is None:  # [secondary.spring] comes with [bogie]
         top.fail("spatial", "needs [bogie]: a spatial vehicle is a car body on bogies")
     if carbody.fixed:
         top.fail("spatial", "needs a free car body (carbody.fixed = false)")
@@ -1128,7 +1134,7 @@ def _train(
                 "train.bogie_positions",
                 f"bogie {i} is listed by cars {on}: a (Jacobs) bogie carries the ends of at most two adjacent cars",
             )
-    couplings = []
+    couplings: list[Coupling] = []
     coupling_data = top.get("coupling", [], required=False) or []
     if not isinstance(coupling_data, list):
         top.fail("coupling", "must be an array of tables, one [[coupling]] per pair of adjacent cars")
@@ -1210,7 +1216,13 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, fl
         )
     for key, other in (("wheel", "rail"), ("rail", "wheel")):  # one at a time: an error names its key
         try:
-            read_profiles(dataclasses.replace(profiles, **{other: STANDARD_PROFILES[other][0]}))
+            standard = STANDARD_PROFILES[other][0]
+            alone = (
+                dataclasses.replace(profiles, rail=standard)
+                if other == "rail"
+                else dataclasses.replace(profiles, wheel=standard)
+            )
+            read_profiles(alone)
         except p.ProfileError as e:
             t.fail(key, str(e))
         except ValueError as e:
@@ -1296,35 +1308,36 @@ def _contact(t: _Table, wheelset: Wheelset, profiled: bool = False):
     t.done()
     if profiled:
         return contact, None
-    from rail_mj.contact.hertz import ContactError, contact_patch  # scipy: only for layouts that need it
+    from rail_mj.contact.hertz import ContactError  # scipy: only for layouts that need it
 
     try:
-        patch = contact_patch(
-            wheelset.wheel_load,
-            wheelset.rolling_radius,
-            contact.rail_transverse_radius,
-            young_modulus=contact.young_modulus,
-            poisson_ratio=contact.poisson_ratio,
-            wheel_transverse_radius=contact.wheel_transverse_radius,
-        )
+        patch = _patch(contact, wheelset)
     except ContactError as e:
         t.fail(None, str(e))
     return contact, patch.creep_coefficients
 
 
-def contact_patch_of(layout: Layout):
-    """The Hertz ellipse and Kalker coefficients of a layout with [contact]."""
+def _patch(contact: Contact, wheelset: Wheelset):
+    """The Hertz ellipse and Kalker coefficients of [contact] under `wheelset`'s wheels."""
     from rail_mj.contact.hertz import contact_patch
 
-    c = layout.contact
+    # A [contact] on cones has its rail's crown and its wheel load (the reader requires both).
+    assert contact.rail_transverse_radius is not None and wheelset.wheel_load is not None
     return contact_patch(
-        layout.wheelset.wheel_load,
-        layout.wheelset.rolling_radius,
-        c.rail_transverse_radius,
-        young_modulus=c.young_modulus,
-        poisson_ratio=c.poisson_ratio,
-        wheel_transverse_radius=c.wheel_transverse_radius,
+        wheelset.wheel_load,
+        wheelset.rolling_radius,
+        contact.rail_transverse_radius,
+        young_modulus=contact.young_modulus,
+        poisson_ratio=contact.poisson_ratio,
+        wheel_transverse_radius=contact.wheel_transverse_radius,
     )
+
+
+def contact_patch_of(layout: Layout):
+    """The Hertz ellipse and Kalker coefficients of a layout with [contact]."""
+    if layout.contact is None:
+        raise ValueError(f"{layout.source}: no [contact] table: no Hertz ellipse")
+    return _patch(layout.contact, layout.wheelset)
 
 
 def load_layout(path: str | Path) -> Layout:
