@@ -28,6 +28,7 @@ import numpy as np
 from rail_mj.analysis import late_motion, oscillation
 from rail_mj.analysis.stability import CriticalSpeed, Stability
 from rail_mj.layout import Layout
+from rail_mj.layout.kinds import Profiled, contact_model
 from rail_mj.simulation.runner import simulate
 
 # One procedure and one step for every nonlinear critical speed rail-mj reports (the
@@ -113,7 +114,8 @@ def nonlinear_critical_speed(
     before the speed falls below the linear critical speed gives no nonlinear critical
     speed (the note says so): it is never reported above the linear one.
     """
-    if (layout.flange is None and layout.profiles is None) or layout.creep.law == "linear":
+    contact = contact_model(layout)
+    if not contact.flanged or layout.creep.law == "linear":
         raise ValueError(
             f"{layout.source}: the nonlinear critical speed needs flange contact ([flange] or "
             f"[profiles]) and a saturating creep law: without them hunting grows without bound"
@@ -136,7 +138,7 @@ def nonlinear_critical_speed(
     speeds = start * (1.0 - step) ** np.arange(int(math.log(vmin / start) / math.log(1.0 - step)) + 1)
     # Onto the flanges: twice the clearance into the flange spring, or on profiles, whose
     # flanges are rigid walls, to where they touch.
-    reach = 1.0 if layout.profiles is not None else 2.0
+    reach = 1.0 if isinstance(contact, Profiled) else 2.0
     branch = follow(
         layout,
         speeds,

@@ -28,7 +28,7 @@ from scipy.optimize import brentq
 
 from rail_mj.analysis import late_motion, oscillation
 from rail_mj.layout import Layout
-from rail_mj.layout.kinds import SpatialVehicle, TrainOfCars, vehicle_kind
+from rail_mj.layout.kinds import Profiled, SpatialVehicle, TrainOfCars, contact_model, vehicle_kind
 from rail_mj.simulation.linear import RIGID_TOLERANCE, modal_roots, state_matrix
 from rail_mj.simulation.run import Derailed
 from rail_mj.simulation.runner import simulate
@@ -124,7 +124,8 @@ class Stability:
         default 3, where EN 15302 quotes the equivalent conicity): rail_mj.contact.tables.linearised."""
         self.layout = layout
         self.amplitude = None
-        if layout.profiles is not None:
+        contact = contact_model(layout)
+        if isinstance(contact, Profiled):
             from rail_mj.contact.conicity import MIN_AMPLITUDE, QUOTED_AMPLITUDE
 
             self.amplitude = QUOTED_AMPLITUDE if amplitude is None else float(amplitude)
@@ -133,7 +134,7 @@ class Stability:
                     f"the amplitude must be from {MIN_AMPLITUDE:g} to {LARGEST_AMPLITUDE:g} mm, got {amplitude}"
                 )
             layout = dataclasses.replace(
-                layout, profiles=dataclasses.replace(layout.profiles, linearised_at=self.amplitude)
+                layout, profiles=dataclasses.replace(contact.profiles, linearised_at=self.amplitude)
             )
         elif amplitude is not None:
             raise ValueError(

@@ -1,4 +1,5 @@
-"""Which vehicle a layout describes, as a type: `Planar`, `TrainOfCars` or `SpatialVehicle`.
+"""Which vehicle a layout describes, and on which contact, as types: `Planar`, `TrainOfCars` or
+`SpatialVehicle`; `Coned`, `Hertzian` or `Profiled`.
 
 A `Layout` keeps the tables the user wrote, and most are optional: `[bogie]`, `[train]`,
 `[spatial]`. Which of them are there decides the vehicle, and the reader has already refused
@@ -11,19 +12,28 @@ are then never None: the variants are types, not `is None` tests in every stage.
     TrainOfCars     car bodies in a row on bogies, Jacobs bogies and couplings (docs/trains.md)
     SpatialVehicle  a car body, or a train of them, on bogies in five motions (docs/spatial.md)
 
+and `contact_model(layout)` the contact under it, from [contact], [flange] and [profiles]:
+
+    Coned           coned wheels, creep coefficients as given; a flange spring or none
+    Hertzian        coned wheels with Hertz's ellipse and Kalker's coefficients from [contact]
+    Profiled        wheel and rail profiles, every contact point from their contact table
+
 Example:
 
     >>> from rail_mj.layout import load_layout
     >>> kind = vehicle_kind(load_layout("models/manchester-coach/manchester-coach.toml"))
     >>> type(kind).__name__, kind.bogies.positions, kind.bogies.wheelsets_per_bogie
     ('Planar', (9.5, -9.5), 2)
+    >>> contact = contact_model(load_layout("models/manchester-coach/manchester-coach.toml"))
+    >>> type(contact).__name__, contact.flanged
+    ('Coned', True)
 """
 
 from __future__ import annotations
 
 import dataclasses
 
-from rail_mj.layout.reader import Bogie, BogieDesign, Layout, Spatial, Suspension, Train
+from rail_mj.layout.reader import Bogie, BogieDesign, Contact, Flange, Layout, Profiles, Spatial, Suspension, Train
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,3 +132,53 @@ def vehicle_kind(layout: Layout) -> VehicleKind:
             raise ValueError(f"{layout.source}: neither [bogie] nor carbody.wheelset_positions")
         return Planar(layout, None, layout.carbody.wheelset_positions)
     return Planar(layout, bogies)
+
+
+# --- the contact model ---------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class Coned:
+    """Coned wheels (docs/dynamics.md): the linear contact geometry of `wheelset` (conicity,
+    contact spacing, flangeway clearance) with the creep coefficients of [creep]; `flange` the
+    flange spring beyond the clearance, None without (the classical linear model)."""
+
+    layout: Layout
+    flange: Flange | None
+
+    @property
+    def flanged(self) -> bool:
+        return self.flange is not None
+
+
+@dataclasses.dataclass(frozen=True)
+class Hertzian(Coned):
+    """Coned wheels whose creep coefficients come from Hertz's ellipse of [contact] and Kalker's
+    table (docs/contact.md); FASTSIM works on that ellipse."""
+
+    contact: Contact = dataclasses.field(kw_only=True)
+
+
+@dataclasses.dataclass(frozen=True)
+class Profiled:
+    """Wheel and rail profiles (docs/dynamics-on-profiles.md): every contact point from their
+    contact table, the flanges rigid walls of the profiles."""
+
+    layout: Layout
+    profiles: Profiles
+
+    @property
+    def flanged(self) -> bool:
+        return True
+
+
+ContactModel = Coned | Hertzian | Profiled
+
+
+def contact_model(layout: Layout) -> ContactModel:
+    """The contact `layout` describes (see Coned, Hertzian, Profiled)."""
+    if layout.profiles is not None:
+        return Profiled(layout, layout.profiles)
+    if layout.contact is not None:
+        return Hertzian(layout, layout.flange, contact=layout.contact)
+    return Coned(layout, layout.flange)

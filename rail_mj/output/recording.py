@@ -55,6 +55,8 @@ import rerun.blueprint as rrb
 
 from rail_mj.analysis import flange_strikes
 from rail_mj.files import staged
+from rail_mj.layout.kinds import Coned, Profiled, contact_model
+from rail_mj.layout.reader import Flange
 from rail_mj.simulation.run import Run
 from rail_mj.units import MM_PER_M, MRAD_PER_RAD, N_PER_KN
 from rail_mj.vehicle.looks import RAIL_HEAD_WIDTH
@@ -286,17 +288,20 @@ def plots(run: Run) -> list[Plot]:
             ),
         ]
         out += _wheel_plots(run, wheelsets)
-    if run.layout.profiles is not None:  # the normal forces: gravitational stiffness and the flange
-        out.append(
-            Plot(
-                "Wheelsets: normal forces, lateral part (kN)",
-                wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN),
+    match contact_model(run.layout):
+        case Profiled():  # the normal forces: gravitational stiffness and the flange
+            out.append(
+                Plot(
+                    "Wheelsets: normal forces, lateral part (kN)",
+                    wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN),
+                )
             )
-        )
-    elif run.layout.flange is not None:
-        out.append(
-            Plot("Wheelsets: flange force (kN)", wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN))
-        )
+        case Coned(flange=Flange()):
+            out.append(
+                Plot(
+                    "Wheelsets: flange force (kN)", wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)
+                )
+            )
     return out
 
 
@@ -442,7 +447,7 @@ def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: lis
 
 def _flanges(run: Run) -> bool:
     """Whether the run has flange contact: [flange], or profiles (their own flanges)."""
-    return run.layout.flange is not None or run.layout.profiles is not None
+    return contact_model(run.layout).flanged
 
 
 def log_flange_strikes(rec: rr.RecordingStream, run: Run) -> None:

@@ -23,6 +23,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
+from rail_mj.layout.kinds import Profiled, contact_model
 from rail_mj.simulation import native
 from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.simulation.run import Derailed, Request, Run, SimulationError
@@ -72,7 +73,8 @@ class Prepared:
     @functools.cached_property
     def table_end(self) -> float:
         """|y| where a profiled vehicle's contact table ends; inf on coned wheels."""
-        return -table_header(self.vehicle.model)[0] if self.request.layout.profiles is not None else math.inf
+        profiled = isinstance(contact_model(self.request.layout), Profiled)
+        return -table_header(self.vehicle.model)[0] if profiled else math.inf
 
 
 class Running:

@@ -10,6 +10,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from rail_mj.layout.kinds import Coned, Profiled, contact_model
+from rail_mj.layout.reader import Flange
 from rail_mj.numerics import HEADER_DY, HEADER_Y0, NUMERIC_GEOMETRY
 from rail_mj.simulation.callback import CreepForces
 from rail_mj.simulation.linear import modal_roots, state_matrix
@@ -37,17 +39,19 @@ def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> floa
     the model's speed.
     """
     rate = np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, forces))))
-    layout = vehicle.layout
-    if layout.flange is not None or layout.profiles is not None:
-        # In flange contact the rail's stiffness and the steep radius rise add faster
-        # rates: linearise there too, the whole vehicle pressed 2 mm into the flanges; on
-        # profiles, in the table's step where the contact jumps onto the flange (the
-        # normal force's lateral part rises by ~2 W over 0.05 mm: the stiffest place).
-        shift = (
-            layout.wheelset.flangeway_clearance + 0.002
-            if layout.profiles is None
-            else layout.wheelset.flangeway_clearance - 0.5 * table_header(vehicle.model)[1]
-        )
+    clearance = vehicle.layout.wheelset.flangeway_clearance
+    # In flange contact the rail's stiffness and the steep radius rise add faster rates:
+    # linearise there too, the whole vehicle pressed 2 mm into the flange springs; on
+    # profiles, in the table's step where the contact jumps onto the flange (the normal
+    # force's lateral part rises by ~2 W over 0.05 mm: the stiffest place).
+    match contact_model(vehicle.layout):
+        case Profiled():
+            shift: float | None = clearance - 0.5 * table_header(vehicle.model)[1]
+        case Coned(flange=Flange()):
+            shift = clearance + 0.002
+        case _:
+            shift = None
+    if shift is not None:
         qpos0 = np.zeros(vehicle.model.nq)
         qpos0[vehicle.root_lateral_dofs] = shift
         engaged = state_matrix(vehicle.model, forces, qpos0=qpos0)

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.layout import GRAVITY, LAWS, Layout
-from rail_mj.layout.kinds import Planar, SpatialVehicle, TrainOfCars, vehicle_kind
+from rail_mj.layout.kinds import Hertzian, Planar, SpatialVehicle, TrainOfCars, contact_model, vehicle_kind
 from rail_mj.numerics import (
     NUMERIC_CREEP,
     NUMERIC_ELLIPSE,
@@ -127,7 +127,7 @@ def _add_loads(spec: mujoco.MjSpec, vehicle: SpatialVehicle) -> None:
 def _ellipse(layout: Layout) -> tuple[float, ...]:
     """NUMERIC_ELLIPSE's numbers: the Hertz ellipse of [contact], or zeros (also on
     profiles, whose contact table carries each point's ellipse)."""
-    if layout.contact is None or layout.profiles is not None:
+    if not isinstance(contact_model(layout), Hertzian):
         return (0.0,) * 7
     from rail_mj.layout import contact_patch_of  # scipy: only for layouts with [contact]
 
