@@ -4,8 +4,9 @@ Data flows through one folder each, in this order (README.md, "How the code is l
 a folder imports only from those before it (tests/test_architecture.py, import-linter in CI):
 
     units, numerics, files   shared units, the model<->callback file format, safe output files
+    practice      the table of practice: what the checks refuse and what they warn about
     contact/      wheel-rail contact: profiles, geometry, conicity, Hertz and Kalker, creep laws
-    layout/       a layout file (TOML) -> checked `Layout`; what practice refuses or warns
+    layout/       a layout file (TOML) -> checked `Layout`
     vehicle/      `Layout` -> MuJoCo model (MjSpec) and its MJCF files (`Vehicle`, `generate`)
     simulation/   the creep forces as MuJoCo callbacks; timestep, runs and batches (`simulate`)
     analysis/     what runs and linearisations show: motion, EN 14363, modes, stability, limit cycles

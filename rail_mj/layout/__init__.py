@@ -1,7 +1,7 @@
 """What the user wrote: a layout file (TOML) read and checked into a `Layout`.
 
     reader.py      TOML -> `Layout`, one reader per table; every bad input one `LayoutError` line
-    practice.py    what is impossible (refused) and what is far from railway practice (warned), with sources
+    practice.py    the table of practice, kept importable here: it lives in rail_mj.practice, a leaf
 
 Example:
 

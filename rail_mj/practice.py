@@ -5,7 +5,9 @@ assumptions) and is an error; a value inside `refuse` but outside `usual` is leg
 far from railway practice, and gets a one-line warning. Each range says where it comes
 from; docs/practice.md explains them. One table serves the layout checks
 (`rail_mj.layout`) and the command line (speeds, initial disturbances, one contact
-ellipse's semi-axes, creepages and Poisson's ratio, the bifurcation step).
+ellipse's semi-axes, creepages and Poisson's ratio, the bifurcation step). It is a leaf
+of the package (it imports nothing of rail-mj), so every folder may check against it;
+`rail_mj.layout.practice` forwards it for code written against 0.2's path.
 
 Example:
 
@@ -19,6 +21,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+
+__all__ = ["DERAILMENT_LATERAL", "FLANGE_HEIGHT", "RANGES", "Range", "max_initial_yaw"]
 
 # A wheel further off-centre than the width of a UIC60 (60E1) rail head, 72 mm
 # (EN 13674-1), has left the rail: the runner calls that a derailment.
