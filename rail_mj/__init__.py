@@ -6,6 +6,7 @@ a folder imports only from those before it (tests/test_architecture.py, import-l
     units, numerics, files   shared units, the model<->callback file format, safe output files
     practice      the table of practice: what the checks refuse and what they warn about
     contact/      wheel-rail contact: profiles, geometry, conicity, Hertz and Kalker, creep laws
+    track/        the track: a track file (TOML sections, CSV) -> checked `Track`; curvature and cant along it
     layout/       a layout file (TOML) -> checked `Layout`
     vehicle/      `Layout` -> MuJoCo model (MjSpec) and its MJCF files (`Vehicle`, `generate`)
     simulation/   the creep forces as MuJoCo callbacks; timestep, runs and batches (`simulate`)
@@ -67,6 +68,11 @@ _EXPORTS = {
     "wheelset_forces": "contact.creep",
     "ContactParameters": "contact.creep",
     "ContactForces": "contact.creep",
+    # track
+    "Track": "track",
+    "TrackError": "track",
+    "track_from_dict": "track",
+    "load_track": "track",
     # layout
     "Layout": "layout",
     "LayoutError": "layout",

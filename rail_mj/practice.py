@@ -4,8 +4,9 @@ A value outside `refuse` cannot describe a rail vehicle on rails (or breaks the 
 assumptions) and is an error; a value inside `refuse` but outside `usual` is legal and
 far from railway practice, and gets a one-line warning. Each range says where it comes
 from; docs/practice.md explains them. One table serves the layout checks
-(`rail_mj.layout`) and the command line (speeds, initial disturbances, one contact
-ellipse's semi-axes, creepages and Poisson's ratio, the bifurcation step). It is a leaf
+(`rail_mj.layout`), the track checks (`rail_mj.track`: radii, cant, steps between sections)
+and the command line (speeds, initial disturbances, one contact ellipse's semi-axes,
+creepages and Poisson's ratio, the bifurcation step). It is a leaf
 of the package (it imports nothing of rail-mj), so every folder may check against it;
 `rail_mj.layout.practice` forwards it for code written against 0.2's path.
 
@@ -22,7 +23,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-__all__ = ["DERAILMENT_LATERAL", "FLANGE_HEIGHT", "RANGES", "Range", "max_initial_yaw"]
+__all__ = ["CANT_STEP", "CURVATURE_STEP", "DERAILMENT_LATERAL", "FLANGE_HEIGHT", "RANGES", "Range", "max_initial_yaw"]
 
 # A wheel further off-centre than the width of a UIC60 (60E1) rail head, 72 mm
 # (EN 13674-1), has left the rail: the runner calls that a derailment.
@@ -135,7 +136,41 @@ RANGES = {
     "bifurcation.step": Range(
         (0.001, 0.2), (0.001, 0.2), "", "3400 dwells from 150 to 5 m/s to within a fifth", "any step"
     ),
+    # The track (rail_mj.track). A curve's radius, its size (the sign says which way it turns).
+    # EN 13803 sets 150 m as the least radius of any track that different vehicles use, station,
+    # depot and siding tracks included; tighter curves are those of trams, metros and industrial
+    # sidings. Below 10 m no vehicle runs (trams go down to about 15 m), and a 2.5 m wheelbase
+    # would turn through a quarter of a radian: beyond the small angles between a body and the
+    # track that the track-following frame and the contact geometry assume.
+    "track.radius": Range(
+        (10.0, math.inf),
+        (150.0, math.inf),
+        "m",
+        "tighter than trams run; a 2.5 m wheelbase would turn through 0.25 rad",
+        "EN 13803's least radius on tracks that different vehicles use",
+    ),
+    # Cant, the outer rail over the inner over 1.5 m (negative: the inner rail higher). EN 13803
+    # allows at most 180 mm on ballasted track (160 mm recommended): a train stopped in the curve
+    # must not lean too far onto its inner wheels. Negative cant is found only on a turnout
+    # curving off a canted curve. The most steeply canted lines, Japan's high-speed lines, have
+    # 200 mm: beyond it, either way, no standard-gauge track is laid.
+    "track.cant": Range(
+        (-0.2, 0.2),
+        (0.0, 0.18),
+        "m",
+        "200 mm, the most any standard-gauge track is canted",
+        "EN 13803's 180 mm on ballasted track; negative only on turnouts off canted curves",
+    ),
 }
+
+# A change of curvature or cant from one section of a track to the next with no transition
+# between is warned about (rail_mj.track): the vehicle is kicked sideways, and EN 13803 runs
+# curvature and cant up along transitions except where a layout leaves no room (switches).
+# Smaller changes are taken as rounding. A curvature step of 1e-6 1/m (a 1000 km radius) steps
+# the lateral acceleration by V^2 * 1e-6, 0.01 m/s^2 at 100 m/s: nothing a vehicle feels. A
+# cant step of 1 mm is below the few millimetres to which cross level is laid and measured.
+CURVATURE_STEP = 1e-6  # 1/m
+CANT_STEP = 1e-3  # m
 
 
 def max_initial_yaw(rolling_radius: float, clearance: float) -> float:
