@@ -49,14 +49,16 @@ class Range:
         if lo <= value <= hi:
             return None
         units = f"; check the units ({self.unit})" if self.unit else ""
-        return f"must be between {lo:g} and {hi:g} {self.unit} ({self.why}), got {value:g}{units}"
+        bounds = f"at least {lo:g}" if hi == math.inf else f"between {lo:g} and {hi:g}"
+        return f"must be {bounds} {self.unit} ({self.why}), got {value:g}{units}"
 
     def warning(self, value: float) -> str | None:
         """The warning for a legal value outside railway practice (None inside it)."""
         lo, hi = self.usual
         if lo <= value <= hi:
             return None
-        return f"{value:g} {self.unit} is outside railway practice, {lo:g}-{hi:g} {self.unit} ({self.practice})"
+        usual = f"{lo:g} {self.unit} or more" if hi == math.inf else f"{lo:g}-{hi:g} {self.unit}"
+        return f"{value:g} {self.unit} is outside railway practice, {usual} ({self.practice})"
 
 
 RANGES = {

@@ -284,7 +284,9 @@ def _advance(heading: ArrayLike, k: ArrayLike, rate: ArrayLike, u: ArrayLike) ->
     psi(t) = heading + k*t + rate*t^2/2, from 0 to u. Constant curvature: the chord of the
     circle, 2*sin(k*u/2)/k along heading + k*u/2 (exact, and the straight's u at k = 0).
     Otherwise Gauss-Legendre over [0, u] (u within a piece, where it is exact to rounding)."""
-    heading, k, rate, u = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (heading, k, rate, u)))
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (heading, k, rate, u)))
+    shape = arrays[0].shape
+    heading, k, rate, u = (a.ravel() for a in arrays)
     z = u * np.sinc(k * u / (2 * np.pi)) * np.exp(1j * (heading + k * u / 2))
     ramp = rate != 0.0
     if np.any(ramp):
@@ -292,4 +294,4 @@ def _advance(heading: ArrayLike, k: ArrayLike, rate: ArrayLike, u: ArrayLike) ->
         t = uu[:, None] * (1.0 + _NODES) / 2  # the nodes on [0, u]
         psi = h[:, None] + kk[:, None] * t + r[:, None] * t * t / 2
         z[ramp] = uu / 2 * (np.exp(1j * psi) @ _WEIGHTS)
-    return z
+    return z.reshape(shape)

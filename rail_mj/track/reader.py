@@ -208,7 +208,7 @@ def _steps(source: str, sections: list[Section]) -> list[str]:
         if abs(dk) > CURVATURE_STEP:
             steps.append(
                 f"curvature steps by {dk:.6g} 1/m (the lateral acceleration by V^2 times it, "
-                f"{dk * 100.0**2 / 3.6**2:.3g} m/s^2 at 100 km/h)"
+                f"{abs(dk) * (100.0 / 3.6) ** 2:.3g} m/s^2 at 100 km/h)"
             )
         if abs(dd) > CANT_STEP:
             steps.append(f"cant steps by {dd * 1e3:.4g} mm (the track twists in no length)")
@@ -310,7 +310,7 @@ def _csv_practice(source: str, rows: list[tuple[int, float, float, float]]) -> l
                 raise TrackError(
                     f"{where}: curvature_1_per_m {curvature:g} is a radius of {1 / abs(curvature):g} m: {error}"
                 )
-        error = RANGES["track.cant"].check(abs(cant))
+        error = RANGES["track.cant"].check(cant)
         if error:
             raise TrackError(f"{where}: cant_m: {error}")
     n, _, curvature, _ = max(rows, key=lambda row: abs(row[2]))
