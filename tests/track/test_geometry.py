@@ -105,6 +105,38 @@ def test_a_transition_between_two_curves():
     assert float(track.cant(140.0)) == pytest.approx(0.05 + 0.07 * 60.0 / 120.0, abs=1e-16)
 
 
+def test_the_design_track_ends_where_the_closed_forms_put_it():
+    """Straight, clothoid, circle, clothoid, straight, composed from their closed forms: the
+    clothoid of A^2 = R L ends at (A sqrt(pi) C(t), A sqrt(pi) S(t)), t = L/(A sqrt(pi)), turned
+    by L/(2R); the circle's chord is 2R sin(Lc/(2R)) at half its turn; the way out is the way in
+    mirrored, (X, -Y) in the frame of its end. The example track (models/tracks) ends at
+    (817.902, 283.202) m, heading (300 + 100)/600 rad."""
+    r, lt, lc, ls = 600.0, 100.0, 300.0, 200.0
+    track = track_from_dict(
+        {
+            "section": [
+                {"kind": "straight", "length": ls},
+                {"kind": "transition", "length": lt},
+                {"kind": "curve", "length": lc, "radius": r, "cant": 0.15},
+                {"kind": "transition", "length": lt},
+                {"kind": "straight", "length": ls},
+            ]
+        }
+    )
+    a = math.sqrt(r * lt) * math.sqrt(math.pi)
+    s, c = fresnel(lt / a)
+    clothoid = complex(a * c, a * s)
+    turn_in, turn_curve = lt / (2 * r), lc / r
+    z = ls + clothoid
+    z += 2 * r * math.sin(turn_curve / 2) * np.exp(1j * (turn_in + turn_curve / 2))
+    heading = 2 * turn_in + turn_curve
+    z += clothoid.conjugate() * np.exp(1j * heading)
+    z += ls * np.exp(1j * heading)
+    assert np.abs(track.xy(track.length) - [z.real, z.imag]).max() < 1e-10
+    assert float(track.heading(track.length)) == pytest.approx(heading, abs=4 * EPS)
+    assert track.xy(track.length).round(3).tolist() == [817.902, 283.202]
+
+
 def test_everything_is_continuous_through_transitions():
     """Straight, transition, curve, transition, straight: curvature, cant, heading and position
     have no step at any boundary: 2 nm apart, either side of it, they differ by at most their
