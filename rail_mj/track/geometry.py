@@ -144,39 +144,39 @@ class Track:
                 )
             end = section.end
         starts = np.array([s.start for s in self.sections])
-        lengths = np.array([s.length for s in self.sections])
-        k0 = np.array([s.curvature_start for s in self.sections])
-        k1 = np.array([s.curvature_end for s in self.sections])
-        d0 = np.array([s.cant_start for s in self.sections])
-        d1 = np.array([s.cant_end for s in self.sections])
-        heading0 = np.concatenate([[0.0], np.cumsum((k0 + k1) / 2 * lengths)[:-1]])
-        fields = {"_starts": starts, "_lengths": lengths, "_k0": k0, "_k1": k1, "_d0": d0, "_d1": d1}
-        fields["_heading0"] = heading0
-        fields.update(zip(("_piece_start", "_piece_heading", "_piece_k", "_piece_rate", "_piece_z"), self._pieces()))
+        heading0 = [0.0]  # the heading at each section's start
+        for s in self.sections[:-1]:
+            heading0.append(heading0[-1] + (s.curvature_start + s.curvature_end) / 2 * s.length)
+        fields = {
+            "_starts": starts,
+            "_lengths": np.array([s.length for s in self.sections]),
+            "_k0": np.array([s.curvature_start for s in self.sections]),
+            "_k1": np.array([s.curvature_end for s in self.sections]),
+            "_d0": np.array([s.cant_start for s in self.sections]),
+            "_d1": np.array([s.cant_end for s in self.sections]),
+            "_heading0": np.array(heading0),
+        }
+        pieces = self._pieces(heading0)
+        fields.update(zip(("_piece_start", "_piece_heading", "_piece_k", "_piece_rate", "_piece_z"), pieces))
         for name, value in fields.items():
             object.__setattr__(self, name, value)
 
-    def _pieces(self) -> tuple[Array, Array, Array, Array, NDArray[np.complex128]]:
+    def _pieces(self, heading0: list[float]) -> tuple[Array, Array, Array, Array, NDArray[np.complex128]]:
         """The pieces the plane position is integrated over: each straight and curve whole, each
         transition in pieces along which the tangent turns by at most PIECE_TURN. For each piece
         its start (m), heading and curvature there, the rate of change of curvature (1/m^2) and
         the position of its start (X + iY)."""
         start, heading, k, rate = [], [], [], []
-        psi = 0.0
-        for s in self.sections:
+        for s, psi in zip(self.sections, heading0):
             slope = (s.curvature_end - s.curvature_start) / s.length
-            n = (
-                1
-                if slope == 0.0
-                else max(1, math.ceil(max(abs(s.curvature_start), abs(s.curvature_end)) * s.length / PIECE_TURN))
-            )
+            turn = max(abs(s.curvature_start), abs(s.curvature_end)) * s.length
+            n = 1 if slope == 0.0 else max(1, math.ceil(turn / PIECE_TURN))
             for j in range(n):
                 u = s.length * j / n
                 start.append(s.start + u)
                 heading.append(psi + s.curvature_start * u + slope * u * u / 2)
                 k.append(s.curvature_start + slope * u)
                 rate.append(slope)
-            psi += (s.curvature_start + s.curvature_end) / 2 * s.length
         starts = np.array(start)
         lengths = np.diff(np.append(starts, self.sections[-1].end))
         steps = _advance(np.array(heading), np.array(k), np.array(rate), lengths)

@@ -172,7 +172,8 @@ def _section(
     _practice(where, label, "track.radius", abs(radius), warnings)
     cant = _number(where, "cant", table.get("cant", 0.0))
     _practice(where, "cant", "track.cant", cant, warnings)
-    return kind, length, (1.0 / radius, math.copysign(cant, radius) if cant else 0.0), radius
+    side = 1.0 if radius > 0 else -1.0  # the outer rail: the right one in a left curve
+    return kind, length, (1.0 / radius, side * cant + 0.0), radius  # + 0.0: no -0.0 for a level curve
 
 
 def _number(where: str, key: str, value: Any) -> float:

@@ -173,6 +173,10 @@ def test_cant_is_signed_with_the_curve():
     assert at_rest == pytest.approx(-GRAVITY * 0.1, rel=4 * EPS)
     assert float(right.uncompensated_acceleration(50.0, 0.0)) == -at_rest
     assert left.curves[0].cant == 0.15 and right.curves[0].cant == -0.15
+    # Negative cant raises the inner rail: the left one of a left curve, the right one of a right curve.
+    assert float(curve(600.0, 10.0, cant=-0.05).cant(5.0)) == -0.05
+    assert float(curve(-600.0, 10.0, cant=-0.05).cant(5.0)) == 0.05
+    assert math.copysign(1.0, float(curve(-600.0, 10.0).cant(5.0))) == 1.0  # a level curve: +0, not -0
 
 
 @pytest.mark.parametrize(("radius", "cant"), [(600.0, 0.15), (-600.0, 0.15), (250.0, 0.18), (3000.0, 0.05)])
