@@ -4,8 +4,10 @@ Data flows through one folder each, in this order (README.md, "How the code is l
 a folder imports only from those before it (tests/test_architecture.py, import-linter in CI):
 
     units, numerics, files   shared units, the model<->callback file format, safe output files
+    practice      the table of practice: what the checks refuse and what they warn about
     contact/      wheel-rail contact: profiles, geometry, conicity, Hertz and Kalker, creep laws
-    layout/       a layout file (TOML) -> checked `Layout`; what practice refuses or warns
+    track/        the track: a track file (TOML sections, CSV) -> checked `Track`; curvature and cant along it
+    layout/       a layout file (TOML) -> checked `Layout`
     vehicle/      `Layout` -> MuJoCo model (MjSpec) and its MJCF files (`Vehicle`, `generate`)
     simulation/   the creep forces as MuJoCo callbacks; timestep, runs and batches (`simulate`)
     analysis/     what runs and linearisations show: motion, EN 14363, modes, stability, limit cycles
@@ -66,6 +68,11 @@ _EXPORTS = {
     "wheelset_forces": "contact.creep",
     "ContactParameters": "contact.creep",
     "ContactForces": "contact.creep",
+    # track
+    "Track": "track",
+    "TrackError": "track",
+    "track_from_dict": "track",
+    "load_track": "track",
     # layout
     "Layout": "layout",
     "LayoutError": "layout",

@@ -17,14 +17,14 @@ import sys
 import types
 
 # Old module -> its new home. `rail_mj.layout`, `rail_mj.analysis`, `rail_mj.contact`,
-# `rail_mj.cli` and `rail_mj.files` are packages or modules of the same name today.
+# `rail_mj.cli`, `rail_mj.files` and `rail_mj.practice` (the table of practice, back at its 0.1
+# path as a leaf below the track and the layout) are packages or modules of the same name today.
 MOVED = {
     "profiles": "contact.profiles",
     "geometry": "contact.geometry",
     "conicity": "contact.conicity",
     "tables": "contact.tables",
     "creep": "contact.creep",
-    "practice": "layout.practice",
     "wheel": "vehicle.wheel",
     "loads": "vehicle.loads",
     "forces": "simulation.callback",

@@ -23,7 +23,7 @@ from rail_mj.cli.options import (
 )
 from rail_mj.files import STDOUT, staged
 from rail_mj.layout import LAWS, MAX_MAGNITUDE, Layout
-from rail_mj.layout.practice import RANGES
+from rail_mj.practice import RANGES
 from rail_mj.studies.span import AMPLITUDES
 
 

@@ -18,7 +18,7 @@ import click
 
 from rail_mj.files import STDOUT, is_special
 from rail_mj.layout import Layout, LayoutError, load_layout
-from rail_mj.layout.practice import RANGES
+from rail_mj.practice import RANGES
 from rail_mj.studies.span import Rules, Span, SpanError
 
 EXIT_BAD_INPUT = 2

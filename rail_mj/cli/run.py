@@ -20,7 +20,7 @@ from rail_mj.cli.options import (
 )
 from rail_mj.files import staged
 from rail_mj.layout import Layout
-from rail_mj.layout.practice import max_initial_yaw
+from rail_mj.practice import max_initial_yaw
 
 
 @click.command("generate")

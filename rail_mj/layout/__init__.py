@@ -1,8 +1,9 @@
 """What the user wrote: a layout file (TOML) read and checked into a `Layout`.
 
     reader.py      TOML -> `Layout`, one reader per table; every bad input one `LayoutError` line
-    practice.py    what is impossible (refused) and what is far from railway practice (warned), with sources
-    kinds.py       which vehicle a layout describes, as a type: Planar, TrainOfCars, SpatialVehicle
+    practice.py    the table of practice, kept importable here: it lives in rail_mj.practice, a leaf
+    kinds.py       which vehicle a layout describes and on which contact, as types (Planar, TrainOfCars,
+                   SpatialVehicle; Coned, Hertzian, Profiled)
 
 Example:
 

@@ -27,7 +27,7 @@ from typing import Any, NoReturn
 
 from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
 from rail_mj.contact.pair import STANDARD_PROFILES, Profiles, read_profiles, stamp
-from rail_mj.layout.practice import RANGES
+from rail_mj.practice import RANGES
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 # Beyond these no vehicle is meant, and arithmetic on them overflows.

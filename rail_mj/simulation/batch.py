@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable
 
 from rail_mj.layout import Layout
-from rail_mj.layout.practice import DERAILMENT_LATERAL
+from rail_mj.practice import DERAILMENT_LATERAL
 from rail_mj.simulation import native
 from rail_mj.simulation.run import Request, Run, SimulationError
 from rail_mj.simulation.runner import prepare

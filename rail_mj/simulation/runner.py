@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 from rail_mj.layout import Layout
-from rail_mj.layout.practice import DERAILMENT_LATERAL
+from rail_mj.practice import DERAILMENT_LATERAL
 from rail_mj.simulation.callback import CreepForces
 from rail_mj.simulation.run import Request, Run, RunRefused, SimulationError
 from rail_mj.simulation.stepping import Prepared, step_alone

@@ -32,7 +32,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 
-from rail_mj.layout.practice import RANGES
+from rail_mj.practice import RANGES
 
 
 class SpanError(ValueError):

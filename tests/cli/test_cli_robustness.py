@@ -18,7 +18,7 @@ import pytest
 from conftest import MODELS
 
 from rail_mj.cli import main
-from rail_mj.layout.practice import RANGES, max_initial_yaw
+from rail_mj.practice import RANGES, max_initial_yaw
 
 WHEELSET = MODELS / "wheelset" / "wheelset.toml"
 BOGIE = MODELS / "bogie" / "bogie.toml"

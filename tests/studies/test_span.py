@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rail_mj.layout.practice import RANGES
+from rail_mj.practice import RANGES
 from rail_mj.studies.span import AMPLITUDES, GRID, LOCUS, SEARCH, SPEEDS, SWEEP, Span, SpanError
 
 
