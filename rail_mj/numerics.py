@@ -47,23 +47,41 @@ NUMERIC_COUPLES = "rail_mj/couples"
 
 # --- the native block: the first numeric, "rail_mj/native" -------------------------------
 
-# The block's first number, "this is rail-mj's native block, version 4": six significant
-# figures, as MuJoCo's MJCF writer keeps them.
-MAGIC = 7043.04
+# The block's first number, "this is rail-mj's native block, version 5": six significant
+# figures, as MuJoCo's MJCF writer keeps them. Version 5 added the track part (below).
+MAGIC = 7043.05
 # Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
-# of rows of its profile contact table (0: coned wheels), then the contact parameters
-# (ContactParameters.table, row-major), the profile contact table (rail_mj.contact.tables,
-# row-major), then per wheelset its body and the joints from it to the world: count, then
-# (joint, dof, 1 for a hinge / 0 for a slide); then its weight (N), the nominal wheel load
-# (N), its spin inertia (gyroscopic terms; 0: off), the cones' gravitational stiffness (0/1)
-# and its axlebox tendons (rail_mj.vehicle.loads): count, then (tendon, on P, on M); count 0: the
-# wheels carry the static load; then its shear couples: count, then (z tendon, y tendon).
-# After the wheelsets, the frames' shear couples (rail_mj.vehicle.loads.ShearCouples): count, then
-# (z, y, x tendon, roll dof, pitch dof).
+# of rows of its profile contact table (0: coned wheels), where its track part starts (from
+# the vehicle's first entry), then the contact parameters (ContactParameters.table,
+# row-major), the profile contact table (rail_mj.contact.tables, row-major), then per wheelset
+# its body and the joints from it to the world: count, then (joint, dof, 1 for a hinge / 0 for
+# a slide); then its weight (N), the nominal wheel load (N), its spin inertia (gyroscopic
+# terms; 0: off), the cones' gravitational stiffness (0/1) and its axlebox tendons
+# (rail_mj.vehicle.loads): count, then (tendon, on P, on M); count 0: the wheels carry the
+# static load; then its shear couples: count, then (z tendon, y tendon). After the wheelsets,
+# the frames' shear couples (rail_mj.vehicle.loads.ShearCouples): count, then (z, y, x tendon,
+# roll dof, pitch dof). Last, the track part (docs/track.md, rail_mj.vehicle.curve).
 LOADS_HEADER = 5
 COUPLE = 5
-VEHICLE_HEADER = 6
+VEHICLE_HEADER = 7
 SPEED = 0  # offset of the speed within a vehicle's entries
+TRACK_AT = 6  # offset of the track part's offset within a vehicle's entries
+
+# The track part: the odometer body (a slide along x whose position is the distance along the
+# track of the vehicle's origin; -1: straight track, and the counts are 0), the gravity (m/s^2)
+# that the cant turns into the track plane, the number of the track's breakpoints, of the
+# bodies the curve loads, of the joints its geometry deflects and of the tendons it deflects.
+# Then per breakpoint (curvature and cant linear between them) BREAKPOINT entries: x (m),
+# curvature (1/m), cant (m), heading (rad: the integral of the curvature from x = 0) and its
+# integral (m); per body: body, x in the vehicle (m), height of its centre of mass above the
+# rail (m; 0 in a planar model, whose bodies have no height), mass (kg), then the joints from
+# it to the world as a wheelset's; per joint: its dof, stiffness and damping, the number of
+# terms, then (pose, coefficient) per term, where pose 3*b + k is body b's lateral offset
+# (k = 0), heading (1) or cant roll (2) that the track gives it; per tendon: tendon, its
+# length's terms as a joint's, then the dofs it acts on: count, then (dof, coefficient).
+TRACK_HEADER = 6
+BREAKPOINT = 5
+POSES = 3  # per body: lateral offset, heading, roll
 
 
 def vehicle_starts(data: np.ndarray) -> list[int]:
@@ -71,14 +89,23 @@ def vehicle_starts(data: np.ndarray) -> list[int]:
     starts, k = [], 2
     for _ in range(int(data[1])):
         starts.append(k)
-        n, rows = int(data[k + 1]), int(data[k + 5])
-        k += VEHICLE_HEADER + ROWS * n + rows * COLUMNS
-        for _ in range(n):
-            k += 2 + 3 * int(data[k + 1])
-            k += LOADS_HEADER + 3 * int(data[k + LOADS_HEADER - 1])
-            k += 1 + 2 * int(data[k])
-        k += 1 + COUPLE * int(data[k])
+        k += int(data[k + TRACK_AT])
+        k += track_part_size(data, k)
     return starts
+
+
+def track_part_size(data: np.ndarray, k: int) -> int:
+    """The number of entries of the track part starting at `k`."""
+    breakpoints, bodies, joints, tendons = (int(v) for v in data[k + 2 : k + TRACK_HEADER])
+    e = k + TRACK_HEADER + BREAKPOINT * breakpoints
+    for _ in range(bodies):
+        e += 5 + 3 * int(data[e + 4])
+    for _ in range(joints):
+        e += 4 + 2 * int(data[e + 3])
+    for _ in range(tendons):
+        e += 2 + 2 * int(data[e + 1])
+        e += 1 + 2 * int(data[e])
+    return e - k
 
 
 # --- the contact parameters of each wheelset (rail_mj.contact.creep.ContactParameters) ---

@@ -49,7 +49,8 @@ from numba import types
 from numba.extending import intrinsic
 
 from rail_mj.contact.creep import profiled_contact, wheelset_contact
-from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, VEHICLE_HEADER
+from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, TRACK_AT, VEHICLE_HEADER
+from rail_mj.simulation.curve import add_curve_forces, curvature_at, odometer
 from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-exported: a native model's speed)
 
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
@@ -236,6 +237,8 @@ def _apply(
         speed, n = block[k], int(block[k + 1])
         law, flange, falling = int(block[k + 2]), block[k + 3] != 0.0, block[k + 4] != 0.0
         rows = int(block[k + 5])
+        track = k + int(block[k + TRACK_AT])
+        s_ref = odometer(block, track, xpos)  # NaN on straight track
         k += VEHICLE_HEADER
         table = numba.carray(block, (k + ROWS * n,))[k:].reshape((ROWS, n))
         k += ROWS * n
@@ -266,6 +269,8 @@ def _apply(
             y = xpos[3 * body + 1]
             psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
+            if s_ref == s_ref:  # on a curve the track turns under the wheelset: its absolute yaw rate
+                psi_dot += speed * curvature_at(block, track, s_ref + xpos[3 * body])
             if rows > 0:
                 f = profiled_contact(
                     geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed, load, moment, spin_inertia
@@ -305,7 +310,7 @@ def _apply(
             load = _tendon_force(stiffness, damping, springlength, length, velocity, int(block[e]))
             force[int(block[e + 3])] -= load * length[int(block[e + 1])]
             force[int(block[e + 4])] += load * length[int(block[e + 2])]
-        k += 1 + COUPLE * couples
+        k = add_curve_forces(block, track, speed, xpos, xanchor, xaxis, stiffness, damping, springlength, length, force)
 
 
 _CALLBACK = None

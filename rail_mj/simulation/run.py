@@ -15,7 +15,9 @@ import numpy as np
 
 from rail_mj.contact.creep import ContactForces, contact_forces
 from rail_mj.layout import Layout
+from rail_mj.track import Track
 from rail_mj.vehicle.block import contact_parameters
+from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.loads import AxleLoads
 from rail_mj.vehicle.spec import Vehicle
 
@@ -31,6 +33,7 @@ class Request:
     initial_lateral: float = 0.0
     initial_yaw: float = 0.0
     state: tuple[np.ndarray, np.ndarray] | None = None
+    track: Track | None = None  # None: straight track
 
 
 class SimulationError(RuntimeError):
@@ -78,7 +81,10 @@ class Run:
     @functools.cached_property
     def _contact_forces(self) -> ContactForces:
         params = contact_parameters(self.vehicle.model, len(self.vehicle.wheelset_names))
-        rates = self.wheelset_rates
+        rates = self.wheelset_rates.copy()
+        # On a curve the track turns under each wheelset at V*k: its absolute yaw rate, as the
+        # callback gives the contact law (rail_mj.simulation.curve).
+        rates[..., 1] += self.speed * self.wheelset_curvature
         loads = self.axle_loads
         if loads is None or np.isnan(loads).all():
             return contact_forces(
@@ -146,6 +152,26 @@ class Run:
         return self.y.shape[1]
 
     @property
+    def track(self) -> Track | None:
+        """The curved or canted track of the run (rail_mj.track); None: straight."""
+        return self.vehicle.track
+
+    @functools.cached_property
+    def station(self) -> np.ndarray:
+        """(n_samples,): the distance along the track of the vehicle's origin (its car body's
+        centre), m: the odometer's (rail_mj.vehicle.curve); on straight track, `x`."""
+        if self.track is None:
+            return self.x
+        return self.body_pos[:, self.vehicle.model.body(ODOMETER).id, 0]
+
+    @functools.cached_property
+    def wheelset_curvature(self) -> np.ndarray:
+        """(n_samples, n_wheelsets): the track's curvature under each wheelset, 1/m (+ left)."""
+        if self.track is None:
+            return np.zeros_like(self.y)
+        return self.track.curvature(self.station[:, None] + np.asarray(self.layout.wheelset_x)[None, :])
+
+    @property
     def frame_names(self) -> tuple[str, ...]:
         """The moving bodies other than the wheelsets: the bogie frames (bogie1, ...), then the
         car body unless it is fixed. A fixed car body (no joints) has no motion to show."""
@@ -155,7 +181,11 @@ class Run:
     def _frame_ids(self) -> list[int]:
         model = self.vehicle.model
         wheelsets = set(self.vehicle.wheelset_ids.tolist())
-        moving = [b for b in range(1, model.nbody) if b not in wheelsets and model.body_dofnum[b] > 0]
+        moving = [
+            b
+            for b in range(1, model.nbody)
+            if b not in wheelsets and model.body_dofnum[b] > 0 and model.body(b).name != ODOMETER
+        ]
         return sorted(moving, key=lambda b: (model.body(b).name == "carbody", b))
 
     @property

@@ -1,4 +1,4 @@
-"""The headless runner: vehicles at constant speed along straight, perfect track.
+"""The headless runner: vehicles at constant speed along a perfect track, straight or curved.
 
 Example:
 
@@ -31,6 +31,7 @@ from rail_mj.simulation.callback import CreepForces
 from rail_mj.simulation.run import Request, Run, RunRefused, SimulationError
 from rail_mj.simulation.stepping import Prepared, step_alone
 from rail_mj.simulation.timestep import STEP_FRACTION, stable_timestep
+from rail_mj.track import Track
 from rail_mj.vehicle.block import set_speed
 from rail_mj.vehicle.spec import Vehicle
 
@@ -53,7 +54,20 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
             f"initial lateral {request.initial_lateral} m puts the wheels off the rails "
             f"(|y| must be below {DERAILMENT_LATERAL} m)"
         )
-    vehicle = Vehicle(layout)
+    track = request.track
+    if track is not None:
+        # The vehicle's origin (the car body's centre) starts at the track's start and its
+        # leading wheelset must still be on it at the end (beyond its ends a track goes on as
+        # it begins and ends, rail_mj.track: the bodies behind are on track all the way).
+        reach = track.length - max(layout.wheelset_x)
+        if distance > reach:
+            raise ValueError(
+                f"distance {distance:g} m is longer than the track ({track.source}: {track.length:g} m, "
+                f"{reach:g} m for the vehicle's centre with its leading wheelset on it)"
+            )
+        if python_callback:
+            raise ValueError("curved track runs with the native callback only; leave out the Python callback")
+    vehicle = Vehicle(layout, track)
     set_speed(vehicle.model, speed)
     forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed) if python_callback else None
     dt = stable_timestep(vehicle, forces)
@@ -84,6 +98,7 @@ def simulate(
     derailment_lateral: float = DERAILMENT_LATERAL,
     state: tuple[np.ndarray, np.ndarray] | None = None,
     python_callback: bool = False,
+    track: Track | None = None,
 ) -> Run:
     """Run `layout` at `speed` (m/s) for `distance` (m) from a disturbed start.
 
@@ -93,8 +108,11 @@ def simulate(
     Raises ValueError for an impossible request and `SimulationError` for a run that
     cannot be done or diverges. The creep forces come from the native callback
     (rail_mj.simulation.native); `python_callback` uses the Python one (rail_mj.simulation.callback) instead.
+    `track`: a curved or canted track (rail_mj.track) the vehicle's centre runs along from its
+    start; None: straight track.
     """
-    prepared = prepare(Request(layout, speed, distance, initial_lateral, initial_yaw, state), python_callback)
+    request = Request(layout, speed, distance, initial_lateral, initial_yaw, state, track)
+    prepared = prepare(request, python_callback)
     result = step_alone(prepared, derailment_lateral, progress)
     if isinstance(result, SimulationError):
         raise result

@@ -30,6 +30,7 @@ from rail_mj.simulation.run import Derailed, Request, Run, SimulationError
 from rail_mj.simulation.timestep import linearly_stable, table_header
 from rail_mj.vehicle import block
 from rail_mj.vehicle.block import contact_parameters, set_speed
+from rail_mj.vehicle.curve import ODOMETER, track_part
 from rail_mj.vehicle.joints import YAW
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
 from rail_mj.vehicle.spec import Vehicle
@@ -140,6 +141,7 @@ class _Place:
     qvel: np.ndarray
     lateral: np.ndarray  # qpos entries of its root lateral joints
     yaw: np.ndarray  # qpos entries of its wheelsets' yaw joints
+    odometer: tuple[int, int] | None = None  # on a curved track: its odometer's qpos and qvel entries
 
     @classmethod
     def whole(cls, vehicle: Vehicle) -> _Place:
@@ -150,6 +152,7 @@ class _Place:
             np.arange(model.nv),
             vehicle.root_lateral_dofs,
             vehicle.wheelset_dofs(YAW),
+            _odometer(model),
         )
 
 
@@ -194,6 +197,9 @@ class Pack:
         if run.state is None:
             self.state[1 + place.lateral] = run.prepared.request.initial_lateral
             self.state[1 + place.yaw] = run.prepared.request.initial_yaw
+            if place.odometer is not None:  # from the track's start, at the run's speed
+                self.state[1 + place.odometer[0]] = 0.0
+                self.state[1 + nq + place.odometer[1]] = run.prepared.request.speed
         else:
             self.state[1 + place.qpos], self.state[1 + nq + place.qvel] = run.state
 
@@ -210,6 +216,15 @@ class Pack:
         going = self.going()
         for _, run in going:
             run.seconds += seconds / len(going)
+
+
+def _odometer(model: mujoco.MjModel, prefix: str = "") -> tuple[int, int] | None:
+    """The qpos and qvel entries of a vehicle's odometer (rail_mj.vehicle.curve), if it has one."""
+    try:
+        joint = model.joint(prefix + ODOMETER)
+    except KeyError:
+        return None
+    return int(joint.qposadr[0]), int(joint.dofadr[0])
 
 
 def _unconstrained(model: mujoco.MjModel) -> bool:
@@ -254,6 +269,7 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     for k, (vehicle, speed) in enumerate(zip(vehicles, speeds)):
         bodies = [model.body(f"v{k}/{w}").id for w in vehicle.wheelset_names]
         loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
+        part = None if vehicle.track is None else track_part(model, vehicle.layout, vehicle.track, f"v{k}/")
         entries.append(
             block.vehicle_block(
                 model,
@@ -263,6 +279,7 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
                 loads,
                 prefix=f"v{k}/",
                 couples=ShearCouples.of(vehicle.model),
+                track_part=part,
             )
         )
     native_numeric.data = block.block(entries).tolist()
@@ -281,6 +298,7 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
                 qvel,
                 qpos[vehicle.root_lateral_dofs],
                 qpos[vehicle.wheelset_dofs(YAW)],
+                _odometer(model, prefix=f"v{k}/"),
             )
         )
     return model, places

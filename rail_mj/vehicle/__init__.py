@@ -13,6 +13,7 @@ spec.py        `Layout` -> MjSpec -> compiled model with its native block (`Vehi
 mjcf.py        the MJCF files: model, scene, assets (`generate`)
 loads.py       a spatial vehicle's axle loads from its axlebox tendons
 block.py       the one writer of the native block the compiled callback reads (rail_mj.numerics)
+curve.py       a vehicle on a curved track: its odometer and the block's track part
 """
 
 from rail_mj import _lazy

@@ -29,9 +29,14 @@ from rail_mj.numerics import (
     NUMERIC_SATURATION,
     NUMERIC_WHEEL,
     SPEED,
+    TRACK_AT,
+    TRACK_HEADER,
 )
 from rail_mj.units import PA_PER_GPA
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
+
+# A straight track's part: no odometer, nothing to read.
+STRAIGHT = np.array([-1.0] + [0.0] * (TRACK_HEADER - 1))
 
 
 class NativeError(ValueError):
@@ -83,11 +88,19 @@ _SLIDE, _HINGE = int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HIN
 
 
 def vehicle_block(
-    model: mujoco.MjModel, wheelset_bodies, params, speed: float = 0.0, loads=None, prefix: str = "", couples=None
+    model: mujoco.MjModel,
+    wheelset_bodies,
+    params,
+    speed: float = 0.0,
+    loads=None,
+    prefix: str = "",
+    couples=None,
+    track_part: np.ndarray | None = None,
 ) -> np.ndarray:
     """One vehicle's entries of the block: see VEHICLE_HEADER. `loads`: its AxleLoads
     (rail_mj.vehicle.loads), its tendons named in `model` under `prefix`; None: static loads.
-    `couples`: its frames' ShearCouples, or None."""
+    `couples`: its frames' ShearCouples, or None. `track_part`: its curved track's
+    (rail_mj.vehicle.curve.track_part); None: straight track."""
     table, geometry = params.table, params.geometry
     entries = [
         speed,
@@ -96,20 +109,11 @@ def vehicle_block(
         float(params.flange),
         float(params.falling),
         float(geometry.shape[0]),
+        0.0,  # where the track part starts: set below
     ]
     entries += list(table.reshape(-1)) + list(geometry.reshape(-1))
     for i, body in enumerate(wheelset_bodies):
-        chain = []
-        b = int(body)
-        while b:
-            for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
-                kind = int(model.jnt_type[j])
-                if kind not in (_SLIDE, _HINGE):
-                    raise NativeError(
-                        f"joint {model.joint(j).name}: the native callback handles slide and hinge joints only"
-                    )
-                chain += [j, model.jnt_dofadr[j], float(kind == _HINGE)]
-            b = model.body_parentid[b]
+        chain = joint_chain(model, int(body))
         entries += [body, len(chain) // 3] + chain
         if loads is None:
             entries += [0.0] * LOADS_HEADER
@@ -126,7 +130,26 @@ def vehicle_block(
         entries += [float(len(pairs))] + list(pairs.reshape(-1))
     rows = couples.rows(model, prefix) if couples is not None else np.zeros((0, COUPLE))
     entries += [float(len(rows))] + list(rows.reshape(-1))
+    entries[TRACK_AT] = float(len(entries))
+    entries += list(STRAIGHT if track_part is None else track_part)
     return np.asarray(entries, dtype=np.float64)
+
+
+def joint_chain(model: mujoco.MjModel, body: int) -> list[float]:
+    """The joints from `body` to the world, as the block lists them: (joint, dof, 1 for a
+    hinge / 0 for a slide) each, the body's own first."""
+    chain: list[float] = []
+    b = body
+    while b:
+        for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
+            kind = int(model.jnt_type[j])
+            if kind not in (_SLIDE, _HINGE):
+                raise NativeError(
+                    f"joint {model.joint(j).name}: the native callback handles slide and hinge joints only"
+                )
+            chain += [j, model.jnt_dofadr[j], float(kind == _HINGE)]
+        b = model.body_parentid[b]
+    return chain
 
 
 def block(vehicles: list[np.ndarray]) -> np.ndarray:
@@ -134,9 +157,10 @@ def block(vehicles: list[np.ndarray]) -> np.ndarray:
     return np.concatenate([[MAGIC, float(len(vehicles))], *vehicles])
 
 
-def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
+def block_for(model: mujoco.MjModel, n_wheelsets: int, track_part: np.ndarray | None = None) -> np.ndarray:
     """The block of a model built by rail_mj.vehicle.spec: one vehicle, wheelset1..N, its contact
-    parameters read from the model's named numerics, no speed yet."""
+    parameters read from the model's named numerics, no speed yet; `track_part` its curved
+    track's (rail_mj.vehicle.curve), None on straight track."""
     names = [f"wheelset{i + 1}" for i in range(n_wheelsets)]
     bodies = [model.body(name).id for name in names]
     return block(
@@ -147,6 +171,7 @@ def block_for(model: mujoco.MjModel, n_wheelsets: int) -> np.ndarray:
                 contact_parameters(model, n_wheelsets),
                 loads=AxleLoads.of(model, names),
                 couples=ShearCouples.of(model),
+                track_part=track_part,
             )
         ]
     )

@@ -20,7 +20,9 @@ from rail_mj.numerics import (
     NUMERIC_SATURATION,
     NUMERIC_WHEEL,
 )
+from rail_mj.track import Track
 from rail_mj.units import PA_PER_GPA
+from rail_mj.vehicle.curve import add_odometer
 from rail_mj.vehicle.joints import LATERAL
 from rail_mj.vehicle.looks import add_wheel_mesh
 from rail_mj.vehicle.planar import add_carbody
@@ -34,8 +36,9 @@ from rail_mj.vehicle.train import add_train
 DEFAULT_TIMESTEP = 1e-3
 
 
-def build_spec(layout: Layout) -> mujoco.MjSpec:
-    """The vehicle alone as an MjSpec, its wheel mesh in `spec.assets`."""
+def build_spec(layout: Layout, track: Track | None = None) -> mujoco.MjSpec:
+    """The vehicle alone as an MjSpec, its wheel mesh in `spec.assets`; on `track` (curved or
+    canted: rail_mj.vehicle.curve) with its odometer."""
     spec = mujoco.MjSpec()
     spec.modelname = layout.name
     spec.compiler.degree = False
@@ -66,6 +69,8 @@ def build_spec(layout: Layout) -> mujoco.MjSpec:
             add_train(spec, vehicle)
         case Planar():
             add_carbody(spec.worldbody, vehicle)
+    if track is not None:
+        add_odometer(spec)
 
     c = layout.creep
     spec.add_numeric(
@@ -151,13 +156,13 @@ def compile_spec(spec: mujoco.MjSpec, layout: Layout) -> mujoco.MjModel:
         raise ValueError(f"{layout.source}: MuJoCo could not compile the model: {why}") from None
 
 
-def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+def compiled(layout: Layout, track: Track | None = None) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
     """The vehicle's spec and compiled model, its native block filled in: the block lists
     bodies, joints and dofs by the ids the compiler gave them, so it is written after a
     first compile (a millisecond or two) and the model compiled again."""
     from rail_mj.vehicle import block  # numba (the contact law's module): only once a model is built
 
-    spec = build_spec(layout)
+    spec = build_spec(layout, track)
     model = compile_spec(spec, layout)
     if layout.spatial is not None:  # a spatial vehicle's gravity: the only one with vertical motion
         if layout.spatial.gravity:
@@ -168,7 +173,12 @@ def compiled(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
                 add_gravitational_stiffness(spec, layout, model, q_eq)
         else:
             spec.option.gravity = [0.0, 0.0, 0.0]
-    spec.numerics[0].data = block.block_for(model, layout.n_wheelsets).tolist()
+    part = None
+    if track is not None:
+        from rail_mj.vehicle.curve import track_part
+
+        part = track_part(model, layout, track)
+    spec.numerics[0].data = block.block_for(model, layout.n_wheelsets, part).tolist()
     add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
     add_load_sensors(spec, model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)])
     return spec, compile_spec(spec, layout)
@@ -185,9 +195,10 @@ class Vehicle:
         ('wheelset1', 14)
     """
 
-    def __init__(self, layout: Layout):
-        self.layout = layout
-        self.spec, self.model = compiled(layout)
+    def __init__(self, layout: Layout, track: Track | None = None):
+        """`track`: a curved or canted track to run on (None: straight, the shipped MJCF)."""
+        self.layout, self.track = layout, track
+        self.spec, self.model = compiled(layout, track)
         self.wheelset_names = tuple(f"wheelset{i + 1}" for i in range(layout.n_wheelsets))
         self.wheelset_ids = np.array([self.model.body(n).id for n in self.wheelset_names], dtype=np.int64)
 

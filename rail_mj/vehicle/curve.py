@@ -1,0 +1,150 @@
+"""A vehicle on a curved track: its odometer and the track part of the native block.
+
+The model is the track straightened (docs/track.md): every body's coordinates are measured
+from the track at its own station, and what the curve adds is computed in the passive
+callback (rail_mj.simulation.curve) from what this module writes into the block:
+
+- the odometer, a massless-looking body on a slide along x that nothing pushes, started at the
+  run's speed: its position is the distance along the track of the vehicle's origin (the car
+  body's centre), a state like any other, so that a run continues, packs and repacks with it;
+- the track's breakpoints (curvature and cant linear between them, with the heading and its
+  integral at each), which give every body's station;
+- each body's mass, station and height (the uncompensated acceleration);
+- the map from the track's geometry at each body (its lateral offset from the reference
+  tangent, its heading and its cant roll) to the model's joint coordinates, from the model's
+  own body Jacobians: the geometric pre-deflection of every joint spring and, through each
+  tendon's joint coefficients, of every tendon.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from rail_mj.layout import Layout
+from rail_mj.numerics import POSES
+from rail_mj.track import Track
+from rail_mj.units import GRAVITY
+from rail_mj.vehicle.block import joint_chain
+
+ODOMETER = "odometer"
+# Small beside nothing: the odometer is coupled to no other body, so its mass only has to be
+# positive for MuJoCo (it moves at the speed it is given, exactly, under RK4).
+ODOMETER_MASS = 1.0  # kg
+# Entries of G, the map from the track's geometry to the joints, below this are round-off of
+# the least-squares solve (its entries are lever arms of metres and ones).
+ROUND_OFF = 1e-12
+
+
+def add_odometer(spec: mujoco.MjSpec) -> None:
+    """The odometer body (see the module), last in the world."""
+    body = spec.worldbody.add_body(name=ODOMETER, pos=[0.0, 0.0, 0.0])
+    body.explicitinertial = True
+    body.mass = ODOMETER_MASS
+    body.inertia = [1e-3, 1e-3, 1e-3]
+    body.add_joint(name=ODOMETER, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1.0, 0.0, 0.0])
+
+
+def breakpoints(track: Track) -> np.ndarray:
+    """Rows (x, curvature, cant, heading, heading's integral) at each section's ends, where
+    the curvature and cant are linear between rows (a step between sections: two rows at one x)."""
+    rows: list[list[float]] = []
+    heading = integral = 0.0
+    for section in track.sections:
+        for x, k, d in (
+            (section.start, section.curvature_start, section.cant_start),
+            (section.end, section.curvature_end, section.cant_end),
+        ):
+            if rows:
+                x0, k0, _, h0, i0 = rows[-1]
+                t = x - x0
+                if t > 0.0:  # the closed forms of rail_mj.simulation.curve.track_at on [x0, x]
+                    integral = i0 + h0 * t + k0 * t * t / 2 + (k - k0) * t * t / 6
+                    heading = h0 + (k0 + k) * t / 2
+                if t == 0.0 and k == k0 and d == rows[-1][2]:
+                    continue  # the same point twice
+            rows.append([x, k, d, heading, integral])
+    return np.array(rows, dtype=np.float64)
+
+
+def track_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: str = "") -> np.ndarray:
+    """The track part of the block (rail_mj.numerics) of `layout`'s vehicle under `prefix` in
+    `model`. A spatial vehicle's bodies have heights and roll, and its gravity switch says
+    whether the model weighs them; a planar model has no vertical motion, and its cant still
+    turns g into the track plane."""
+    spatial = layout.spatial is not None
+    gravity = layout.spatial is None or layout.spatial.gravity
+    odometer = model.body(prefix + ODOMETER).id
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    own = [
+        b
+        for b in range(1, model.nbody)
+        if model.body(b).name.startswith(prefix) and b != odometer and joint_chain(model, b)
+    ]
+    dofs = sorted({int(model.jnt_dofadr[j]) for b in own for j in _own_joints(model, b)})
+    # J: each body's lateral offset, yaw and roll (rows) from the joint coordinates (columns).
+    jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+    rows = []
+    for b in own:
+        mujoco.mj_jacBody(model, data, jacp, jacr, b)
+        rows += [jacp[1, dofs], jacr[2, dofs], jacr[0, dofs]]
+    jacobian = np.array(rows)
+    # Where a body cannot take a pose (a wheelset's roll, held by the rails; any roll in a
+    # planar model) its row is empty and the least squares leave it out.
+    g = np.linalg.pinv(jacobian, rcond=1e-10)
+    g[np.abs(g) < ROUND_OFF] = 0.0
+    column = {dof: i for i, dof in enumerate(dofs)}
+
+    part: list[float] = [float(odometer), GRAVITY if gravity else 0.0]
+    table = breakpoints(track)
+    bodies: list[float] = []
+    for b in own:
+        chain = joint_chain(model, b)
+        height = float(data.xipos[b, 2]) if spatial else 0.0
+        bodies += [float(b), float(data.xipos[b, 0]), height, float(model.body_mass[b]), len(chain) / 3, *chain]
+    joints: list[float] = []
+    n_joints = 0
+    for dof in dofs:
+        joint = int(model.dof_jntid[dof])
+        stiffness, damping = float(model.jnt_stiffness[joint]), float(model.dof_damping[dof])
+        if stiffness == 0.0 and damping == 0.0:
+            continue
+        joints += [float(dof), stiffness, damping, *_terms(g[column[dof]])]
+        n_joints += 1
+    tendons: list[float] = []
+    n_tendons = 0
+    for t in range(model.ntendon):
+        if not model.tendon(t).name.startswith(prefix):
+            continue
+        if model.tendon_stiffness[t] == 0.0 and model.tendon_damping[t] == 0.0:
+            continue
+        coefficients = _tendon_coefficients(model, t)
+        row = sum((c * g[column[dof]] for dof, c in coefficients), np.zeros(jacobian.shape[0]))
+        tendons += [float(t), *_terms(row), float(len(coefficients))]
+        tendons += [v for dof, c in coefficients for v in (float(dof), c)]
+        n_tendons += 1
+    part += [float(len(table)), float(len(own)), float(n_joints), float(n_tendons)]
+    return np.concatenate([part, table.reshape(-1), bodies, joints, tendons])
+
+
+def _own_joints(model: mujoco.MjModel, body: int) -> range:
+    return range(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body])
+
+
+def _terms(row: np.ndarray) -> list[float]:
+    """A row of G as the block's terms: count, then (pose, coefficient)."""
+    nonzero = np.nonzero(row)[0]
+    assert POSES == 3  # rows are laid out (lateral, heading, roll) per body
+    return [float(len(nonzero))] + [v for p in nonzero for v in (float(p), float(row[p]))]
+
+
+def _tendon_coefficients(model: mujoco.MjModel, t: int) -> list[tuple[int, float]]:
+    """A fixed tendon's (dof, coefficient) per joint: its length is their sum times the coordinates."""
+    out = []
+    for w in range(model.tendon_adr[t], model.tendon_adr[t] + model.tendon_num[t]):
+        if model.wrap_type[w] != mujoco.mjtWrap.mjWRAP_JOINT:
+            raise ValueError(f"tendon {model.tendon(t).name}: only fixed tendons (on joints) are rail-mj's")
+        out.append((int(model.jnt_dofadr[model.wrap_objid[w]]), float(model.wrap_prm[w])))
+    return out
