@@ -126,7 +126,10 @@ def add_curve_forces(block, k, speed, xpos, xanchor, xaxis, stiffness, damping, 
     m, nb, nr, nt = int(block[k + 2]), int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
     table = _table(block, k)
     e = k + TRACK_HEADER + BREAKPOINT * m
-    k_ref, _, h_ref, i_ref, _ = track_at(table, s_ref)
+    k_ref, cant_ref, h_ref, i_ref, slope_ref = track_at(table, s_ref)
+    # The reference: the track plane at the vehicle's origin, which the model's world is.
+    theta_ref = math.asin(cant_ref / CANT_BASE)
+    theta_rate_ref = speed * slope_ref / (CANT_BASE * math.cos(theta_ref))
     pose = np.zeros(POSES * nb)
     rate = np.zeros(POSES * nb)
     for b in range(nb):
@@ -136,13 +139,16 @@ def add_curve_forces(block, k, speed, xpos, xanchor, xaxis, stiffness, damping, 
         curvature, cant, heading, integral, slope = track_at(table, s_ref + x)
         theta = math.asin(cant / CANT_BASE)
         theta_rate = speed * slope / (CANT_BASE * math.cos(theta))
-        # Off the reference tangent: the integral of the heading's change from the reference.
-        pose[POSES * b] = integral - i_ref - x * h_ref + theta * height
+        # Off the reference tangent: the integral of the heading's change from the reference;
+        # the track plane here rolled from the reference's (the right rail up: about +x,
+        # -theta) about the rail-level centreline, which moves a centre of mass at `height`.
+        twist, twist_rate = theta - theta_ref, theta_rate - theta_rate_ref
+        pose[POSES * b] = integral - i_ref - x * h_ref + twist * height
         pose[POSES * b + 1] = heading - h_ref
-        pose[POSES * b + 2] = -theta  # the track plane rolls the right rail up: about +x, -theta
-        rate[POSES * b] = speed * (heading - h_ref - x * k_ref) + theta_rate * height
+        pose[POSES * b + 2] = -twist
+        rate[POSES * b] = speed * (heading - h_ref - x * k_ref) + twist_rate * height
         rate[POSES * b + 1] = speed * (curvature - k_ref)
-        rate[POSES * b + 2] = -theta_rate
+        rate[POSES * b + 2] = -twist_rate
         centripetal = speed * speed * curvature
         fy = -mass * (centripetal * math.cos(theta) - gravity * math.sin(theta))
         fz = -mass * (gravity * math.cos(theta) + centripetal * math.sin(theta) - gravity)

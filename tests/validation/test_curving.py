@@ -1,0 +1,195 @@
+"""Runs on curved and canted track against the closed forms of steady curving (docs/track.md).
+
+Conventions of rail-mj (docs/frames.md): y to the left, yaw nose-left, a left curve has
+positive curvature k = 1/R and its outer (right) rail raised; the closed forms of the literature
+(Wickens 2003; Iwnicki 2006) are usually written with y and the angle of attack positive
+outward, so they carry the opposite sign here. Every run is long enough that the transients
+have died to round-off of the steady state: each tolerance below is the integrator's and the
+samples' resolution, far below the terms the closed forms keep.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+
+import numpy as np
+import pytest
+from conftest import MODELS
+
+from rail_mj.layout import layout_from_dict
+from rail_mj.simulation.run import Request
+from rail_mj.simulation.runner import simulate
+from rail_mj.track import track_from_dict
+from rail_mj.units import GRAVITY
+
+
+def _linear(name: str, **changes) -> dict:
+    """A shipped layout on the linear creep law, no spin, no flange: the closed forms' model."""
+    data = tomllib.loads((MODELS / name / f"{name}.toml").read_text())
+    data["creep"] = {"f11": data["creep"]["f11"], "f22": data["creep"]["f22"]}
+    data.pop("flange", None)
+    data.update(changes)
+    return data
+
+
+def _curve(radius: float, cant: float = 0.0, length: float = 4000.0):
+    return track_from_dict({"section": [{"kind": "curve", "length": length, "radius": radius, "cant": cant}]})
+
+
+def _balance_cant(radius: float, speed: float) -> float:
+    """The cant that leaves no uncompensated acceleration: tan(theta) = V^2/(g R) (rail_mj.track)."""
+    return 1.5 * math.sin(math.atan(speed * speed / (GRAVITY * radius)))
+
+
+def test_a_restrained_wheelset_settles_where_its_creep_and_spring_balance_the_curve():
+    """A wheelset with yaw stiffness k_psi and no lateral spring, on a constant curve without cant:
+    its lateral creep force carries the centrifugal force, 2*f22*psi = m*V^2*k, and its creep
+    yaw moment the spring's, -2*f11*b*(lam*y/r0 + b*k) = k_psi*psi: so it runs at
+    y = -(r0/lam)*(b*k + k_psi*psi/(2*f11*b)), the pure-rolling offset r0*b/(lam*R) outward and
+    a little more."""
+    layout = layout_from_dict(_linear("wheelset"))
+    radius, speed = 1000.0, 20.0
+    run = simulate(layout, speed, 1500.0, track=_curve(radius))
+    w, c, k = layout.wheelset, layout.creep, 1.0 / radius
+    psi = w.mass * speed**2 * k / (2 * c.f22)
+    y = -(w.rolling_radius / w.conicity) * (
+        w.contact_half_spacing * k + layout.primary.yaw_stiffness * psi / (2 * c.f11 * w.contact_half_spacing)
+    )
+    # The last 100 m: the kinematic oscillation (12 m wavelength) decayed long before.
+    late = run.x > run.x[-1] - 100.0
+    np.testing.assert_allclose(run.psi[late, 0], psi, rtol=1e-6)
+    np.testing.assert_allclose(run.y[late, 0], y, rtol=1e-6)
+
+
+def test_an_elastic_bogie_at_the_balance_speed_takes_the_closed_form_angles_of_attack():
+    """Two wheelsets on primary springs k_y, k_psi in a frame free of the car body, at the
+    balance speed (no uncompensated force): psi_1 = -psi_2 = (a/R)*k_psi^2*k_y*r0/D and the
+    frame's psi_b = 2*a^2*f22*k_psi*k_y*r0/(R*D), D = 4a^2 f11 f22 k_y b lam + 4 f11 f22 k_psi
+    b lam + k_psi^2 k_y r0 (Wickens 2003, the elastic bogie), the leading wheelset yawed
+    outward, here negative."""
+    data = _linear("bogie", secondary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0, "lateral_damping": 64e3})
+    layout = layout_from_dict(data)
+    radius, speed = 1000.0, 10.0
+    run = simulate(layout, speed, 600.0, track=_curve(radius, _balance_cant(radius, speed)))
+    w, c, p = layout.wheelset, layout.creep, layout.primary
+    assert layout.bogie is not None
+    a, b, lam, r0 = layout.bogie.wheelset_positions[0], w.contact_half_spacing, w.conicity, w.rolling_radius
+    ky, kpsi = p.lateral_stiffness, p.yaw_stiffness
+    d = 4 * a * a * c.f11 * c.f22 * ky * b * lam + 4 * c.f11 * c.f22 * kpsi * b * lam + kpsi**2 * ky * r0
+    psi1 = (a / radius) * kpsi**2 * ky * r0 / d
+    psi_b = 2 * a * a * c.f22 * kpsi * ky * r0 / (radius * d)
+    late = run.x > run.x[-1] - 100.0
+    np.testing.assert_allclose(run.psi[late], np.broadcast_to([-psi1, psi1], run.psi[late].shape), rtol=1e-6)
+    np.testing.assert_allclose(run.frame_psi[late, 0], -psi_b, rtol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["manchester-coach", "two-coaches", "manchester-coach-spatial"])
+def test_the_rails_carry_the_whole_vehicle_uncompensated_force(name):
+    """Steady on a constant curve, the lateral forces of the rails on all wheelsets (Sigma Y,
+    creep and flange) carry the uncompensated force of every body, m*(V^2*k*cos(theta) -
+    g*sin(theta)) summed over the vehicle's mass: Newton, for a planar, a train and a spatial
+    vehicle; at the balance speed they carry nothing. The suspension's pre-deflections are
+    internal and sum to zero."""
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(MODELS / name / f"{name}.toml")
+    radius, speed, cant = 1200.0, 30.0, 0.08
+    track = _curve(radius, cant)
+    # Long enough for the slowest mode (the spatial car body's sway) to have settled to 1e-7.
+    distance = 1200.0 if layout.spatial is not None else 400.0
+    run = simulate(layout, speed, distance, track=track)
+    model = run.vehicle.model
+    moving = [b for b in range(1, model.nbody) if model.body_dofnum[b] > 0 and model.body(b).name != "odometer"]
+    mass = float(np.sum(model.body_mass[moving]))
+    force = mass * float(track.uncompensated_acceleration(0.0, speed))
+    total = run.contact_forces().lateral[-1].sum()
+    # The rails push inward (+y, left) on a left curve: minus the outward uncompensated force.
+    assert total == pytest.approx(force, rel=1e-6)
+    balanced = simulate(layout, speed, distance, track=_curve(radius, _balance_cant(radius, speed)))
+    assert abs(balanced.contact_forces().lateral[-1].sum()) < 1e-6 * force
+
+
+def test_a_long_car_body_sits_inside_the_curve_by_the_chord_s_offset():
+    """A rigid car body on two bogies 2c apart rests on the chord between them: at its centre
+    c^2/(2R) inside the track (Esveld 2001) when nothing else pushes it (the balance speed)."""
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
+    radius, speed = 600.0, 20.0
+    run = simulate(layout, speed, 300.0, track=_curve(radius, _balance_cant(radius, speed)))
+    c = max(layout.carbody.bogie_positions or ())
+    body = run.frame_names.index("carbody")
+    bogies = run.frame_y[-1, [run.frame_names.index("bogie1"), run.frame_names.index("bogie2")]]
+    # The bogies' own offsets (their wheelsets' curving, a few mm) carried along with their mean.
+    assert run.frame_y[-1, body] - bogies.mean() == pytest.approx(c * c / (2 * radius), rel=1e-4)
+
+
+def test_a_transition_brings_the_wheelset_onto_its_curving_offset_without_a_kick():
+    """Through a clothoid the curvature grows linearly, and a stable wheelset follows its
+    steady curving offset, which grows with it (to 5 % of the offset: it lags by its creep's
+    time constant); entered without a transition the curve's yaw moment 2*f11*b^2*k arrives at
+    once and jerks the wheelset sideways. The peak lateral acceleration through the
+    transition is a small fraction of the step's (measured: 0.012 against 0.77 m/s^2)."""
+    layout = layout_from_dict(_linear("wheelset"))
+    radius, speed = 500.0, 20.0
+    w = layout.wheelset
+    offset = -w.rolling_radius * w.contact_half_spacing / (w.conicity * radius)
+    smooth = track_from_dict(
+        {
+            "section": [
+                {"kind": "straight", "length": 100.0},
+                {"kind": "transition", "length": 100.0},
+                {"kind": "curve", "length": 800.0, "radius": radius},
+            ]
+        }
+    )
+    step = track_from_dict(
+        {"section": [{"kind": "straight", "length": 100.0}, {"kind": "curve", "length": 900.0, "radius": radius}]}
+    )
+    peaks = []
+    for track in (smooth, step):
+        run = simulate(layout, speed, 600.0, track=track)
+        if track is smooth:
+            quasi_static = offset * run.wheelset_curvature[:, 0] * radius
+            assert np.max(np.abs(run.y[:, 0] - quasi_static)) < 0.05 * abs(offset)
+        acceleration = np.gradient(run.wheelset_rates[:, 0, 0], run.t)
+        peaks.append(np.max(np.abs(acceleration)))
+    assert peaks[0] < 0.05 * peaks[1]
+
+
+def test_runs_packed_together_on_a_track_are_each_run_alone():
+    """The odometer is a state: runs stepped several to a model, each from the track's start at
+    its own speed, give exactly what each gives alone."""
+    from rail_mj.layout import load_layout
+    from rail_mj.simulation.batch import simulate_many
+
+    layout = load_layout(MODELS / "bogie" / "bogie.toml")
+    track = _curve(800.0, 0.05, 1000.0)
+    requests = [Request(layout, v, 150.0, 0.001, track=track) for v in (20.0, 25.0, 30.0)]
+    together = simulate_many(requests)
+    for request, run in zip(requests, together):
+        alone = simulate(layout, request.speed, 150.0, 0.001, track=track)
+        np.testing.assert_array_equal(run.y, alone.y)
+        np.testing.assert_array_equal(run.station, alone.station)
+
+
+def test_a_run_longer_than_its_track_is_refused_in_one_line():
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(MODELS / "bogie" / "bogie.toml")
+    with pytest.raises(ValueError, match=r"longer than the track .*1000 m"):
+        simulate(layout, 20.0, 2000.0, track=_curve(800.0, 0.0, 1000.0))
+
+
+def test_straight_track_given_as_a_track_runs_as_without_one():
+    """A straight Track adds the odometer and nothing else: the same motion to round-off."""
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(MODELS / "bogie" / "bogie.toml")
+    straight = track_from_dict({"section": [{"kind": "straight", "length": 500.0}]})
+    plain = simulate(layout, 30.0, 200.0, 0.002)
+    on_track = simulate(layout, 30.0, 200.0, 0.002, track=straight)
+    np.testing.assert_allclose(on_track.y, plain.y, rtol=0, atol=1e-12)
+    assert dataclasses.asdict(layout) == dataclasses.asdict(on_track.layout)
