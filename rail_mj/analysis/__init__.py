@@ -2,6 +2,7 @@
 
     motion.py          amplitude, growth, frequency, flange strikes; the summary of a run
     en14363.py         EN 14363: the running-instability criterion on Sigma Y, Y/Q, wheel safety
+    curving.py         a run through curves: per curve, angle of attack, guiding force, Y/Q, cant deficiency
     stability.py       eigenvalues, named modes, critical speeds (eigen and time)
     train_modes.py     the names of a train's modes
     spatial_modes.py   the names of a spatial vehicle's modes
@@ -35,5 +36,6 @@ _EXPORTS = {
     "time_critical_speed": "stability",
     "nonlinear_critical_speed": "bifurcation",
     "bifurcation": "bifurcation",
+    "curves": "curving",
 }
 __getattr__, __dir__ = _lazy.exports(__name__, _EXPORTS, fallback="motion")

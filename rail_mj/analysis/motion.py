@@ -139,4 +139,15 @@ def summary(run: Run) -> dict:
         "hunting": hunting(run),
         "hunting_note": hunting_assessable(run),
         **safety["run"],
+        **_on_track(run),
     }
+
+
+def _on_track(run: Run) -> dict:
+    """A run on a curved track's: the track file and, per curve, its steady values
+    (rail_mj.analysis.curving); nothing on straight track, whose summary stays as it was."""
+    if run.track is None:
+        return {}
+    from rail_mj.analysis.curving import curves
+
+    return {"track": run.track.source, "curves": curves(run)}

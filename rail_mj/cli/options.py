@@ -44,6 +44,21 @@ def layout_of(path: str) -> Layout:
     return layout
 
 
+def track_of(path: str | None):
+    """The checked track of --track (rail_mj.track), its warnings on stderr; None without one."""
+    if path is None:
+        return None
+    from rail_mj.track import TrackError, load_track
+
+    try:
+        track = load_track(path)
+    except TrackError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    for warning in track.warnings:
+        warn(warning)
+    return track
+
+
 def warn(text: str) -> None:
     click.echo(f"rail-mj: warning: {text}", err=True)
 

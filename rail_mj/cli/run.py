@@ -16,6 +16,7 @@ from rail_mj.cli.options import (
     check_outputs,
     check_speed,
     layout_of,
+    track_of,
     uses_stdout,
 )
 from rail_mj.files import staged
@@ -67,6 +68,11 @@ def generate_cmd(layout, out_dir):
     show_default=True,
     help="Start with every wheelset yawed nose-left by this much, rad.",
 )
+@click.option(
+    "--track",
+    type=click.Path(dir_okay=False),
+    help="A track file (TOML sections or CSV design geometry; docs/track.md) to run along from its start.",
+)
 @click.option("--rrd", type=click.Path(dir_okay=False), help="Write a Rerun recording here.")
 @click.option(
     "--rrd-rate",
@@ -76,8 +82,9 @@ def generate_cmd(layout, out_dir):
 )
 @click.option("--out", type=click.Path(dir_okay=False), help="Write the samples as CSV here.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate, out, as_json):
-    """Run LAYOUT at constant speed on straight track and summarise each wheelset's motion.
+def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, track, rrd, rrd_rate, out, as_json):
+    """Run LAYOUT at constant speed on straight track (or along --track) and summarise each
+    wheelset's motion (and its steady curving in each curve).
 
     Outputs may be `-` (standard output; the summary then goes to stderr), a FIFO or a
     device: they are written through, never replaced."""
@@ -88,12 +95,15 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, rrd, rrd_rate
     _check_disturbance(lay, initial_lateral, initial_yaw)
     rate = _recording_rate(rrd_rate)
     check_outputs(layout, [("--out", out), ("--rrd", rrd)])
+    if track is not None:
+        check_outputs(track, [("--out", out), ("--rrd", rrd)], source="the track file")
+    the_track = track_of(track)
     from rail_mj.analysis import summary
     from rail_mj.output.samples import csv_bytes
     from rail_mj.simulation.runner import SimulationError
 
     try:
-        run = _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw)
+        run = _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw, the_track)
     except SimulationError as e:
         raise Failure(str(e), EXIT_RUN_FAILED) from None
     except ValueError as e:
@@ -166,11 +176,11 @@ def _check_disturbance(layout: Layout, lateral: float, yaw: float) -> None:
         )
 
 
-def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw):
+def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw, track=None):
     from rail_mj.simulation.runner import simulate
 
     if not sys.stderr.isatty():
-        return simulate(lay, speed, distance, initial_lateral, initial_yaw)
+        return simulate(lay, speed, distance, initial_lateral, initial_yaw, track=track)
     with click.progressbar(length=1000, label=f"{lay.name} at {speed:g} m/s", file=sys.stderr) as bar:
         done = [0]
 
@@ -180,7 +190,7 @@ def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw):
                 bar.update(step - done[0])
                 done[0] = step
 
-        return simulate(lay, speed, distance, initial_lateral, initial_yaw, progress=progress)
+        return simulate(lay, speed, distance, initial_lateral, initial_yaw, progress=progress, track=track)
 
 
 def _fmt(value, spec: str) -> str:
@@ -238,6 +248,19 @@ def _print_summary(result: dict, err: bool = False) -> None:
                 f"{low['wheel']} at x = {low['x_m']:.4g} m)"
             )
         say(line)
+    for curve in result.get("curves", []):
+        deficiency, a_nc = curve["cant_deficiency_mm"], curve["uncompensated_acceleration_m_per_s2"]
+        say(
+            f"curve (section {curve['section']}, R {curve['radius_m']:g} m, cant {curve['cant_m'] * 1e3:g} mm, "
+            f"deficiency {deficiency:.0f} mm, {a_nc:.2f} m/s^2), x = {curve['from_m']:.0f} to {curve['to_m']:.0f} m:"
+        )
+        say("  wheelset  mean y (mm)  angle of attack (mrad)  Sigma Y (kN)  max Y/Q")
+        for w in curve["wheelsets"]:
+            attack = w["mean_angle_of_attack_rad"] * 1e3
+            say(
+                f"  {w['wheelset']:>8}  {w['mean_lateral_m'] * 1e3:>11.2f}  {attack:>22.2f}"
+                f"  {w['mean_guiding_force_n'] / 1e3:>12.2f}  {_fmt(w['max_y_over_q'], '>7.3f')}"
+            )
     if "csv" in result:
         say(f"samples: {result['csv']}")
     if "rrd" in result:

@@ -36,6 +36,8 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
                                     rail), for a spatial vehicle (the summary has them for all)
     bounce_bogie1, roll_bogie1,     a spatial vehicle's frames' and car bodies' vertical
     pitch_bogie1, ...               displacement from the static equilibrium (m), roll and pitch
+    curvature1, ..., cant1, ...     on a curved track (--track): the track's curvature (1/m, +
+                                    left) and cant (m, signed as the curvature) under each wheelset
     """
     names = ["t", "x"]
     cols = [run.t, run.x]
@@ -62,6 +64,15 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
         for k, name in enumerate(run.frame_names):
             names += [f"bounce_{name}", f"roll_{name}", f"pitch_{name}"]
             cols += [bounce[:, k], roll[:, k], pitch[:, k]]
+    if run.track is not None:  # a run on straight track keeps its columns
+        stations = run.station[:, None] + np.asarray(run.layout.wheelset_x)[None, :]
+        cant = run.track.cant(stations)
+        for i in range(run.n_wheelsets):
+            names.append(f"curvature{i + 1}")
+            cols.append(run.wheelset_curvature[:, i])
+        for i in range(run.n_wheelsets):
+            names.append(f"cant{i + 1}")
+            cols.append(cant[:, i])
     return names, np.column_stack(cols)
 
 

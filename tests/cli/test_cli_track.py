@@ -1,0 +1,54 @@
+"""`rail-mj run --track`: a run along a curved track from the command line."""
+
+from __future__ import annotations
+
+import json
+
+from conftest import MODELS
+
+from rail_mj.cli import main
+
+BOGIE = MODELS / "bogie" / "bogie.toml"
+CURVE = MODELS / "tracks" / "curve-600.toml"
+
+
+def run(argv, capsys):
+    status = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+def test_a_run_along_a_track_reports_each_curve_and_writes_the_track_columns(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    status, text, err = run(
+        ["run", BOGIE, "--speed", "25", "--distance", "580", "--track", CURVE, "--json", "--out", out], capsys
+    )
+    assert status == 0, err
+    result = json.loads(text)
+    assert result["track"] == str(CURVE)
+    (curve,) = result["curves"]
+    assert curve["section"] == 3 and curve["radius_m"] == 600.0 and curve["cant_m"] == 0.15
+    # 11.8*V^2/R - cant, V in km/h (EN 13803), to the small-angle difference of the exact form.
+    assert abs(curve["cant_deficiency_mm"] - (11.8 * 90.0**2 / 600.0 - 150.0)) < 1.0
+    leading = curve["wheelsets"][0]
+    assert leading["mean_angle_of_attack_rad"] > 0  # the leading wheelset points at the outer rail
+    assert leading["mean_lateral_m"] < 0  # and runs towards it (the right rail of a left curve)
+    header = out.read_text().splitlines()[0].split(",")
+    assert header[-4:] == ["curvature1", "curvature2", "cant1", "cant2"]
+
+
+def test_a_bad_track_is_refused_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[section]]\nkind = "curve"\nlength = 100.0\n')
+    status, _out, err = run(["run", BOGIE, "--speed", "25", "--distance", "20", "--track", bad], capsys)
+    assert status == 2
+    assert err.strip().splitlines() == [
+        f"rail-mj: error: {bad}: section 1 (curve): radius missing: a curve "
+        "needs its radius (m; positive turns left, negative right)"
+    ]
+
+
+def test_a_run_longer_than_the_track_is_refused_before_it_starts(capsys):
+    status, _out, err = run(["run", BOGIE, "--speed", "25", "--distance", "2000", "--track", CURVE], capsys)
+    assert status == 2
+    assert "longer than the track" in err and len(err.strip().splitlines()) == 1
