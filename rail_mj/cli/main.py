@@ -9,6 +9,7 @@ MuJoCo, numba and scipy take seconds to load: each command imports what it uses,
 
 options.py     failures, exit statuses and the checks every command shares
 run.py         generate, run
+curving.py     curving
 stability.py   eigen, critical-speed, root-locus, bifurcation
 studies.py     sweep, map
 contact.py     contact, creep, profile, conicity, contact-geometry
@@ -21,7 +22,7 @@ import sys
 
 import click
 
-from rail_mj.cli import contact, run, stability, studies
+from rail_mj.cli import contact, curving, run, stability, studies
 from rail_mj.cli.options import EXIT_BAD_INPUT, EXIT_RUN_FAILED, Failure
 
 
@@ -35,6 +36,7 @@ def cli():
 COMMANDS = (
     run.generate_cmd,
     run.run_cmd,
+    curving.curving_cmd,
     stability.eigen_cmd,
     stability.critical_speed_cmd,
     stability.root_locus_cmd,

@@ -52,3 +52,33 @@ def test_a_run_longer_than_the_track_is_refused_before_it_starts(capsys):
     status, _out, err = run(["run", BOGIE, "--speed", "25", "--distance", "2000", "--track", CURVE], capsys)
     assert status == 2
     assert "longer than the track" in err and len(err.strip().splitlines()) == 1
+
+
+def test_curving_gives_each_radius_and_speed_its_steady_state(capsys):
+    status, text, err = run(
+        ["curving", BOGIE, "--radii", "600,-1200", "--speeds", "20:30:2", "--cant", "0.05", "--json"], capsys
+    )
+    assert status == 0, err
+    results = json.loads(text)
+    assert [(r["radius_m"], r["speed_m_per_s"]) for r in results] == [
+        (600.0, 20.0),
+        (600.0, 30.0),
+        (-1200.0, 20.0),
+        (-1200.0, 30.0),
+    ]
+    left, right = results[0], results[2]
+    assert right["cant_m"] == -0.05  # the outer rail of a right curve is the left one
+    # Either hand, the leading wheelset points at its outer rail and runs towards it.
+    for result, outward in ((left, -1.0), (right, 1.0)):
+        leading = result["wheelsets"][0]
+        assert leading["angle_of_attack_rad"] > 0
+        assert outward * leading["lateral_m"] > 0
+
+
+def test_curving_refuses_a_radius_no_track_has(capsys):
+    status, _out, err = run(["curving", BOGIE, "--radius", "5", "--speed", "10"], capsys)
+    assert status == 2
+    assert err.strip().splitlines() == [
+        "rail-mj: error: --radius must be at least 10 m (tighter than trams run; a 2.5 m wheelbase would "
+        "turn through 0.25 rad), got 5; check the units (m)"
+    ]

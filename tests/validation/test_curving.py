@@ -193,3 +193,48 @@ def test_straight_track_given_as_a_track_runs_as_without_one():
     on_track = simulate(layout, 30.0, 200.0, 0.002, track=straight)
     np.testing.assert_allclose(on_track.y, plain.y, rtol=0, atol=1e-12)
     assert dataclasses.asdict(layout) == dataclasses.asdict(on_track.layout)
+
+
+def test_the_steady_state_solved_directly_is_the_elastic_bogie_s_closed_form():
+    """rail_mj.analysis.curving's quasi-static solve, on the linear elastic bogie at the
+    balance speed: the closed form of Wickens (2003) as the time run above gives it."""
+    from rail_mj.analysis.curving import steady_curving
+
+    data = _linear("bogie", secondary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0, "lateral_damping": 64e3})
+    layout = layout_from_dict(data)
+    radius, speed = 1000.0, 10.0
+    result = steady_curving(layout, radius, speed, _balance_cant(radius, speed))
+    w, c, p = layout.wheelset, layout.creep, layout.primary
+    assert layout.bogie is not None
+    a, b, lam, r0 = layout.bogie.wheelset_positions[0], w.contact_half_spacing, w.conicity, w.rolling_radius
+    ky, kpsi = p.lateral_stiffness, p.yaw_stiffness
+    d = 4 * a * a * c.f11 * c.f22 * ky * b * lam + 4 * c.f11 * c.f22 * kpsi * b * lam + kpsi**2 * ky * r0
+    psi1 = (a / radius) * kpsi**2 * ky * r0 / d
+    # The angle of attack is the yaw towards the outer rail: the leading wheelset's positive.
+    attack = [w["angle_of_attack_rad"] for w in result["wheelsets"]]
+    np.testing.assert_allclose(attack, [psi1, -psi1], rtol=1e-7)
+    # Practice's cant deficiency, 1.5*V^2*k/g - cant, is the exact balance's to the small angle:
+    # here 1.5*(tan(theta) - sin(theta)), under a micrometre.
+    theta = math.atan(speed**2 / (GRAVITY * radius))
+    assert result["cant_deficiency_mm"] == pytest.approx(1.5e3 * (math.tan(theta) - math.sin(theta)), rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("name", "radius", "speed", "cant"),
+    [("bogie", 600.0, 20.0, 0.0), ("manchester-coach-s1002", 300.0, 15.0, 0.1)],
+)
+def test_the_steady_state_solved_directly_is_where_a_run_settles(name, radius, speed, cant):
+    """The nonlinear steady state (the flange spring and Polach's saturation on cones; on
+    S1002/60E1 the leading wheelsets in flange contact in a 300 m curve) solved directly equals
+    the state a time run on a long constant curve settles in, to the solver's tolerance."""
+    from rail_mj.analysis.curving import steady_state
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(MODELS / name / f"{name}.toml")
+    steady = steady_state(layout, radius, speed, cant)
+    run = simulate(layout, speed, 600.0, track=_curve(radius, cant, 700.0))
+    np.testing.assert_allclose(steady.y[0], run.y[-1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(steady.psi[0], run.psi[-1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(steady.frame_y[0], run.frame_y[-1], rtol=0, atol=1e-8)
+    if name.endswith("s1002"):  # the leading wheelset is on its flange: past the profiles' clearance
+        assert steady.y[0, 0] < -0.9 * layout.wheelset.flangeway_clearance
