@@ -58,7 +58,9 @@ from rail_mj.files import staged
 from rail_mj.layout.kinds import Coned, Profiled, contact_model
 from rail_mj.layout.reader import Flange
 from rail_mj.simulation.run import Run
+from rail_mj.track import Track
 from rail_mj.units import MM_PER_M, MRAD_PER_RAD, N_PER_KN
+from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.looks import RAIL_HEAD_WIDTH
 
 APP_ID = "rail-mj"
@@ -130,6 +132,14 @@ def yaw_path(i: int) -> str:
 
 def guiding_path(i: int) -> str:
     return f"/guiding/wheelset{i + 1}"
+
+
+def curvature_path(i: int) -> str:
+    return f"/track/curvature/wheelset{i + 1}"
+
+
+def cant_path(i: int) -> str:
+    return f"/track/cant/wheelset{i + 1}"
 
 
 def frame_lateral_path(name: str) -> str:
@@ -288,6 +298,18 @@ def plots(run: Run) -> list[Plot]:
             ),
         ]
         out += _wheel_plots(run, wheelsets)
+    if run.track is not None:  # the curve under each wheelset, which its lateral and yaw follow
+        stations = run.station[:, None] + np.asarray(run.layout.wheelset_x)[None, :]
+        out += [
+            Plot(
+                "Track under the wheelsets: curvature (1/km)",
+                wheelset_series(curvature_path, "1/km", run.wheelset_curvature * 1e3),
+            ),
+            Plot(
+                "Track under the wheelsets: cant (mm)",
+                wheelset_series(cant_path, "mm", run.track.cant(stations) * MM_PER_M),
+            ),
+        ]
     match contact_model(run.layout):
         case Profiled():  # the normal forces: gravitational stiffness and the flange
             out.append(
@@ -548,9 +570,12 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes) ->
     rec.log(
         _extent_path(run), rr.Points3D(_extent(run) - data.xpos[root], radii=0.0, colors=[(0, 0, 0, 0)]), static=True
     )
-    pos = run.body_pos[keep].copy()
-    pos[:, :, 0] += run.x[keep, None]
-    quat = _xyzw(run.body_quat[keep])
+    if run.track is None:
+        pos = run.body_pos[keep].copy()
+        pos[:, :, 0] += run.x[keep, None]
+        quat = _xyzw(run.body_quat[keep])
+    else:
+        pos, quat = _on_track(run, keep)
     for b in range(1, model.nbody):
         rec.send_columns(
             f"/world/vehicle/{model.body(b).name}",
@@ -560,8 +585,57 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes) ->
     log_track(rec, run)
 
 
+def _track_frames(track: Track, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The track-following frame at distances `s` (any shape): its origin on the centreline at
+    rail level in the level plane (..., 3) and its rotation (..., 3, 3), the heading about z
+    and then the cant's roll of the track plane (the right rail up: -theta about x)."""
+    xy = track.xy(s.reshape(-1)).reshape(*s.shape, 2)
+    heading, theta = track.heading(s), -track.cant_angle(s)
+    ch, sh, cr, sr = np.cos(heading), np.sin(heading), np.cos(theta), np.sin(theta)
+    zero, one = np.zeros_like(ch), np.ones_like(ch)
+    rz = np.stack([np.stack([ch, -sh, zero], -1), np.stack([sh, ch, zero], -1), np.stack([zero, zero, one], -1)], -2)
+    rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, cr, -sr], -1), np.stack([zero, sr, cr], -1)], -2)
+    return np.concatenate([xy, np.zeros((*s.shape, 1))], axis=-1), rz @ rx
+
+
+def _on_track(run: Run, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every body's pose on the curved track (positions and xyzw quaternions, samples `keep`):
+    its pose in the track-following frame (docs/track.md) carried by the track's frame at its
+    own station."""
+    assert run.track is not None
+    model = run.vehicle.model
+    x0 = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, x0)
+    # Each body's station: the vehicle's, plus its own x along the vehicle (the odometer's own
+    # x is the station itself).
+    along = np.where(np.arange(model.nbody) == model.body(ODOMETER).id, 0.0, x0.xpos[:, 0])
+    stations = run.station[keep, None] + along[None, :]
+    origin, rotation = _track_frames(run.track, stations)
+    local = run.body_pos[keep].copy()
+    local[:, :, 0] -= along[None, :]
+    local[:, model.body(ODOMETER).id] = 0.0  # drawn nowhere: it has no shape
+    pos = origin + np.einsum("...ij,...j->...i", rotation, local)
+    body = np.array([_matrix(q) for q in run.body_quat[keep].reshape(-1, 4)]).reshape(*rotation.shape)
+    quat = np.empty((*stations.shape, 4))
+    mujoco_quat = np.empty(4)
+    for index in np.ndindex(stations.shape):
+        mujoco.mju_mat2Quat(mujoco_quat, (rotation[index] @ body[index]).reshape(-1))
+        quat[index] = mujoco_quat
+    return pos, _xyzw(quat)
+
+
+def _matrix(wxyz: np.ndarray) -> np.ndarray:
+    out = np.empty(9)
+    mujoco.mju_quat2Mat(out, wxyz)
+    return out.reshape(3, 3)
+
+
 def log_track(rec: rr.RecordingStream, run: Run) -> None:
-    """The rails and the sleepers under them, along the whole run, logged once."""
+    """The rails and the sleepers under them, along the whole run, logged once; on a curved
+    track (run.track) drawn along it, turned and canted."""
+    if run.track is not None:
+        _log_curved_track(rec, run, run.track)
+        return
     b = run.layout.wheelset.contact_half_spacing
     start, end = float(run.x[0]) - TRACK_MARGIN, float(run.x[-1]) + TRACK_MARGIN
     length = end - start
@@ -581,6 +655,36 @@ def log_track(rec: rr.RecordingStream, run: Run) -> None:
         rr.Boxes3D(
             centers=np.column_stack([x, np.zeros_like(x), np.full_like(x, -0.16 - 0.11)]),
             half_sizes=np.tile([0.13, b + 0.5, 0.11], (len(x), 1)),
+            colors=[[110, 100, 90]],
+            fill_mode="solid",
+        ),
+        static=True,
+    )
+
+
+def _log_curved_track(rec: rr.RecordingStream, run: Run, track: Track) -> None:
+    b = run.layout.wheelset.contact_half_spacing
+    reach = np.abs(np.asarray(run.layout.wheelset_x)).max() + TRACK_MARGIN
+    start, end = float(run.station[0]) - reach, float(run.station[-1]) + reach
+    s = np.arange(math.ceil(start / SLEEPER_SPACING), math.floor(end / SLEEPER_SPACING) + 1) * SLEEPER_SPACING
+    origin, rotation = _track_frames(track, s)
+    rails = [origin + rotation @ np.array([0.0, side * b, -0.08]) for side in (1, -1)]
+    rec.log(
+        "/world/rails",
+        rr.LineStrips3D(rails, radii=RAIL_HEAD_WIDTH / 2, colors=[[190, 190, 200]]),
+        static=True,
+    )
+    quat = np.empty((len(s), 4))
+    one = np.empty(4)
+    for k in range(len(s)):
+        mujoco.mju_mat2Quat(one, rotation[k].reshape(-1))
+        quat[k] = one
+    rec.log(
+        "/world/sleepers",
+        rr.Boxes3D(
+            centers=origin + rotation @ np.array([0.0, 0.0, -0.16 - 0.11]),
+            half_sizes=np.tile([0.13, b + 0.5, 0.11], (len(s), 1)),
+            quaternions=_xyzw(quat),
             colors=[[110, 100, 90]],
             fill_mode="solid",
         ),
