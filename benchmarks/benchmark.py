@@ -27,6 +27,13 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   models/manchester-coach-s1002).
 
     python benchmarks/benchmark.py --spatial   # only the spatial coach against the planar one
+
+- the curve's cost (docs/track.md): one RK4 step of the coach (planar, spatial on cones, the
+  S1002/60E1 coach) with the native callback on straight track against the same vehicle in the
+  600 m curve of models/tracks/curve-600.toml, their steps alternating, CPU time of the calling
+  thread, the spread of the ratio over the repeats (target: the curve adds at most 15 %).
+
+    python benchmarks/benchmark.py --curve     # only the curve's cost
 """
 
 from __future__ import annotations
@@ -273,9 +280,60 @@ def print_spatial(rows) -> None:
         print(f"| {name}: `simulate`, 1 km at 60 m/s | {runs[0]:.2f} s | {runs[1]:.2f} s | {runs[1] / runs[0]:.2f}x |")
 
 
+def curve_cost(speed: float = 30.0, n: int = 3000, repeats: int = 11):
+    """Per vehicle (name, nv, the straight step and the curved step, CPU s, best of each; the
+    ratios of the repeats' pairs, min and max): the same vehicle and timestep, on straight
+    track and in the constant part of curve-600 with its odometer, their steps alternating."""
+    from rail_mj.track import load_track
+    from rail_mj.vehicle.block import set_speed
+
+    track = load_track(ROOT / "models" / "tracks" / "curve-600.toml")
+    rows = []
+    for name, layout in (
+        ("planar coach", load_layout(COACH)),
+        ("spatial coach on cones", spatial_coned()),
+        ("coach on S1002/60E1", load_layout(S1002)),
+    ):
+        timestep = prepare(Request(layout, speed, 1000.0, 0.002)).timestep
+        models = []
+        for on in (None, track):
+            vehicle = Vehicle(layout, on)
+            model = vehicle.model
+            model.opt.timestep = timestep
+            set_speed(model, speed)
+            data = mujoco.MjData(model)
+            data.qpos[vehicle.root_lateral_dofs] = 0.002
+            if on is not None:  # the vehicle in the curve's constant part, moving along it
+                odometer = model.joint("odometer")
+                data.qpos[odometer.qposadr[0]] = 400.0
+                data.qvel[odometer.dofadr[0]] = speed
+            models.append((model, data))
+        times: list[list[float]] = [[], []]
+        with native.installed():
+            for _ in range(repeats):
+                for k, (model, data) in enumerate(models):
+                    times[k].append(cpu_per_step(model, data, n))
+        ratios = np.array(times[1]) / np.array(times[0])
+        rows.append((name, models[0][0].nv, min(times[0]), min(times[1]), ratios.min(), ratios.max()))
+    return rows
+
+
+def print_curve(rows) -> None:
+    print("| one RK4 step with the native creep callback, CPU time | straight | in a 600 m curve | curve / straight |")
+    print("|---|---|---|---|")
+    for name, nv, straight, curved, low, high in rows:
+        print(
+            f"| {name} ({nv} dof) | {straight * 1e6:.1f} µs | {curved * 1e6:.1f} µs | {curved / straight:.2f}x "
+            f"(pairs {low:.2f}-{high:.2f}; target: at most 1.15x) |"
+        )
+
+
 def main() -> None:
     if "--spatial" in sys.argv[1:]:
         print_spatial(spatial_against_planar())
+        return
+    if "--curve" in sys.argv[1:]:
+        print_curve(curve_cost())
         return
     starts = start_up()
     train_step, train_run, train_nv = train_speed()

@@ -130,8 +130,9 @@ def add_curve_forces(block, k, speed, xpos, xanchor, xaxis, stiffness, damping, 
     # The reference: the track plane at the vehicle's origin, which the model's world is.
     theta_ref = math.asin(cant_ref / CANT_BASE)
     theta_rate_ref = speed * slope_ref / (CANT_BASE * math.cos(theta_ref))
-    pose = np.zeros(POSES * nb)
-    rate = np.zeros(POSES * nb)
+    # One allocation a call (every entry is set below): each body's pose, then their rates.
+    scratch = np.empty(2 * POSES * nb)
+    pose, rate = scratch[: POSES * nb], scratch[POSES * nb :]
     for b in range(nb):
         body, x, height, mass, count = int(block[e]), block[e + 1], block[e + 2], block[e + 3], int(block[e + 4])
         chain = numba.carray(block, (e + 5 + 3 * count,))[e + 5 :]
