@@ -92,7 +92,8 @@ def creep_cmd(semi_axes, normal_force, creepages, friction, shear_modulus, poiss
     """The creep force and spin moment of one contact ellipse, by a creep law: Fx, Fy (N)
     and Mz (N m) of the rail on the wheel, Kalker's signs (Fx = -f11*xi for small xi).
 
-    Kalker's coefficients C11..C33 come from his table at A/B and the Poisson's ratio, the
+    Kalker's coefficients C11..C33 come from his table at A/B and the Poisson's ratio (beyond
+    A/B = 10, a flange's slender ellipse, his asymptotic expressions joined to the table), the
     linear coefficients as f11 = G*A*B*C11 and so on (docs/contact.md); fastsim is Kalker's
     FASTSIM on the ellipse, with his parabolic pressure (docs/creep.md)."""
     a, b = semi_axes

@@ -31,7 +31,7 @@ import numpy as np
 
 from rail_mj import numerics as _t
 from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS
-from rail_mj.units import M_PER_MM, N_PER_KN, PA_PER_GPA
+from rail_mj.units import M_PER_MM, N_PER_KN, PA_PER_GPA, RAD_PER_MRAD
 
 
 @dataclasses.dataclass(frozen=True)
@@ -749,7 +749,7 @@ NADAL_FLOOR = 0.5
 # forces meet the axle load to this (relative), in at most NADAL_PASSES passes (one where the
 # creep saturates; at the flange's onset, its load moving fast, a few).
 NADAL_TOLERANCE = 1e-6
-NADAL_PASSES = 4
+NADAL_PASSES = 5
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -763,9 +763,10 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
     Per contact point k of side s (+1 left, -1 right), load share w, radius r, contact
     angle g (leaning towards the track centre), lateral lever l:
       normal loads from the wheelset's vertical and roll equilibrium (`_normal_loads`);
-      creepages xi_x = (r0 - r)/r0 - l*psi'/V, xi_y = (y'/V - psi)/cos(g) (the slip the
-        rigid contact allows lies in the contact plane, its contact point led by the yaw),
-        spin = psi'*cos(g)/V - s*sin(g)/r0 (the wheel turns at V/r0);
+      creepages xi_x = (r0 - r)/r0 - l*psi'/V, xi_y = y'/(V*cos(g)) - psi*cos(phi)/cos(g - s*phi)
+        (the slip the rigid contact allows lies in the contact plane, its contact point led by the
+        yaw; phi the wheelset's roll from the table, g - s*phi the contact angle on the wheel),
+        spin = psi'*cos(g)/V - s*sin(g - s*phi)/r0 (the wheel turns at V/r0 about its rolled axle);
       Kalker's law with this point's ellipse at its load (a, b grow as N^(1/3)), saturated,
         or FASTSIM on that ellipse;
       the normal force's lateral part -s*N*sin(g): gravitational stiffness and the flange.
@@ -837,15 +838,47 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _creepages(cos_g, sin_g, s, cos_roll, sin_roll, rise, lever, r0, y_dot, psi, psi_dot, speed):
+    """One contact point's creepages (xi_x, xi_y, spin in rad/m) on profiles: side s (+1 left,
+    -1 right), contact angle g in the track frame (leaning towards the track centre; its cos and
+    sin), the wheelset's roll phi (left side up; its cos and sin), radius rise r - r0 and lateral
+    lever l (m), the wheelset's y', psi, psi' and speed V (docs/dynamics-on-profiles.md):
+
+        xi_x = (r0 - r)/r0 - l*psi'/V
+        xi_y = y'/(V*cos(g)) - psi*cos(phi)/cos(g - s*phi)
+        spin = psi'*cos(g)/V - s*sin(g - s*phi)/r0
+
+    g - s*phi is the contact angle on the wheel, from its rolled axle: the wheel turns at V/r0
+    about that axle (its spin along the normal), and the yaw's slip -V*psi lies along the wheel's
+    meridian through the contact, led ahead of the axle. At phi = 0 they are the unrolled
+    expressions to the last bit: xi_y = (y'/V - psi)/cos(g), spin = psi'*cos(g)/V - s*sin(g)/r0."""
+    # sin and cos of g - s*phi by the angle sum (exact at phi = 0: no trigonometry per point).
+    sin_wheel = sin_g * cos_roll - s * cos_g * sin_roll
+    cos_wheel = cos_g * cos_roll + s * sin_g * sin_roll
+    xi_x = -rise / r0 - lever * psi_dot / speed
+    tilt = cos_roll * cos_g / cos_wheel  # cos(phi)/cos(g - s*phi) as a factor on sec(g): 1 at phi = 0
+    xi_y = (y_dot / speed - psi * tilt) / cos_g
+    xi_sp = psi_dot * cos_g / speed - s * sin_wheel / r0
+    return xi_x, xi_y, xi_sp
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right):
     """Every contact point's forces under the wheels' normal loads (`profiled_contact`): (creep
     lateral, normal lateral, couple, spin, lead moment, Y_left, Y_right, and per wheel the creep
     forces' vertical force and roll moment about the rail level under the wheelset's centre:
     Fz_left, Fz_right, Mx_left, Mx_right). A point's creep force in its contact plane, across the
-    rolling direction, has the track components (cos(g), s*sin(g)) (the plane's tangent)."""
+    rolling direction, has the track components (cos(g), s*sin(g)) (the plane's tangent).
+
+    The wheelset's roll phi (the table's, left side up) tilts its axle: a point at the track-frame
+    contact angle g lies at g - s*phi on the wheel, which sets the spin of the wheel's rotation
+    and the yaw's lateral slip (docs/dynamics-on-profiles.md, creepages); with phi = 0 both are
+    the unrolled expressions to the last bit."""
     creep_lateral = normal_lateral = couple = spin = lead_moment = 0.0
     y_left = y_right = 0.0
     fz_left = fz_right = mx_left = mx_right = 0.0
+    wheelset_roll = _between(lo, hi, t, _t.ROLL) * RAD_PER_MRAD  # rad, left side up
+    cos_roll, sin_roll = math.cos(wheelset_roll), math.sin(wheelset_roll)
     for side in range(2):
         s = 1.0 - 2.0 * side
         wheel = n_left if side == 0 else n_right
@@ -865,9 +898,11 @@ def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r
             c11, c22 = _between(lo, hi, t, c + _t.C11), _between(lo, hi, t, c + _t.C22)
             c23 = _between(lo, hi, t, c + _t.C23)
             cos_g, sin_g = math.cos(g), math.sin(g)
-            xi_x = -rise / r0 - lever * psi_dot / speed
-            xi_y = (y_dot / speed - psi) / cos_g
-            xi_sp = psi_dot * cos_g / speed - s * sin_g / r0 if spinning else 0.0
+            xi_x, xi_y, xi_sp = _creepages(
+                cos_g, sin_g, s, cos_roll, sin_roll, rise, lever, r0, y_dot, psi, psi_dot, speed
+            )
+            if not spinning:
+                xi_sp = 0.0
             scale = 1.0
             if law == FASTSIM:  # this point's ellipse through Kalker's FASTSIM
                 fx, fy, mz = _fastsim(

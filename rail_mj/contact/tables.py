@@ -76,17 +76,17 @@ class TableError(ValueError):
 
 
 def _hertz_per_unit_load(A, B, young, poisson):
-    """Semi-axes at 1 N, Kalker's coefficients (ratio clamped to his table) and the
-    approach coefficient c (approach = c*N^(2/3)) of a point with curvature sums A, B."""
+    """Semi-axes at 1 N, Kalker's coefficients and the approach coefficient c
+    (approach = c*N^(2/3)) of a point with curvature sums A, B. Beyond a/b = 10 (a flange's
+    slender patch) the coefficients are Kalker's asymptotes joined to his table
+    (`hertz.slender_coefficients`); below a/b = 0.1 they are held at the table's a/b = 0.1."""
     from rail_mj.contact.hertz import KALKER_S, hertz_ellipse, kalker_coefficients
 
     # A conformal point (B near 0 or below: a worn tread on a rail of nearly its shape)
     # has a long, narrow ellipse across; Hertz needs B > 0, so it is held at A/1000.
     B = max(B, 1e-3 * A)
     a, b = hertz_ellipse(1.0, A, B, young, poisson)
-    ratio = a / b
-    low, high = KALKER_S[0], 1.0 / (2.0 - KALKER_S[-1])
-    C = kalker_coefficients(min(max(ratio, low), high), poisson)
+    C = kalker_coefficients(max(a / b, KALKER_S[0]), poisson)
     estar = young / (2.0 * (1.0 - poisson**2))
     # Johnson (1985, eq. 4.25): an ellipse's approach as the equivalent sphere's, radius
     # 1/(2*sqrt(A*B)); only used to share a wheel's load between two points.

@@ -24,7 +24,7 @@ from rail_mj.contact.creep import (
     fastsim,
     patch_forces,
 )
-from rail_mj.contact.hertz import contact_patch, ellipse_patch
+from rail_mj.contact.hertz import contact_patch, ellipse_patch, slender_coefficients
 from rail_mj.layout import LayoutError, layout_from_dict
 from rail_mj.numerics import NUMERIC_ELLIPSE
 from rail_mj.simulation import native
@@ -69,8 +69,12 @@ def slopes(n: int, patch=PATCH) -> dict:
 
 @pytest.mark.parametrize(
     "patch",
-    [PATCH, ellipse_patch(50e3, 3e-3, 7.5e-3, shear_modulus=80e9, poisson_ratio=0.25)],
-    ids=["a/b 1.33", "a/b 0.4"],
+    [
+        PATCH,
+        ellipse_patch(50e3, 3e-3, 7.5e-3, shear_modulus=80e9, poisson_ratio=0.25),
+        ellipse_patch(50e3, 12e-3, 0.5e-3, shear_modulus=80e9, poisson_ratio=0.28),  # a flange's, a/b 24
+    ],
+    ids=["a/b 1.33", "a/b 0.4", "a/b 24"],
 )
 def test_small_creepage_slopes_converge_to_kalkers(patch):
     """The flexibilities L1, L2, L3 are chosen so that the simplified theory has Kalker's C11,
@@ -343,7 +347,7 @@ def test_cli_prints_a_readable_result(capsys):
     [
         (["--semi-axes", -0.007, 0.005], "--semi-axes must be between"),
         (["--semi-axes", 7.0, 5.0], "check the units"),
-        (["--semi-axes", 0.007, 0.0005], "outside Kalker's table"),
+        (["--semi-axes", 0.0005, 0.007], "outside Kalker's table"),
         (["--semi-axes", "nan", 0.005], "--semi-axes must be finite"),
         (["--poisson", 0.6], "--poisson must be between 0 and 0.5"),
         (["--friction", 0], "--friction must be a positive number"),
@@ -360,6 +364,20 @@ def test_cli_bad_input_fails_in_one_line(change, fragment, capsys):
     err = capsys.readouterr().err
     lines = [line for line in err.strip().splitlines() if not line.startswith("rail-mj: warning: ")]
     assert status == 2 and len(lines) == 1 and lines[0].startswith("rail-mj: error: ") and fragment in lines[0]
+
+
+def test_cli_takes_a_flanges_slender_ellipse(capsys):
+    """A flange's patch, a/b = 24, beyond Kalker's table: `creep` takes it, with the slender
+    coefficients (docs/contact.md), and the linear law is -f11*xi with f11 = G*a*b*C11."""
+    a, b, n, g = 12e-3, 0.5e-3, 50e3, 80e9
+    argv = ["creep", "--semi-axes", a, b, "--normal-force", n, "--shear-modulus", g, "--poisson", 0.28]
+    status = main([str(v) for v in argv + ["--creepages", 0.001, 0, 0, "--law", "linear", "--json"]])
+    captured = capsys.readouterr()
+    assert status == 0 and captured.err == ""
+    result = json.loads(captured.out)
+    expected = slender_coefficients(a / b, 0.28)
+    assert {k: result[k] for k in expected} == expected
+    assert result["fx_n"] == pytest.approx(-g * a * b * expected["C11"] * 0.001, rel=1e-12)
 
 
 def test_cli_needs_friction_for_a_saturating_law(capsys):

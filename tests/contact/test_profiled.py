@@ -7,6 +7,7 @@ import dataclasses
 import json
 import math
 
+import numba
 import numpy as np
 import pytest
 from conftest import MODELS, PROFILES_TOML, assert_callbacks_agree
@@ -14,7 +15,7 @@ from conftest import MODELS, PROFILES_TOML, assert_callbacks_agree
 from rail_mj.analysis.stability import Stability
 from rail_mj.cli import main
 from rail_mj.contact import geometry, tables
-from rail_mj.contact.creep import ContactParameters, contact_forces
+from rail_mj.contact.creep import ContactParameters, _creepages, contact_forces
 from rail_mj.layout import LayoutError, load_layout
 from rail_mj.simulation.runner import simulate
 from rail_mj.units import M_PER_MM, N_PER_KN
@@ -209,9 +210,12 @@ def test_a_steep_flange_holds_the_wheelset_on_the_flanging_wheel(coach):
 
 def test_a_flange_yawed_into_its_rail_is_turned_away(coach):
     """Against the left rail's flange, nose-left (into the rail): the normal force acts
-    ahead of the axle (r*tan(gamma) > l) and yaws the wheelset nose-right (docs/flange.md)."""
+    ahead of the axle (r*tan(gamma) > l) and yaws the wheelset nose-right (docs/flange.md).
+    Under the coach's own law, Polach's, whose mu*N bounds the creep: the linear law's creep on
+    a yawed flange is unbounded (with the flange patch's own Kalker coefficients, a/b = 24, 1.6
+    times the normal force here) and would outweigh it."""
     table = tables.dynamics_table(coach)
-    f = forces_at(table, 6.4e-3, psi=0.004)
+    f = forces_at(table, 6.4e-3, psi=0.004, law=2)
     assert float(f.flange_lateral[0]) < 0 and float(f.flange_moment[0]) < 0
 
 
@@ -275,3 +279,138 @@ def test_a_wheelset_past_the_table_has_climbed_its_flange(coach):
 
     with pytest.raises(Derailed, match="climbed the flange"):
         simulate(coach, 30.0, 50.0, 0.0105)
+
+
+# --- the wheelset's roll in the creepages (docs/dynamics-on-profiles.md, creepages) ---------
+
+
+@numba.njit
+def _unrolled(g, s, rise, lever, r0, y_dot, psi, psi_dot, speed):
+    """The creepages as they were before the roll entered them (track-frame angle only)."""
+    return (
+        -rise / r0 - lever * psi_dot / speed,
+        (y_dot / speed - psi) / math.cos(g),
+        psi_dot * math.cos(g) / speed - s * math.sin(g) / r0,
+    )
+
+
+def _rotation(axis: int, angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    i, j = [k for k in range(3) if k != axis]
+    m = np.eye(3)
+    m[i, i], m[i, j], m[j, i], m[j, j] = c, -s, s, c
+    return m
+
+
+def rolled_axle_creepages(g, s, roll, psi, psi_dot, y_dot, speed, r0):
+    """The lateral and spin creepages from the kinematics in three dimensions: a wheelset
+    rolled by `roll` (about x, left side up) and yawed by `psi` (about z) spins at V/r0 about its
+    axle; the contact normal n = (0, -s*sin(g), cos(g)) (a straight rail's: no x part). Spin:
+    the angular velocity along n, over V (CONTACT: omega*sin(g - roll)/V at zero yaw). Lateral:
+    the slip along the wheel's meridian through the contact, n x c (c the circumferential
+    direction, along axle x n, where the rotation's own slip lies); the lateral velocity y' slips
+    in the contact plane (its vertical part from the rigid contact), the forward speed V as x."""
+    axle = _rotation(2, psi) @ _rotation(0, roll) @ np.array([0.0, 1.0, 0.0])
+    n = np.array([0.0, -s * math.sin(g), math.cos(g)])
+    omega = speed / r0 * axle + np.array([0.0, 0.0, psi_dot])
+    c = np.cross(axle, n)
+    meridian = np.cross(n, c / np.linalg.norm(c))
+    slip = np.array([speed, y_dot, s * y_dot * math.tan(g)])
+    return float(slip @ meridian) / speed, float(omega @ n) / speed
+
+
+def test_unrolled_creepages_are_unchanged_to_the_last_bit():
+    """At zero roll the creepages are the previous expressions exactly, on both sides, whatever
+    the angle (tread to flange), state and speed."""
+    rng = np.random.default_rng(20)
+    for _ in range(3000):
+        g, s = rng.uniform(-0.2, 1.3), float(rng.choice([1.0, -1.0]))
+        rise, lever, r0 = rng.uniform(-5e-3, 30e-3), rng.uniform(-0.8, 0.8), rng.uniform(0.3, 0.6)
+        state = rng.normal(0, 0.1), rng.normal(0, 3e-3), rng.normal(0, 0.05), rng.uniform(1, 150)  # y', psi, psi', V
+        for roll in (0.0, -0.0):
+            got = _creepages(math.cos(g), math.sin(g), s, math.cos(roll), math.sin(roll), rise, lever, r0, *state)
+            assert got == _unrolled(g, s, rise, lever, r0, *state)
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0])
+def test_creepages_of_a_rolled_wheelset_are_its_rotating_axles(s):
+    """Against the three-dimensional kinematics of the rolled, yawed, spinning wheelset: the spin
+    is (V/r0)*sin(g - s*roll)/V plus the yaw rate's part to round-off at zero yaw, and to second
+    order in the yaw otherwise; the lateral creepage to round-off at zero yaw, and otherwise to
+    second order in the yaw (twice the leading neglected terms, the yaw tilting the meridian:
+    psi^2*tan(d)*tan(g)/2 of the yaw's part and psi^2/(2*cos(d)^2) of the lateral velocity's,
+    d = g - s*roll)."""
+    rng = np.random.default_rng(11 if s > 0 else 12)
+    for _ in range(500):
+        g, roll = rng.uniform(-0.05, 1.25), rng.uniform(-0.015, 0.015)
+        psi_dot, y_dot, speed, r0 = rng.normal(0, 0.05), rng.normal(0, 0.1), rng.uniform(5, 100), 0.46
+        trig = math.cos(g), math.sin(g), s, math.cos(roll), math.sin(roll)
+        _, xi_y, spin = _creepages(*trig, 0.0, 0.0, r0, y_dot, 0.0, psi_dot, speed)
+        lateral, oracle = rolled_axle_creepages(g, s, roll, 0.0, psi_dot, y_dot, speed, r0)
+        assert spin == pytest.approx(oracle, rel=1e-12, abs=1e-15)
+        assert spin == pytest.approx(psi_dot * math.cos(g) / speed - s * math.sin(g - s * roll) / r0, abs=1e-15)
+        assert xi_y == pytest.approx(lateral, rel=1e-12, abs=1e-15)
+        psi = rng.uniform(-5e-3, 5e-3)
+        _, xi_y, spin = _creepages(*trig, 0.0, 0.0, r0, y_dot, psi, psi_dot, speed)
+        lateral, oracle = rolled_axle_creepages(g, s, roll, psi, psi_dot, y_dot, speed, r0)
+        assert spin == pytest.approx(oracle, abs=psi**2 / r0)
+        d = g - s * roll  # the neglected terms: the meridian's tilt by the yaw, both parts
+        bound = abs(psi) * (1 + abs(math.tan(d) * math.tan(g))) / math.cos(d) + abs(y_dot / speed) / (
+            math.cos(d) ** 2 * math.cos(g)
+        )
+        assert xi_y == pytest.approx(lateral, abs=psi**2 * bound)
+
+
+def test_the_wheel_opposite_a_flange_spins_with_the_wheelsets_roll(coach):
+    """On the flange (y = 8 mm: the wheelset rolled 8.6 mrad, left side up) at rest, linear law:
+    every point's lateral creep force and spin moment are Kalker's -f23*spin and -f33*spin with
+    spin = -s*sin(g - s*roll)/r0 from the table's own angles and roll. The wheel opposite the
+    flange spins twice as fast as its track-frame angle alone would say (the finding against
+    CONTACT)."""
+    from rail_mj.contact.creep import _normal_loads
+
+    table = tables.dynamics_table(coach)
+    body = table[1:]
+    i = int(np.argmin(np.abs(body[:, tables.Y] - 8.0)))
+    row, r0 = body[i], table[0, tables.HEADER_R0] * M_PER_MM
+    shear = table[0, tables.HEADER_SHEAR_MODULUS] * 1e9
+    roll = row[tables.ROLL] * 1e-3
+    n_left, n_right, _, _ = _normal_loads(row, row, 0.0, table[0, tables.HEADER_AXLE_LOAD] * N_PER_KN, r0, 0.0, False)
+    lateral = moment = 0.0
+    for side, (s, wheel) in enumerate(((1.0, n_left), (-1.0, n_right))):
+        for slot in range(tables.SLOTS):
+            at = lambda field, side=side, slot=slot: row[tables.point_column(side, slot, field)]  # noqa: E731
+            normal = wheel * at(tables.WEIGHT)
+            if normal <= 0:
+                continue
+            g = at(tables.ANGLE)
+            ab = (normal / N_PER_KN) ** (2 / 3) * M_PER_MM**2 * at(tables.SEMI_A) * at(tables.SEMI_B)
+            spin = -s * math.sin(g - s * roll) / r0
+            lateral += -shear * ab**1.5 * at(tables.C23) * spin * math.cos(g)
+            moment += -shear * ab**2 * at(tables.C33) * spin * math.cos(g)
+            if s < 0:
+                assert math.sin(g + roll) > 1.8 * math.sin(g) > 0  # 8.6 mrad on a 7 mrad tread
+    f = forces_at(table, row[tables.Y] * M_PER_MM)
+    assert roll == pytest.approx(8.6e-3, abs=0.1e-3)
+    assert float(f.creep_lateral[0]) == pytest.approx(lateral, rel=1e-9)
+    assert float(f.spin_moment[0]) == pytest.approx(moment, rel=1e-9)
+
+
+def test_flange_points_carry_the_slender_coefficients(coach):
+    """Every loaded point's Kalker coefficients are those of its own ellipse's a/b, beyond
+    Kalker's table on the flange (a/b up to 24.5) as well: the slender extension, not the
+    table's a/b = 10 row."""
+    from rail_mj.contact.hertz import kalker_coefficients
+
+    body = tables.dynamics_table(coach)[1:]
+    slender = 0
+    for side in range(2):
+        for slot in range(tables.SLOTS):
+            at = lambda field, side=side, slot=slot: body[:, tables.point_column(side, slot, field)]  # noqa: E731
+            for k in np.flatnonzero(at(tables.WEIGHT) > 0):
+                ratio = at(tables.SEMI_A)[k] / at(tables.SEMI_B)[k]
+                expected = kalker_coefficients(max(ratio, 0.1), 0.28)
+                got = {name: at(getattr(tables, name))[k] for name in expected}
+                assert got == pytest.approx(expected, rel=1e-12)
+                slender += ratio > 10
+    assert slender >= 100  # both flanges, from 6.3 mm out
