@@ -24,6 +24,7 @@ STUDIES = [
     ("hunting/hunting_figure.py", ["hunting_bogie.png"], True),
     ("hunting/flange_strikes.py", [], False),
     ("train-snaking/snaking_figure.py", ["snaking_articulated.png"], True),
+    ("stability-curving/tradeoff.py", ["tradeoff.png"], True),
     pytest.param("design-strategies/design_maps.py", ["map_coach.png", "map_wagon.png"], True, marks=pytest.mark.slow),
     pytest.param("wheel-wear/conicity_figure.py", ["conicity_wear.png"], True, marks=pytest.mark.slow),
     pytest.param("wheel-wear/conicity_stability.py", ["critical_speed_conicity.png"], True, marks=pytest.mark.slow),

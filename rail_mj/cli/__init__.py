@@ -1,7 +1,8 @@
 """The `rail-mj` command: a thin layer over the Python API (`rail_mj.cli:main`).
 
 options.py     failures and exit statuses, loading a layout, the checks every command shares
-run.py         generate, run
+run.py         generate, run (along a track too)
+curving.py     curving: the steady state on constant curves
 stability.py   eigen, critical-speed, root-locus, bifurcation
 studies.py     sweep, map
 contact.py     contact, creep, profile, conicity, contact-geometry
