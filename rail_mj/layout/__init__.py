@@ -1,6 +1,7 @@
 """What the user wrote: a layout file (TOML) read and checked into a `Layout`.
 
-    reader.py      TOML -> `Layout`, one reader per table; every bad input one `LayoutError` line
+    reader.py      TOML -> `Layout`, one reader per table; every bad input one `LayoutError` line;
+                   what the user wrote (`Layout.given`) and what was derived from it (`Layout.derived`)
     practice.py    what is impossible (refused) and what is far from railway practice (warned), with sources
     kinds.py       which vehicle a layout describes, as a type: Planar, TrainOfCars, SpatialVehicle
 
