@@ -8,7 +8,9 @@ same); the static wheel load by hand, from the masses in the file.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import pickle
 import tomllib
 
 import pytest
@@ -186,6 +188,9 @@ def test_replace_round_trips(on_profiles):
     assert changed.given == on_profiles.given and changed.derived == on_profiles.derived
     # given and derived take no part in comparisons: the same vehicle is the same layout.
     assert dataclasses.replace(on_profiles, given=None, derived=Derived()) == on_profiles
+    # Pickled (a sweep's workers) and copied, all of it comes back.
+    for copied in (pickle.loads(pickle.dumps(on_profiles)), copy.deepcopy(on_profiles)):
+        assert copied == on_profiles and copied.given == on_profiles.given and copied.derived == on_profiles.derived
     # The records themselves replace like any frozen dataclass.
     given = on_profiles.given
     assert (
