@@ -8,7 +8,7 @@
     tables.py      a profiled wheelset's contact tables for the compiled law; linearised at an amplitude
     laws.py        the creep laws by name and number
     creep.py       the contact law: Kalker's creep, saturation, FASTSIM, flanges, wheel loads (numba)
-    derived.py     what a layout's contact implies: the profiles' conicity and flange shift, f11..f33
+    derived.py     what a layout leaves to its contact: the profiles' conicity and flange shift, f11..f33, wheel load
 
 The names of rail-mj 0.1's `rail_mj.contact` (Hertz and Kalker) are still found here.
 """

@@ -1,6 +1,7 @@
 """What the user wrote: a layout file (TOML) read and checked into a `Layout`.
 
-    reader.py      TOML -> `Layout`, one reader per table; every bad input one `LayoutError` line
+    reader.py      TOML -> `Layout`, one reader per table; every bad input one `LayoutError` line;
+                   what the user wrote (`Layout.given`) and what was derived from it (`Layout.derived`)
     practice.py    the table of practice, kept importable here: it lives in rail_mj.practice, a leaf
     kinds.py       which vehicle a layout describes and on which contact, as types (Planar, TrainOfCars,
                    SpatialVehicle; Coned, Hertzian, Profiled)

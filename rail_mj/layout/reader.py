@@ -4,12 +4,23 @@ The layout is the users' interface and the one source of truth for every
 physical number of a vehicle; the model, the creep forces and the recording all
 read it from here. Units are SI throughout (kg, m, N, s, rad).
 
+`layout_from_dict` reads each table with a reader of its own, in a fixed order, and
+resolves what a table leaves to others: a wheelset's conicity and flangeway clearance to
+[profiles], the wheel load to the vehicle's weight, f11..f33 to [contact] or [profiles]
+(rail_mj.contact.derived computes them). The `Layout` holds the numbers the vehicle runs
+with; `Layout.given` what the user wrote in [wheelset] and [creep], None where a number was
+left out; `Layout.derived` which numbers were derived, and from what.
+
 Example:
 
     >>> from rail_mj.layout import load_layout
     >>> layout = load_layout("models/manchester-coach/manchester-coach.toml")
     >>> layout.n_wheelsets, layout.wheelset.rolling_radius
     (4, 0.46)
+    >>> layout.given.wheelset.wheel_load is None, round(layout.wheelset.wheel_load)
+    (True, 54546)
+    >>> dict(layout.derived)
+    {'wheelset.wheel_load': 'static weight of the vehicle shared equally by its wheels'}
 
 Every problem with a file raises `LayoutError`, whose message is one line naming
 the file, the key and what is wrong.
@@ -18,16 +29,21 @@ the file, the key and what is wrong.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import re
 import tomllib
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
+import rail_mj.contact.derived as derive
 from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
-from rail_mj.contact.pair import STANDARD_PROFILES, Profiles, read_profiles, stamp
+from rail_mj.contact.pair import STANDARD_PROFILES, Profiles, read_profiles
 from rail_mj.practice import RANGES
+from rail_mj.units import GRAVITY
+
+if TYPE_CHECKING:
+    from rail_mj.contact.hertz import ContactPatch
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 # Beyond these no vehicle is meant, and arithmetic on them overflows.
@@ -62,6 +78,90 @@ class Creep:
     # w: A = mu_infinity/mu0 and B. A = 1 keeps mu constant (the 1999 law).
     falling_friction_ratio: float = 1.0  # A
     falling_friction_rate: float = 0.0  # B, s/m
+
+
+@dataclasses.dataclass(frozen=True)
+class GivenWheelset:
+    """[wheelset] as written and checked (`Given`): None where the user left a number to other
+    tables: `conicity` and `flangeway_clearance` to [profiles], `wheel_load` to the vehicle's
+    weight. On cones an omitted flangeway_clearance takes its default, 8 mm, as in `Wheelset`."""
+
+    mass: float
+    inertia: tuple[float, float, float]
+    rolling_radius: float
+    contact_half_spacing: float
+    conicity: float | None
+    flangeway_clearance: float | None
+    wheel_load: float | None
+
+    def resolved(self, conicity: float, flangeway_clearance: float, wheel_load: float | None) -> Wheelset:
+        """The `Wheelset` with the numbers left to other tables filled in."""
+        return Wheelset(
+            self.mass,
+            self.inertia,
+            self.rolling_radius,
+            self.contact_half_spacing,
+            conicity,
+            flangeway_clearance,
+            wheel_load,
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class GivenCreep:
+    """[creep] as written and checked (`Given`): f11..f33 None when left to [contact] or to the
+    profiles (given f11 and f22, f23 and f33 default to 0); the law and friction as in `Creep`."""
+
+    f11: float | None
+    f22: float | None
+    f23: float | None
+    f33: float | None
+    law: str = "linear"
+    friction: float | None = None
+    falling_friction_ratio: float = 1.0
+    falling_friction_rate: float = 0.0
+
+    def coefficients(self) -> dict[str, float] | None:
+        """f11..f33 as given (they are given together or not at all), None when left out."""
+        if self.f11 is None or self.f22 is None or self.f23 is None or self.f33 is None:
+            return None
+        return {"f11": self.f11, "f22": self.f22, "f23": self.f23, "f33": self.f33}
+
+
+@dataclasses.dataclass(frozen=True)
+class Given:
+    """What the user wrote in the two tables whose numbers a layout may leave to other tables,
+    before anything was derived (`Layout.given`). Every other table of a `Layout` is as written."""
+
+    wheelset: GivenWheelset
+    creep: GivenCreep
+
+
+@dataclasses.dataclass(frozen=True)
+class Derived(Mapping[str, str]):
+    """The numbers of a `Layout` the reader derived rather than read (`Layout.derived`): each
+    layout key ("wheelset.conicity", "creep.f11", ...) with where its number came from (the
+    descriptions of rail_mj.contact.derived). A read-only mapping, in the order derived; empty
+    when the layout gives every number itself.
+
+        >>> d = Derived((("wheelset.wheel_load", "static weight of the vehicle shared equally by its wheels"),))
+        >>> "wheelset.wheel_load" in d, "wheelset.conicity" in d, len(d)
+        (True, False, 1)
+    """
+
+    sources: tuple[tuple[str, str], ...] = ()
+
+    def __getitem__(self, key: str) -> str:
+        for k, source in self.sources:
+            if k == key:
+                return source
+        raise KeyError(key)
+
+    def __iter__(self) -> Iterator[str]:
+        return (k for k, _ in self.sources)
+
+    def __len__(self) -> int:
+        return len(self.sources)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -255,11 +355,12 @@ class Layout:
     carbody: CarBody
     bogie: Bogie | None = None
     secondary: Suspension | None = None
-    contact: Contact | None = None  # when given, `creep` was computed from it
+    contact: Contact | None = None  # on cones, `creep.f11..f33` are its Hertz ellipse's; on profiles, the steel
     flange: Flange | None = None  # None: no flange contact (the classical linear model)
     # Wheel and rail profiles: with them the dynamics run on their contact tables
-    # (rail_mj.contact.tables); wheelset.conicity is their equivalent conicity at 3 mm, creep.f11..f33
-    # the centred contact's (docs/dynamics-on-profiles.md).
+    # (rail_mj.contact.tables); wheelset.conicity is their equivalent conicity at 3 mm (unless
+    # given), flangeway_clearance their flange's shift, creep.f11..f33 the centred contact's
+    # (docs/dynamics-on-profiles.md).
     profiles: Profiles | None = None
     # Several car bodies ([train]): then `carbody` stands for the train (its bogie_positions
     # are the train's, x along the train; mass the cars' total) and the model is built flat,
@@ -269,8 +370,14 @@ class Layout:
     # and direction; `primary` and `secondary` then hold the elements' planar equivalents.
     spatial: Spatial | None = None
     source: str = "<layout>"
-    # Legal values far outside railway practice (rail_mj.layout.practice), one line each.
+    # Legal values far outside railway practice (rail_mj.practice), one line each.
     warnings: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    # What the user wrote in [wheelset] and [creep], before the numbers left to other tables
+    # were derived (None: a Layout built by hand, not read), and which numbers of `wheelset` and
+    # `creep` were derived, from what. Both describe the layout as read: dataclasses.replace
+    # carries them over as they are, and they do not take part in comparisons.
+    given: Given | None = dataclasses.field(default=None, compare=False)
+    derived: Derived = dataclasses.field(default=Derived(), compare=False)
 
     @property
     def wheelset_x(self) -> tuple[float, ...]:
@@ -417,7 +524,7 @@ def _suspension(table: _Table) -> Suspension:
 
 def _practice(table: _Table, warnings: list[str], ranges: str | None = None, **values) -> None:
     """Refuse values that cannot describe a rail vehicle, and note those outside railway
-    practice (rail_mj.layout.practice.RANGES, keyed by section.key; `ranges`: the section whose ranges
+    practice (rail_mj.practice.RANGES, keyed by section.key; `ranges`: the section whose ranges
     hold, if not the table's own)."""
     for key, value in values.items():
         if value is None:
@@ -455,263 +562,40 @@ def _inertia_fits(table: _Table, mass: float | None, inertia, radius: float, wha
 
 
 def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
-    """Check a parsed layout (as from TOML) and build the `Layout`."""
+    """Check a parsed layout (as from TOML) and build the `Layout`.
+
+    One reader a table, called in this order: an input with several problems is refused for
+    the first one met, and that order is part of the interface (the tests hold every line).
+    The `_resolve_*` steps fill in what a table leaves to others (a wheelset's conicity and
+    flangeway clearance to [profiles], the wheel load to the vehicle's weight, f11..f33 to
+    [contact] or [profiles]) as soon as what they need is read, with the functions of
+    rail_mj.contact.derived: the Layout holds the resolved numbers, `given` what was written
+    and `derived` where each derived number came from."""
     top = _Table(source, "", data)
     warnings: list[str] = []
-
-    name = top.get("name")
-    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
-        top.fail("name", f"must be letters, digits, '-' or '_', got {name!r}")
-
-    has_profiles = top.get("profiles", None, required=False) is not None
-    t = _Table(source, "wheelset", top.get("wheelset"))
-    wheelset = Wheelset(
-        mass=t.positive("mass"),
-        inertia=t.vector3("inertia"),
-        rolling_radius=t.positive("rolling_radius"),
-        contact_half_spacing=t.positive("contact_half_spacing"),
-        # Treads steeper than 1:2 are not wheels; the linear contact model assumes small angles.
-        # With [profiles], omitted: the profiles' equivalent conicity (below).
-        conicity=t.number("conicity", low=0.0, low_open=True, high=0.5, required=not has_profiles),
-        flangeway_clearance=t.positive("flangeway_clearance", 0.008),
-        wheel_load=t.positive("wheel_load", required=False),
-    )
-    t.done()
-    _practice(
-        t,
-        warnings,
-        rolling_radius=wheelset.rolling_radius,
-        contact_half_spacing=wheelset.contact_half_spacing,
-        flangeway_clearance=wheelset.flangeway_clearance,
-        mass=wheelset.mass,
-        conicity=wheelset.conicity,
-        wheel_load=wheelset.wheel_load,
-    )
-    if wheelset.rolling_radius >= wheelset.contact_half_spacing * 2:
-        t.fail("rolling_radius", "is not smaller than the track gauge: check the units (m)")
-    r0, b = wheelset.rolling_radius, wheelset.contact_half_spacing
-    # Wheels at +/-b, axle journals and brake discs about a wheel radius further out.
-    _inertia_fits(t, wheelset.mass, wheelset.inertia, math.hypot(b + r0, r0), "wheelset")
-    profiles = None
-    if has_profiles:
-        profiles, conicity, shift = _profiles(_Table(source, "profiles", top.get("profiles")), wheelset)
-        if "flangeway_clearance" in (top.get("wheelset") or {}):
-            warnings.append(
-                f"{source}: wheelset.flangeway_clearance is not used with [profiles]: their "
-                f"flanges touch at {shift * 1e3:.2f} mm"
-            )
-        wheelset = dataclasses.replace(wheelset, flangeway_clearance=shift)
-        if wheelset.conicity is None:
-            wheelset = dataclasses.replace(wheelset, conicity=conicity)
-            _practice(_Table(source, "wheelset", {}), warnings, conicity=conicity)
-        else:
-            warnings.append(
-                f"{source}: wheelset.conicity is not used by the dynamics: a layout with [profiles] "
-                f"runs on their contact tables (equivalent conicity at 3 mm: {conicity:.4g})"
-            )
-
-    has_contact = top.get("contact", None, required=False) is not None
-    t = _Table(source, "creep", top.get("creep", {} if has_contact else ...))
-    if has_contact:
-        given = sorted({"f11", "f22", "f23", "f33"} & set(t.data))
-        if given:
-            t.fail(given[0], "given with [contact]: the creep coefficients come from the contact; give one of them")
-        coefficients = None
-    elif has_profiles and not {"f11", "f22", "f23", "f33"} & set(t.data):
-        coefficients = None  # each contact point's own, from Hertz and Kalker (below)
-    else:
-        coefficients = dict(
-            f11=t.positive("f11"), f22=t.positive("f22"), f23=t.non_negative("f23", 0.0), f33=t.non_negative("f33", 0.0)
-        )
-    law = t.get("law", "linear")
-    if law not in LAWS:
-        t.fail("law", f"must be one of {', '.join(LAWS)}, got {law!r}")
-    if law == "fastsim" and not (has_contact or has_profiles):
-        # FASTSIM works on the contact ellipse itself, which f11..f33 do not give (docs/creep.md).
-        t.fail(
-            "law",
-            '"fastsim" needs a [contact] table: FASTSIM works on the Hertz contact ellipse, '
-            "which f11..f33 alone do not give (docs/creep.md)",
-        )
-    friction = t.number("friction", low=0.0, low_open=True, high=2.0, required=law != "linear")
-    _practice(t, warnings, friction=friction)
-    falling = {k: t.get(k, None, required=False) for k in ("falling_friction_ratio", "falling_friction_rate")}
-    if any(v is not None for v in falling.values()):
-        if law != "polach":
-            t.fail(
-                next(k for k, v in falling.items() if v is not None),
-                f"falling friction belongs to the polach law, not {law!r}",
-            )
-        falling = dict(
-            falling_friction_ratio=t.number("falling_friction_ratio", low=0.0, low_open=True, high=1.0),
-            falling_friction_rate=t.positive("falling_friction_rate"),
-        )
-    else:
-        falling = {}
-    creep_table = t
-
-    is_spatial = top.get("spatial", None, required=False) is not None
+    derived: dict[str, str] = {}
+    name = _name(top)
+    given_wheelset = _wheelset(top, warnings)
+    profiles = _profiles(top)
+    conicity, clearance = _resolve_on_profiles(top, profiles, given_wheelset, warnings, derived)
+    given_creep, creep_table = _creep(top, warnings)
+    is_spatial = _present(top, "spatial")
     primary, primary_spring = _suspension_or_elements(
         _Table(source, "primary", top.get("primary")), "axlebox", is_spatial
     )
-
-    # Two wheels cannot be closer than their diameter: that is the overlap check.
-    wheel_diameter = 2.0 * wheelset.rolling_radius
-    bogie = secondary = None
-    secondary_elements: dict = {}
-    has_bogie = top.get("bogie", None, required=False) is not None
-    if has_bogie:
-        t = _Table(source, "bogie", top.get("bogie"))
-        bogie = Bogie(
-            mass=t.positive("mass"),
-            inertia=t.vector3("inertia"),
-            wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
-        )
-        t.done()
-        _practice(t, warnings, mass=bogie.mass)
-        # Side frames about 0.5 m outside the wheels, ends a wheel radius past the axles.
-        reach = max(abs(x) for x in bogie.wheelset_positions) + r0
-        _inertia_fits(t, bogie.mass, bogie.inertia, math.hypot(reach, b + 0.5), "bogie frame")
-        if top.get("secondary", None, required=False) is None:
-            top.fail("secondary", "missing: a layout with [bogie] needs [secondary]")
-        secondary_data, secondary_elements = _secondary_elements(source, top.get("secondary"), is_spatial)
-        secondary, secondary_spring = _suspension_or_elements(
-            _Table(source, "secondary", secondary_data), "spring", is_spatial
-        )
-        secondary = _planar_dampers(secondary, secondary_elements)
-    elif top.get("secondary", None, required=False) is not None:
-        top.fail("secondary", "given without [bogie]: secondary suspension joins bogies to the body")
-
-    train = None
-    if top.get("train", None, required=False) is not None:
-        carbody, train = _train(top, source, warnings, bogie, wheel_diameter, r0, b, is_spatial)
-    elif top.get("car", None, required=False) is not None or top.get("coupling", None, required=False) is not None:
-        top.fail(
-            "car" if "car" in top.data else "coupling",
-            "given without [train]: [[car]] and [[coupling]] describe the car bodies of a train",
-        )
-    else:
-        t = _Table(source, "carbody", top.get("carbody"))
-        fixed = t.get("fixed", False)
-        if not isinstance(fixed, bool):
-            t.fail("fixed", f"must be true or false, got {_kind(fixed)}")
-        carbody_mass = t.positive("mass", required=not fixed)
-        carbody_inertia = t.vector3("inertia", required=not fixed)
-        if bogie is not None:
-            if "wheelset_positions" in t.data:
-                t.fail("wheelset_positions", "not allowed with [bogie]: wheelsets hang from the bogies")
-            extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
-            carbody = CarBody(
-                fixed,
-                carbody_mass,
-                carbody_inertia,
-                bogie_positions=t.positions("bogie_positions", extent, "bogie"),
-                wheelset_positions=None,
-            )
-        else:
-            if "bogie_positions" in t.data:
-                t.fail("bogie_positions", "given without a [bogie] table")
-            carbody = CarBody(
-                fixed,
-                carbody_mass,
-                carbody_inertia,
-                bogie_positions=None,
-                wheelset_positions=t.positions("wheelset_positions", wheel_diameter, "wheelset"),
-            )
-        t.done()
-        _practice(t, warnings, mass=carbody.mass)
-        # Ends overhang the outermost wheels by a few metres; about 2 m to the side and roof.
-        xs = carbody.bogie_positions or carbody.wheelset_positions or ()
-        reach = max(abs(x) for x in xs) + (max(abs(x) for x in bogie.wheelset_positions) if bogie else 0.0)
-        _inertia_fits(t, carbody.mass, carbody.inertia, math.hypot(reach + r0 + 3.0, 2.0), "car body")
-    designs = _bogie_designs(top, warnings, bogie, primary_spring, carbody, is_spatial, wheel_diameter, r0, b)
-    if wheelset.wheel_load is None and carbody.mass is not None:
-        # The mean static wheel load, the nominal load the creep coefficients are given at: each
-        # wheel's own for a symmetric vehicle. (A spatial vehicle's wheels carry their own static
-        # loads, from its suspension: rail_mj.vehicle.loads.) fsum of equal masses is n times one, exactly.
-        n_bogies = len(carbody.bogie_positions or ())
-        n_wheelsets = len(carbody.wheelset_positions or ()) or (
-            n_bogies * len(bogie.wheelset_positions) if bogie else 0
-        )
-        masses = [d.mass for d in designs] or ([bogie.mass] * n_bogies if bogie else [])
-        mass = carbody.mass + (math.fsum(masses) if bogie else 0.0)
-        wheelset = dataclasses.replace(wheelset, wheel_load=GRAVITY * (mass / n_wheelsets + wheelset.mass) / 2)
-    needs_load = "[contact]" if has_contact else f"creep law {law!r}" if law != "linear" else None
-    if needs_load and wheelset.wheel_load is None:
-        top.fail(
-            "wheelset.wheel_load",
-            f"missing: {needs_load} needs the wheel load, and a fixed car "
-            f"body without mass gives no weight to share; give it in N",
-        )
-    contact = None
-    if has_contact:
-        contact, coefficients = _contact(_Table(source, "contact", top.get("contact")), wheelset, profiled=has_profiles)
-    if has_profiles and wheelset.wheel_load is not None:
-        if coefficients is not None and not has_contact:
-            warnings.append(
-                f"{source}: creep.f11..f33 are not used by the dynamics: with [profiles] each "
-                f"contact point has its own, from Hertz and Kalker"
-            )
-        if law == "linear":
-            warnings.append(
-                f'{source}: creep.law "linear" on profiles: on the flanges the creep forces '
-                f"grow without bound; choose a saturating law for runs"
-            )
-        from rail_mj.contact.tables import TableError, centred_coefficients
-
-        try:
-            coefficients = centred_coefficients(profiles, wheelset, contact, law, friction)
-        except TableError as e:
-            top.fail("profiles", str(e))
-    elif has_profiles and coefficients is None:
-        top.fail(
-            "wheelset.wheel_load",
-            "missing: the contact on profiles needs the wheel load, and a fixed car "
-            "body without mass gives no weight to share; give it in N",
-        )
-    creep_table.done()
-    # Given, or from [contact] or the profiles; each way without them has failed above.
-    assert coefficients is not None
-    creep = Creep(**coefficients, law=law, friction=friction, **falling)
-    flange = None
-    if top.get("flange", None, required=False) is not None:
-        t = _Table(source, "flange", top.get("flange"))
-        if has_profiles:
-            t.fail(None, "not used with [profiles]: the profiles give the flange contact; remove [flange]")
-        if law == "linear":
-            # On the flange the rolling radius rises by tan(70 deg) per metre: unbounded
-            # linear creep turns a millimetre of flange contact into hundreds of kN.
-            t.fail(
-                None,
-                "flange contact needs a saturating creep law: set creep.law to "
-                '"shen-hedrick-elkins", "polach" or "fastsim" and creep.friction',
-            )
-        default = Flange()
-        flange = Flange(
-            stiffness=t.positive("stiffness", default.stiffness),
-            damping=t.non_negative("damping", default.damping),
-            angle=t.number("angle", default.angle, low=wheelset.conicity, low_open=True, high=math.radians(89.0)),
-        )
-        t.done()
-    spatial = None
-    if is_spatial:
-        # With [spatial] the element tables are read, [primary.axlebox] always and
-        # [secondary.spring] with [bogie] (_spatial refuses a spatial vehicle without it).
-        assert primary_spring is not None
-        spatial = _spatial(
-            _Table(source, "spatial", top.get("spatial")),
-            top,
-            carbody,
-            bogie,
-            train,
-            primary_spring,
-            secondary_spring if bogie else None,
-            r0,
-        )
-        spatial = dataclasses.replace(spatial, **secondary_elements, bogies=designs)
-        if train is not None:
-            train = _spatial_train(top, train, spatial)
-        _static_sags(source, warnings, spatial, carbody, train)
+    bogie = _bogie(top, warnings, given_wheelset)
+    secondary, secondary_spring, secondary_elements = _secondary(top, bogie, is_spatial)
+    carbody, train = _carbody_or_train(top, warnings, bogie, given_wheelset, is_spatial)
+    designs = _bogie_designs(top, warnings, bogie, primary_spring, carbody, is_spatial, given_wheelset)
+    wheel_load = _resolve_wheel_load(top, given_wheelset, given_creep, carbody, bogie, designs, derived)
+    wheelset = given_wheelset.resolved(conicity, clearance, wheel_load)
+    contact = _contact(top, profiled=profiles is not None)
+    creep = _resolve_creep(top, given_creep, wheelset, contact, profiles, warnings, derived)
+    creep_table.done()  # [creep]'s stray keys are reported after [contact]'s problems, as ever
+    flange = _flange(top, creep.law, profiles is not None, wheelset.conicity)
+    spatial, train = _spatial_vehicle(
+        top, warnings, carbody, bogie, train, primary_spring, secondary_spring, secondary_elements, designs
+    )
     top.done()
     return Layout(
         name=name,
@@ -728,10 +612,410 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
         spatial=spatial,
         source=source,
         warnings=tuple(warnings),
+        given=Given(given_wheelset, given_creep),
+        derived=Derived(tuple(derived.items())),
     )
 
 
-GRAVITY = 9.81  # m/s^2
+def _present(top: _Table, key: str) -> bool:
+    """Whether the layout has the table `key` (an empty one counts)."""
+    return top.get(key, None, required=False) is not None
+
+
+# --- the tables, one reader each, in reading order -----------------------------------------
+
+
+def _name(top: _Table) -> str:
+    name = top.get("name")
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
+        top.fail("name", f"must be letters, digits, '-' or '_', got {name!r}")
+    return name
+
+
+def _wheelset(top: _Table, warnings: list[str]) -> GivenWheelset:
+    """[wheelset] as written: with [profiles], conicity and flangeway_clearance may be left out."""
+    profiled = _present(top, "profiles")
+    t = _Table(top.source, "wheelset", top.get("wheelset"))
+    wheelset = GivenWheelset(
+        mass=t.positive("mass"),
+        inertia=t.vector3("inertia"),
+        rolling_radius=t.positive("rolling_radius"),
+        contact_half_spacing=t.positive("contact_half_spacing"),
+        # Treads steeper than 1:2 are not wheels; the linear contact model assumes small angles.
+        conicity=t.number("conicity", low=0.0, low_open=True, high=0.5, required=not profiled),
+        flangeway_clearance=(
+            t.positive("flangeway_clearance", required=False) if profiled else t.positive("flangeway_clearance", 0.008)
+        ),
+        wheel_load=t.positive("wheel_load", required=False),
+    )
+    t.done()
+    r0, b = wheelset.rolling_radius, wheelset.contact_half_spacing
+    _practice(
+        t,
+        warnings,
+        rolling_radius=r0,
+        contact_half_spacing=b,
+        flangeway_clearance=wheelset.flangeway_clearance,
+        mass=wheelset.mass,
+        conicity=wheelset.conicity,
+        wheel_load=wheelset.wheel_load,
+    )
+    if r0 >= b * 2:
+        t.fail("rolling_radius", "is not smaller than the track gauge: check the units (m)")
+    # Wheels at +/-b, axle journals and brake discs about a wheel radius further out.
+    _inertia_fits(t, wheelset.mass, wheelset.inertia, math.hypot(b + r0, r0), "wheelset")
+    return wheelset
+
+
+def _creep(top: _Table, warnings: list[str]) -> tuple[GivenCreep, _Table]:
+    """[creep] as written, and the table itself: its stray keys are reported after [contact]'s
+    problems (layout_from_dict). f11..f33 are left out with [contact], and may be with [profiles]."""
+    has_contact, profiled = _present(top, "contact"), _present(top, "profiles")
+    t = _Table(top.source, "creep", top.get("creep", {} if has_contact else ...))
+    keys = {"f11", "f22", "f23", "f33"}
+    if has_contact and keys & set(t.data):
+        t.fail(
+            min(keys & set(t.data)),
+            "given with [contact]: the creep coefficients come from the contact; give one of them",
+        )
+    written = not has_contact and not (profiled and not keys & set(t.data))  # else left to the contact
+    f11, f22 = (t.positive("f11"), t.positive("f22")) if written else (None, None)
+    f23, f33 = (t.non_negative("f23", 0.0), t.non_negative("f33", 0.0)) if written else (None, None)
+    law = t.get("law", "linear")
+    if law not in LAWS:
+        t.fail("law", f"must be one of {', '.join(LAWS)}, got {law!r}")
+    if law == "fastsim" and not (has_contact or profiled):
+        # FASTSIM works on the contact ellipse itself, which f11..f33 do not give (docs/creep.md).
+        t.fail(
+            "law",
+            '"fastsim" needs a [contact] table: FASTSIM works on the Hertz contact ellipse, '
+            "which f11..f33 alone do not give (docs/creep.md)",
+        )
+    friction = t.number("friction", low=0.0, low_open=True, high=2.0, required=law != "linear")
+    _practice(t, warnings, friction=friction)
+    return GivenCreep(f11, f22, f23, f33, law, friction, *_falling_friction(t, law)), t
+
+
+def _falling_friction(t: _Table, law: str) -> tuple[float, float]:
+    """[creep]'s falling_friction_ratio and _rate: Polach's law only; (1, 0) when left out."""
+    falling = {k: t.get(k, None, required=False) for k in ("falling_friction_ratio", "falling_friction_rate")}
+    if all(v is None for v in falling.values()):
+        return 1.0, 0.0
+    if law != "polach":
+        t.fail(
+            next(k for k, v in falling.items() if v is not None),
+            f"falling friction belongs to the polach law, not {law!r}",
+        )
+    return (
+        t.number("falling_friction_ratio", low=0.0, low_open=True, high=1.0),
+        t.positive("falling_friction_rate"),
+    )
+
+
+def _bogie(top: _Table, warnings: list[str], wheelset: GivenWheelset) -> Bogie | None:
+    """[bogie]: the frame and its wheelsets, which cannot be closer than a wheel's diameter."""
+    if not _present(top, "bogie"):
+        return None
+    t = _Table(top.source, "bogie", top.get("bogie"))
+    bogie = Bogie(
+        mass=t.positive("mass"),
+        inertia=t.vector3("inertia"),
+        wheelset_positions=t.positions("wheelset_positions", 2.0 * wheelset.rolling_radius, "wheelset"),
+    )
+    t.done()
+    _practice(t, warnings, mass=bogie.mass)
+    # Side frames about 0.5 m outside the wheels, ends a wheel radius past the axles.
+    reach = max(abs(x) for x in bogie.wheelset_positions) + wheelset.rolling_radius
+    _inertia_fits(t, bogie.mass, bogie.inertia, math.hypot(reach, wheelset.contact_half_spacing + 0.5), "bogie frame")
+    return bogie
+
+
+def _secondary(top: _Table, bogie: Bogie | None, is_spatial: bool) -> tuple[Suspension | None, Spring | None, dict]:
+    """[secondary], which comes with [bogie]: its planar equivalent with the dampers added, its
+    spring element ([spatial]) and the Spatial fields of its other elements."""
+    if bogie is None:
+        if _present(top, "secondary"):
+            top.fail("secondary", "given without [bogie]: secondary suspension joins bogies to the body")
+        return None, None, {}
+    if not _present(top, "secondary"):
+        top.fail("secondary", "missing: a layout with [bogie] needs [secondary]")
+    data, elements = _secondary_elements(top.source, top.get("secondary"), is_spatial)
+    secondary, spring = _suspension_or_elements(_Table(top.source, "secondary", data), "spring", is_spatial)
+    return _planar_dampers(secondary, elements), spring, elements
+
+
+def _carbody_or_train(
+    top: _Table, warnings: list[str], bogie: Bogie | None, wheelset: GivenWheelset, is_spatial: bool
+) -> tuple[CarBody, Train | None]:
+    """[carbody], or a train's [train], [[car]] and [[coupling]] (its CarBody standing for the train)."""
+    if _present(top, "train"):
+        return _train(top, warnings, bogie, 2.0 * wheelset.rolling_radius, is_spatial)
+    if _present(top, "car") or _present(top, "coupling"):
+        top.fail(
+            "car" if "car" in top.data else "coupling",
+            "given without [train]: [[car]] and [[coupling]] describe the car bodies of a train",
+        )
+    return _carbody(top, warnings, bogie, wheelset), None
+
+
+def _carbody(top: _Table, warnings: list[str], bogie: Bogie | None, wheelset: GivenWheelset) -> CarBody:
+    """[carbody]: fixed (no mass needed) or free, on bogies or with wheelsets hung from it."""
+    t = _Table(top.source, "carbody", top.get("carbody"))
+    fixed = t.get("fixed", False)
+    if not isinstance(fixed, bool):
+        t.fail("fixed", f"must be true or false, got {_kind(fixed)}")
+    mass, inertia = t.positive("mass", required=not fixed), t.vector3("inertia", required=not fixed)
+    wheel_diameter = 2.0 * wheelset.rolling_radius
+    if bogie is not None:
+        if "wheelset_positions" in t.data:
+            t.fail("wheelset_positions", "not allowed with [bogie]: wheelsets hang from the bogies")
+        extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
+        carbody = CarBody(fixed, mass, inertia, t.positions("bogie_positions", extent, "bogie"), None)
+    else:
+        if "bogie_positions" in t.data:
+            t.fail("bogie_positions", "given without a [bogie] table")
+        carbody = CarBody(fixed, mass, inertia, None, t.positions("wheelset_positions", wheel_diameter, "wheelset"))
+    t.done()
+    _practice(t, warnings, mass=carbody.mass)
+    # Ends overhang the outermost wheels by a few metres; about 2 m to the side and roof.
+    xs = carbody.bogie_positions or carbody.wheelset_positions or ()
+    reach = max(abs(x) for x in xs) + (max(abs(x) for x in bogie.wheelset_positions) if bogie else 0.0)
+    _inertia_fits(t, mass, inertia, math.hypot(reach + wheelset.rolling_radius + 3.0, 2.0), "car body")
+    return carbody
+
+
+def _contact(top: _Table, profiled: bool) -> Contact | None:
+    """[contact]: the bodies in contact (docs/contact.md). With [profiles] only the steel: the
+    profiles give every point's curvatures."""
+    if not _present(top, "contact"):
+        return None
+    t = _Table(top.source, "contact", top.get("contact"))
+    if profiled:
+        for key in ("rail_transverse_radius", "wheel_transverse_radius"):
+            if key in t.data:
+                t.fail(key, "not used with [profiles]: the profiles give each contact point's curvatures")
+    poisson = RANGES["contact.poisson_ratio"].refuse  # Kalker's table
+    contact = Contact(
+        young_modulus=t.positive("young_modulus"),
+        poisson_ratio=t.number("poisson_ratio", low=poisson[0], high=poisson[1]),
+        rail_transverse_radius=None if profiled else t.positive("rail_transverse_radius"),
+        wheel_transverse_radius=None if profiled else t.positive("wheel_transverse_radius", required=False),
+    )
+    t.done()
+    return contact
+
+
+def _flange(top: _Table, law: str, profiled: bool, conicity: float) -> Flange | None:
+    """[flange]: flange contact on cones past the flangeway clearance, with a saturating law."""
+    if not _present(top, "flange"):
+        return None
+    t = _Table(top.source, "flange", top.get("flange"))
+    if profiled:
+        t.fail(None, "not used with [profiles]: the profiles give the flange contact; remove [flange]")
+    if law == "linear":
+        # On the flange the rolling radius rises by tan(70 deg) per metre: unbounded
+        # linear creep turns a millimetre of flange contact into hundreds of kN.
+        t.fail(
+            None,
+            "flange contact needs a saturating creep law: set creep.law to "
+            '"shen-hedrick-elkins", "polach" or "fastsim" and creep.friction',
+        )
+    default = Flange()
+    flange = Flange(
+        stiffness=t.positive("stiffness", default.stiffness),
+        damping=t.non_negative("damping", default.damping),
+        angle=t.number("angle", default.angle, low=conicity, low_open=True, high=math.radians(89.0)),
+    )
+    t.done()
+    return flange
+
+
+def _spatial_vehicle(
+    top: _Table,
+    warnings: list[str],
+    carbody: CarBody,
+    bogie: Bogie | None,
+    train: Train | None,
+    primary: Spring | None,
+    secondary: Spring | None,
+    elements: dict,
+    designs: tuple[BogieDesign, ...],
+) -> tuple[Spatial | None, Train | None]:
+    """[spatial] with the element tables read before ([primary.axlebox], [secondary.*],
+    [bogies.N]); a spatial train's cars with their heights. (None, train) without [spatial]."""
+    if not _present(top, "spatial"):
+        return None, train
+    # With [spatial] the element tables are read, [primary.axlebox] always and
+    # [secondary.spring] with [bogie] (_spatial refuses a spatial vehicle without it).
+    assert primary is not None
+    spatial = _spatial(
+        _Table(top.source, "spatial", top.get("spatial")),
+        top,
+        carbody,
+        bogie,
+        primary,
+        secondary if bogie else None,
+    )
+    spatial = dataclasses.replace(spatial, **elements, bogies=designs)
+    if train is not None:
+        train = _spatial_train(top, train, spatial)
+    _static_sags(top.source, warnings, spatial, carbody, train)
+    _stands_in_roll(top.source, spatial, carbody, train)
+    return spatial, train
+
+
+# --- resolving: the numbers a table leaves to others (rail_mj.contact.derived) -------------
+
+
+def _resolve_on_profiles(
+    top: _Table, profiles: Profiles | None, given: GivenWheelset, warnings: list[str], derived: dict[str, str]
+) -> tuple[float, float]:
+    """The wheelset's conicity and flangeway clearance: as given on cones; on profiles the
+    clearance is where their flange touches, and the conicity, if left out, their equivalent
+    conicity at 3 mm (a given one is kept, and noted as unused by the dynamics)."""
+    if profiles is None:  # on cones both are given (the conicity is required, the clearance defaults)
+        assert given.conicity is not None and given.flangeway_clearance is not None
+        return given.conicity, given.flangeway_clearance
+    t, r0 = _Table(top.source, "profiles", {}), given.rolling_radius
+    from rail_mj.contact.geometry import GeometryError
+
+    try:
+        derive.check_centred(profiles, r0)
+        conicity = derive.profiles_conicity(profiles, r0)
+        shift = derive.flange_shift(profiles, r0)
+    except GeometryError as e:
+        t.fail(None, str(e))
+    if given.conicity is None and not 0.0 < conicity <= 0.5:
+        t.fail(
+            None,
+            f"the profiles' equivalent conicity at 3 mm is {conicity:.4g}, outside (0, 0.5]: give "
+            f"wheelset.conicity for the dynamics",
+        )
+    if given.flangeway_clearance is not None:
+        warnings.append(
+            f"{top.source}: wheelset.flangeway_clearance is not used with [profiles]: their "
+            f"flanges touch at {shift * 1e3:.2f} mm"
+        )
+    if given.conicity is None:
+        derived["wheelset.conicity"] = derive.PROFILES_CONICITY
+        _practice(_Table(top.source, "wheelset", {}), warnings, conicity=conicity)
+    else:
+        warnings.append(
+            f"{top.source}: wheelset.conicity is not used by the dynamics: a layout with [profiles] "
+            f"runs on their contact tables (equivalent conicity at 3 mm: {conicity:.4g})"
+        )
+    flanged = derive.has_flange(profiles, r0)
+    derived["wheelset.flangeway_clearance"] = derive.PROFILES_FLANGE_SHIFT if flanged else derive.PROFILES_NO_FLANGE
+    return (conicity if given.conicity is None else given.conicity), shift
+
+
+def _resolve_wheel_load(
+    top: _Table,
+    given: GivenWheelset,
+    creep: GivenCreep,
+    carbody: CarBody,
+    bogie: Bogie | None,
+    designs: tuple[BogieDesign, ...],
+    derived: dict[str, str],
+) -> float | None:
+    """The wheel load: as given, or the static weight shared equally by the wheels; refused
+    where [contact] or a saturating law needs it and a fixed car body without mass gives none."""
+    load = given.wheel_load
+    if load is None and carbody.mass is not None:
+        n_bogies = len(carbody.bogie_positions or ())
+        n_wheelsets = len(carbody.wheelset_positions or ()) or (
+            n_bogies * len(bogie.wheelset_positions) if bogie else 0
+        )
+        # fsum of equal masses is n times one, exactly.
+        masses = [d.mass for d in designs] or ([bogie.mass] * n_bogies if bogie else [])
+        carried = carbody.mass + (math.fsum(masses) if bogie else 0.0)
+        load = derive.static_wheel_load(carried, n_wheelsets, given.mass)
+        derived["wheelset.wheel_load"] = derive.STATIC_WHEEL_LOAD
+    needs = "[contact]" if _present(top, "contact") else f"creep law {creep.law!r}" if creep.law != "linear" else None
+    if needs and load is None:
+        top.fail(
+            "wheelset.wheel_load",
+            f"missing: {needs} needs the wheel load, and a fixed car "
+            f"body without mass gives no weight to share; give it in N",
+        )
+    return load
+
+
+def _resolve_creep(
+    top: _Table,
+    given: GivenCreep,
+    wheelset: Wheelset,
+    contact: Contact | None,
+    profiles: Profiles | None,
+    warnings: list[str],
+    derived: dict[str, str],
+) -> Creep:
+    """The creep coefficients: as given, or Kalker's from [contact]'s Hertz ellipse on cones, or
+    from the centred contact of the profiles (which replace given ones, noted as unused)."""
+    coefficients, source = given.coefficients(), None
+    if contact is not None and profiles is None:
+        coefficients, source = _kalker_of_contact(top, contact, wheelset), derive.CONTACT_KALKER
+    if profiles is not None and wheelset.wheel_load is not None:
+        _note_on_profiles(top.source, given, warnings)
+        coefficients, source = _kalker_of_profiles(top, profiles, wheelset, contact, given), derive.PROFILES_KALKER
+    elif profiles is not None and coefficients is None:
+        top.fail(
+            "wheelset.wheel_load",
+            "missing: the contact on profiles needs the wheel load, and a fixed car "
+            "body without mass gives no weight to share; give it in N",
+        )
+    # Given, or from [contact] or the profiles; each way without them has failed above.
+    assert coefficients is not None
+    if source is not None:
+        derived.update((f"creep.{k}", source) for k in coefficients)
+    return Creep(
+        **coefficients,
+        law=given.law,
+        friction=given.friction,
+        falling_friction_ratio=given.falling_friction_ratio,
+        falling_friction_rate=given.falling_friction_rate,
+    )
+
+
+def _kalker_of_contact(top: _Table, contact: Contact, wheelset: Wheelset) -> dict[str, float]:
+    """f11..f33 of [contact]'s Hertz ellipse under the wheel load; a contact Hertz cannot
+    solve is refused as [contact]'s."""
+    from rail_mj.contact.hertz import ContactError  # scipy: only for layouts that need it
+
+    assert wheelset.wheel_load is not None  # _resolve_wheel_load refuses [contact] without it
+    try:
+        return derive.contact_kalker(contact, wheelset.wheel_load, wheelset.rolling_radius)
+    except ContactError as e:
+        _Table(top.source, "contact", {}).fail(None, str(e))
+
+
+def _note_on_profiles(source: str, given: GivenCreep, warnings: list[str]) -> None:
+    """What [creep] gives that the dynamics on profiles do not use, or should not."""
+    if given.coefficients() is not None:  # given with [profiles]; with [contact] they are refused
+        warnings.append(
+            f"{source}: creep.f11..f33 are not used by the dynamics: with [profiles] each "
+            f"contact point has its own, from Hertz and Kalker"
+        )
+    if given.law == "linear":
+        warnings.append(
+            f'{source}: creep.law "linear" on profiles: on the flanges the creep forces '
+            f"grow without bound; choose a saturating law for runs"
+        )
+
+
+def _kalker_of_profiles(
+    top: _Table, profiles: Profiles, wheelset: Wheelset, contact: Contact | None, given: GivenCreep
+) -> dict[str, float]:
+    """f11..f33 of the profiles' centred contact under the wheel load; a table that cannot be
+    made is refused as [profiles]'."""
+    from rail_mj.contact.tables import TableError
+
+    try:
+        return derive.profiles_kalker(profiles, wheelset, contact, given.law, given.friction)
+    except TableError as e:
+        top.fail("profiles", str(e))
+
+
 # Heights above the rail (m) and a spring's half-spacing: beyond these no rail vehicle is meant.
 MAX_HEIGHT = 6.0
 MAX_SPACING = 2.5
@@ -787,9 +1071,7 @@ def _bogie_designs(
     primary: Spring | None,
     carbody: CarBody,
     is_spatial: bool,
-    wheel_diameter: float,
-    r0: float,
-    b: float,
+    wheelset: GivenWheelset,
 ) -> tuple[BogieDesign, ...]:
     """[bogies.N] (docs/spatial.md), checked: each bogie's design, leading first, [bogie] and
     [primary.axlebox] with bogie N's overrides of mass, inertia, wheelset_positions and
@@ -806,46 +1088,15 @@ def _bogie_designs(
             top.fail("bogies", "given without [bogie]: [bogies.N] changes [bogie]'s design for bogie N")
         return ()
     assert primary is not None  # [primary.axlebox], read with [spatial]
-    n = len(xs)
-    given = {}
-    if data is not None:
-        t = _Table(top.source, "bogies", data)
-        for key, value in data.items():
-            if not BOGIE_NUMBER.fullmatch(key) or int(key) > n:
-                t.fail(
-                    key,
-                    f"no such bogie: N in [bogies.N] is a bogie's number in carbody.bogie_positions, "
-                    f"1 (leading) to {n}",
-                )
-            given[int(key)] = value
-            t.used.add(key)
-        t.done()
-    designs = []
-    for i in range(1, n + 1):
-        if i not in given:
-            designs.append(BogieDesign(bogie.mass, bogie.inertia, bogie.wheelset_positions, primary))
-            continue
-        e = _Table(top.source, f"bogies.{i}", given[i])
-        mass = e.positive("mass", bogie.mass)
-        inertia = e.vector3("inertia", required=False) or bogie.inertia
-        positions = e.positions("wheelset_positions", wheel_diameter, "wheelset", required=False)
-        if positions is not None and len(positions) != len(bogie.wheelset_positions):
-            e.fail(
-                "wheelset_positions",
-                f"gives {len(positions)} wheelsets, [bogie] {len(bogie.wheelset_positions)}: "
-                f"every bogie must have [bogie]'s number of wheelsets (a limitation: "
-                f"wheelsets are numbered per bogie)",
-            )
-        positions = positions or bogie.wheelset_positions
-        own = e.get("axlebox", None, required=False)
-        axlebox = primary if own is None else _spring(_Table(top.source, f"bogies.{i}.axlebox", own), primary)
-        e.done()
-        if "mass" in e.data:
-            _practice(e, warnings, ranges="bogie", mass=mass)
-        reach = max(abs(x) for x in positions) + r0  # as [bogie]'s
-        _inertia_fits(e, mass, inertia, math.hypot(reach, b + 0.5), "bogie frame")
-        designs.append(BogieDesign(mass, inertia, positions, axlebox))
-    for k in range(1, n):  # [bogie]'s spacing check holds for its own wheelbase only
+    own = _bogie_overrides(top, data, len(xs))
+    designs = tuple(
+        _bogie_design(top, warnings, i, own[i], bogie, primary, wheelset)
+        if i in own
+        else BogieDesign(bogie.mass, bogie.inertia, bogie.wheelset_positions, primary)
+        for i in range(1, len(xs) + 1)
+    )
+    wheel_diameter = 2.0 * wheelset.rolling_radius
+    for k in range(1, len(xs)):  # [bogie]'s spacing check holds for its own wheelbase only
         front = xs[k - 1] + min(designs[k - 1].wheelset_positions)
         back = xs[k] + max(designs[k].wheelset_positions)
         if front - back < wheel_diameter:
@@ -854,7 +1105,57 @@ def _bogie_designs(
                 f"the wheelsets of bogies {k} and {k + 1} at x = {front:g} and {back:g} m overlap: "
                 f"they must be at least {wheel_diameter:g} m apart",
             )
-    return tuple(designs)
+    return designs
+
+
+def _bogie_overrides(top: _Table, data: Any, n: int) -> dict[int, Any]:
+    """[bogies]: each bogie number N (1 to n) with its [bogies.N] table, unread."""
+    if data is None:
+        return {}
+    t = _Table(top.source, "bogies", data)
+    own = {}
+    for key, value in data.items():
+        if not BOGIE_NUMBER.fullmatch(key) or int(key) > n:
+            t.fail(
+                key,
+                f"no such bogie: N in [bogies.N] is a bogie's number in carbody.bogie_positions, 1 (leading) to {n}",
+            )
+        own[int(key)] = value
+        t.used.add(key)
+    t.done()
+    return own
+
+
+def _bogie_design(
+    top: _Table,
+    warnings: list[str],
+    i: int,
+    data: Any,
+    bogie: Bogie,
+    primary: Spring,
+    wheelset: GivenWheelset,
+) -> BogieDesign:
+    """[bogies.N] for bogie i: [bogie] and [primary.axlebox] with what it overrides."""
+    e = _Table(top.source, f"bogies.{i}", data)
+    mass = e.positive("mass", bogie.mass)
+    inertia = e.vector3("inertia", required=False) or bogie.inertia
+    positions = e.positions("wheelset_positions", 2.0 * wheelset.rolling_radius, "wheelset", required=False)
+    if positions is not None and len(positions) != len(bogie.wheelset_positions):
+        e.fail(
+            "wheelset_positions",
+            f"gives {len(positions)} wheelsets, [bogie] {len(bogie.wheelset_positions)}: "
+            f"every bogie must have [bogie]'s number of wheelsets (a limitation: "
+            f"wheelsets are numbered per bogie)",
+        )
+    positions = positions or bogie.wheelset_positions
+    own = e.get("axlebox", None, required=False)
+    axlebox = primary if own is None else _spring(_Table(top.source, f"bogies.{i}.axlebox", own), primary)
+    e.done()
+    if "mass" in e.data:
+        _practice(e, warnings, ranges="bogie", mass=mass)
+    reach = max(abs(x) for x in positions) + wheelset.rolling_radius  # as [bogie]'s
+    _inertia_fits(e, mass, inertia, math.hypot(reach, wheelset.contact_half_spacing + 0.5), "bogie frame")
+    return BogieDesign(mass, inertia, positions, axlebox)
 
 
 SECONDARY_ELEMENTS = ("lateral_damper", "yaw_damper", "anti_roll_bar", "bump_stop")
@@ -938,14 +1239,7 @@ def _planar_dampers(s: Suspension, elements: dict) -> Suspension:
 
 
 def _spatial(
-    t: _Table,
-    top: _Table,
-    carbody: CarBody,
-    bogie: Bogie | None,
-    train,
-    primary: Spring,
-    secondary: Spring | None,
-    r0: float,
+    t: _Table, top: _Table, carbody: CarBody, bogie: Bogie | None, primary: Spring, secondary: Spring | None
 ) -> Spatial:
     """[spatial], checked: a free car body on bogies, the heights of the centres of mass."""
     if bogie is None or secondary is None:  # [secondary.spring] comes with [bogie]
@@ -970,17 +1264,13 @@ def _spatial(
     return spatial
 
 
-def _static_sags(source: str, warnings: list[str], spatial: Spatial, carbody: CarBody, train) -> None:
+def _static_sags(source: str, warnings: list[str], spatial: Spatial, carbody: CarBody, train: Train | None) -> None:
     """The springs' static deflections under the weight (docs/spatial.md), each bogie's with its
     equal share of the car bodies' weight: one that sinks a spring's upper seat below the rail is
     refused (no suspension stands like that: most often N/m taken for kN/m, or a mass in grams),
-    one outside practice noted (rail_mj.layout.practice). And the car body must stand on its springs in
-    roll: their roll stiffness about the springs' level (each anti-roll bar's besides) must
-    exceed the weight's overturning m*g*h there, or the body tips over (a one-line error)."""
-    if not spatial.gravity:
-        return
+    one outside practice noted (rail_mj.practice)."""
     bodies = sum(car.mass for car in train.cars) if train is not None else carbody.mass
-    if bodies is None:
+    if not spatial.gravity or bodies is None:
         return
     n_bogies = len(spatial.bogies)
     e = spatial.secondary
@@ -1009,27 +1299,36 @@ def _static_sags(source: str, warnings: list[str], spatial: Spatial, carbody: Ca
             )
             if note not in warnings:
                 warnings.append(note)
-    if spatial.gravitational_stiffness:
-        cars = train.cars if train is not None else [carbody]
-        for k, car in enumerate(cars, start=1):
-            height = getattr(car, "height", None) or spatial.carbody_height
-            n = len(car.bogies) if train is not None else n_bogies
-            overturning = car.mass * GRAVITY * (height - e.height)
-            roll = n * (2 * e.kz * e.spacing**2 + (spatial.anti_roll_bar or 0.0))
-            if train is not None:  # a Jacobs bogie's springs are shared by its two bodies
-                roll = sum(
-                    (2 * e.kz * e.spacing**2 + (spatial.anti_roll_bar or 0.0)) / len(train.cars_on(b))
-                    for b in car.bogies
-                )
-            if overturning >= roll:
-                name = "carbody" if train is None else f"car[{k}]"
-                _Table(source, "spatial", {}).fail(
-                    "carbody_height",
-                    f"{name} tips over on its springs: its weight's overturning moment "
-                    f"m*g*h = {overturning:.3g} N m/rad (h = {height - e.height:.3g} m above the secondary "
-                    f"springs) exceeds their roll stiffness {roll:.3g} N m/rad; lower the centre of mass, "
-                    f"stiffen or spread the springs, or fit an anti-roll bar",
-                )
+
+
+def _stands_in_roll(source: str, spatial: Spatial, carbody: CarBody, train: Train | None) -> None:
+    """Each car body must stand on its springs in roll: their roll stiffness about the springs'
+    level (each anti-roll bar's besides) must exceed the weight's overturning m*g*h there, or
+    the body tips over (a one-line error). Only with gravity and its stiffness (docs/spatial.md)."""
+    if not (spatial.gravity and spatial.gravitational_stiffness) or carbody.mass is None:
+        return
+    e = spatial.secondary
+    cars: list[Car | CarBody] = list(train.cars) if train is not None else [carbody]
+    for k, car in enumerate(cars, start=1):
+        height = getattr(car, "height", None) or spatial.carbody_height
+        n = len(car.bogies) if isinstance(car, Car) else len(spatial.bogies)
+        mass = car.mass
+        assert mass is not None  # a spatial vehicle's car bodies are free, with their mass
+        overturning = mass * GRAVITY * (height - e.height)
+        roll = n * (2 * e.kz * e.spacing**2 + (spatial.anti_roll_bar or 0.0))
+        if train is not None and isinstance(car, Car):  # a Jacobs bogie's springs are shared by its two bodies
+            roll = sum(
+                (2 * e.kz * e.spacing**2 + (spatial.anti_roll_bar or 0.0)) / len(train.cars_on(b)) for b in car.bogies
+            )
+        if overturning >= roll:
+            name = "carbody" if train is None else f"car[{k}]"
+            _Table(source, "spatial", {}).fail(
+                "carbody_height",
+                f"{name} tips over on its springs: its weight's overturning moment "
+                f"m*g*h = {overturning:.3g} N m/rad (h = {height - e.height:.3g} m above the secondary "
+                f"springs) exceeds their roll stiffness {roll:.3g} N m/rad; lower the centre of mass, "
+                f"stiffen or spread the springs, or fit an anti-roll bar",
+            )
 
 
 def _spatial_train(t: _Table, train: Train, spatial: Spatial) -> Train:
@@ -1052,14 +1351,7 @@ END_TOLERANCE = 1e-6
 
 
 def _train(
-    top: _Table,
-    source: str,
-    warnings: list[str],
-    bogie: Bogie | None,
-    wheel_diameter: float,
-    r0: float,
-    b: float,
-    is_spatial: bool = False,
+    top: _Table, warnings: list[str], bogie: Bogie | None, wheel_diameter: float, is_spatial: bool = False
 ) -> tuple[CarBody, Train]:
     """[train], [[car]] and [[coupling]], checked (docs/trains.md): the train's bogies and the cars
     they carry, one clear line for each bad topology."""
@@ -1067,7 +1359,7 @@ def _train(
         top.fail("train", "needs [bogie]: a train's car bodies rest on bogies (train.bogie_positions)")
     if "carbody" in top.data:
         top.fail("carbody", "not used with [train]: give each car body as a [[car]]")
-    t = _Table(source, "train", top.get("train"))
+    t = _Table(top.source, "train", top.get("train"))
     extent = max(bogie.wheelset_positions) - min(bogie.wheelset_positions) + wheel_diameter
     bogie_x = t.positions("bogie_positions", extent, "bogie")
     t.done()
@@ -1076,38 +1368,53 @@ def _train(
         top.fail("car", "is one [car] table: give each car body as an array entry, [[car]], leading first")
     if not isinstance(cars_data, list) or not cars_data:
         top.fail("car", "missing: a [train] needs its car bodies, one [[car]] each, leading first")
-    cars = []
-    for k, data in enumerate(cars_data, start=1):
-        t = _Table(source, f"car[{k}]", data)
-        mass, inertia = t.positive("mass"), t.vector3("inertia")
-        position = t.number("position", low=-MAX_POSITION, high=MAX_POSITION)
-        length = t.positive("length")
-        if "height" in t.data and not is_spatial:
-            t.fail("height", "needs [spatial]: a planar train's car bodies have no height (docs/trains.md)")
-        height = t.number("height", low=0.0, low_open=True, high=MAX_HEIGHT, required=False) if is_spatial else None
-        carried = t.get("bogies")
-        if not isinstance(carried, list) or not all(isinstance(i, int) and not isinstance(i, bool) for i in carried):
-            t.fail("bogies", f"must be a list of bogie numbers (1 to {len(bogie_x)}), got {_kind(carried)}")
-        if not carried:
-            t.fail("bogies", "empty: a car body with no bogie under it has no support")
-        if len(carried) > 2 or len(set(carried)) != len(carried):
-            t.fail("bogies", f"must name one or two different bogies, got {carried}")
-        for i in carried:
-            if not 1 <= i <= len(bogie_x):
-                t.fail("bogies", f"bogie {i} does not exist: train.bogie_positions lists {len(bogie_x)}")
-        if sorted(carried) != carried:
-            t.fail("bogies", f"must list the leading bogie first, got {carried}")
-        for i in carried:
-            if abs(bogie_x[i - 1] - position) > length / 2 + END_TOLERANCE:
-                t.fail(
-                    "bogies",
-                    f"bogie {i} at x = {bogie_x[i - 1]:g} m is not under this {length:g} m body "
-                    f"centred at x = {position:g} m",
-                )
-        t.done()
-        _practice(_Table(source, "carbody", {}), warnings, mass=mass)
-        _inertia_fits(t, mass, inertia, math.hypot(length / 2, 2.0), "car body")
-        cars.append(Car(mass, inertia, position, length, tuple(carried), height))
+    cars = [
+        _car(_Table(top.source, f"car[{k}]", data), warnings, bogie_x, is_spatial)
+        for k, data in enumerate(cars_data, start=1)
+    ]
+    _check_train(top, cars, bogie_x)
+    couplings = _couplings(top, len(cars))
+    total = sum(car.mass for car in cars)
+    carbody = CarBody(False, total, cars[0].inertia, bogie_positions=bogie_x, wheelset_positions=None)
+    return carbody, Train(tuple(cars), couplings)
+
+
+def _car(t: _Table, warnings: list[str], bogie_x: tuple[float, ...], is_spatial: bool) -> Car:
+    """One [[car]]: its body, where it is, and the one or two bogies (of `bogie_x`) under it."""
+    mass, inertia = t.positive("mass"), t.vector3("inertia")
+    position = t.number("position", low=-MAX_POSITION, high=MAX_POSITION)
+    length = t.positive("length")
+    if "height" in t.data and not is_spatial:
+        t.fail("height", "needs [spatial]: a planar train's car bodies have no height (docs/trains.md)")
+    height = t.number("height", low=0.0, low_open=True, high=MAX_HEIGHT, required=False) if is_spatial else None
+    carried = t.get("bogies")
+    if not isinstance(carried, list) or not all(isinstance(i, int) and not isinstance(i, bool) for i in carried):
+        t.fail("bogies", f"must be a list of bogie numbers (1 to {len(bogie_x)}), got {_kind(carried)}")
+    if not carried:
+        t.fail("bogies", "empty: a car body with no bogie under it has no support")
+    if len(carried) > 2 or len(set(carried)) != len(carried):
+        t.fail("bogies", f"must name one or two different bogies, got {carried}")
+    for i in carried:
+        if not 1 <= i <= len(bogie_x):
+            t.fail("bogies", f"bogie {i} does not exist: train.bogie_positions lists {len(bogie_x)}")
+    if sorted(carried) != carried:
+        t.fail("bogies", f"must list the leading bogie first, got {carried}")
+    for i in carried:
+        if abs(bogie_x[i - 1] - position) > length / 2 + END_TOLERANCE:
+            t.fail(
+                "bogies",
+                f"bogie {i} at x = {bogie_x[i - 1]:g} m is not under this {length:g} m body "
+                f"centred at x = {position:g} m",
+            )
+    t.done()
+    _practice(_Table(t.source, "carbody", {}), warnings, mass=mass)
+    _inertia_fits(t, mass, inertia, math.hypot(length / 2, 2.0), "car body")
+    return Car(mass, inertia, position, length, tuple(carried), height)
+
+
+def _check_train(top: _Table, cars: list[Car], bogie_x: tuple[float, ...]) -> None:
+    """The cars in a row, leading first, ends not overlapping; each bogie under one car or
+    under the ends of two adjacent ones (a Jacobs bogie)."""
     for k, (front, rear) in enumerate(zip(cars, cars[1:]), start=1):
         if rear.position >= front.position:
             top.fail(
@@ -1134,12 +1441,16 @@ def _train(
                 "train.bogie_positions",
                 f"bogie {i} is listed by cars {on}: a (Jacobs) bogie carries the ends of at most two adjacent cars",
             )
+
+
+def _couplings(top: _Table, n_cars: int) -> tuple[Coupling, ...]:
+    """[[coupling]]: at most one between each pair of adjacent cars."""
     couplings: list[Coupling] = []
     coupling_data = top.get("coupling", [], required=False) or []
     if not isinstance(coupling_data, list):
         top.fail("coupling", "must be an array of tables, one [[coupling]] per pair of adjacent cars")
     for k, data in enumerate(coupling_data, start=1):
-        t = _Table(source, f"coupling[{k}]", data)
+        t = _Table(top.source, f"coupling[{k}]", data)
         pair = t.get("cars")
         if not (
             isinstance(pair, list)
@@ -1147,13 +1458,13 @@ def _train(
             and all(isinstance(i, int) and not isinstance(i, bool) for i in pair)
         ):
             t.fail("cars", f"must be two car numbers [k, k + 1], got {_kind(pair)}")
-        if pair[1] != pair[0] + 1 or not 1 <= pair[0] < len(cars):
-            t.fail("cars", f"must be two adjacent cars [k, k + 1] of the {len(cars)}, got {pair}")
+        if pair[1] != pair[0] + 1 or not 1 <= pair[0] < n_cars:
+            t.fail("cars", f"must be two adjacent cars [k, k + 1] of the {n_cars}, got {pair}")
         if any(c.cars == tuple(pair) for c in couplings):
             t.fail("cars", f"cars {pair} are coupled twice: give one [[coupling]] per pair")
         couplings.append(
             Coupling(
-                tuple(pair),
+                (pair[0], pair[1]),
                 t.non_negative("lateral_stiffness", 0.0),
                 t.non_negative("yaw_stiffness", 0.0),
                 t.non_negative("lateral_damping", 0.0),
@@ -1161,43 +1472,18 @@ def _train(
             )
         )
         t.done()
-    total = sum(car.mass for car in cars)
-    carbody = CarBody(False, total, cars[0].inertia, bogie_positions=bogie_x, wheelset_positions=None)
-    return carbody, Train(tuple(cars), tuple(couplings))
+    return tuple(couplings)
 
 
-def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, float]:
-    """[profiles], checked: the files read, the wheelset stood on its rails; the shift at
-    which a flange touches (the profiles' flangeway clearance, m) and with wheelset.conicity
-    omitted, the profiles' equivalent conicity at 3 mm."""
+def _profiles(top: _Table) -> Profiles | None:
+    """[profiles], checked: each profile a standard one or a file that reads, the wheelset's
+    placement on the track within reason. Where the wheels then touch: _resolve_on_profiles."""
+    if not _present(top, "profiles"):
+        return None
     from rail_mj.contact import profiles as p  # numpy: only for layouts that need it
 
-    base = Path(t.source).parent if t.source != "<layout>" else Path(".")
-    names = {}
-    for kind in ("wheel", "rail"):
-        value = t.get(kind)
-        if not isinstance(value, str) or not value.strip():
-            t.fail(
-                kind,
-                f"must be a standard {kind} ({', '.join(STANDARD_PROFILES[kind])}) or a profile "
-                f"file's path, got {_kind(value)}",
-            )
-        if value.lower() in STANDARD_PROFILES[kind]:
-            names[kind] = value.lower()
-            continue
-        other = "rail" if kind == "wheel" else "wheel"
-        if value.lower() in STANDARD_PROFILES[other]:
-            t.fail(kind, f"{value!r} is a standard {other} profile, not a {kind}")
-        path = (base / value) if not Path(value).is_absolute() else Path(value)
-        if path.suffix.lower() not in (".csv", ".prw", ".prr"):
-            t.fail(
-                kind,
-                f"must be {', '.join(STANDARD_PROFILES[kind])} or a profile file (.csv, SIMPACK .prw "
-                f"or .prr), got {value!r}",
-            )
-        if not path.is_file():
-            t.fail(kind, f"{path}: no such file (paths are relative to the layout file)")
-        names[kind] = str(path)
+    t = _Table(top.source, "profiles", top.get("profiles"))
+    names = {kind: _profile_name(t, kind) for kind in ("wheel", "rail")}
     profiles = Profiles(
         wheel=names["wheel"],
         rail=names["rail"],
@@ -1227,117 +1513,44 @@ def _profiles(t: _Table, wheelset: Wheelset) -> tuple[Profiles, float | None, fl
             t.fail(key, str(e))
         except ValueError as e:
             t.fail(key, str(e))
-    from rail_mj.contact.geometry import GeometryError
+    return profiles
 
-    try:
-        conicity, shift = _profiles_conicity(profiles, wheelset.rolling_radius, stamp(profiles))
-    except GeometryError as e:
-        t.fail(None, str(e))
-    if wheelset.conicity is None and not (conicity is not None and 0.0 < conicity <= 0.5):
+
+def _profile_name(t: _Table, kind: str) -> str:
+    """[profiles] `kind` ("wheel" or "rail"): a standard profile's name, or a file's path
+    (relative to the layout file) that exists and is a profile file."""
+    value = t.get(kind)
+    if not isinstance(value, str) or not value.strip():
         t.fail(
-            None,
-            f"the profiles' equivalent conicity at 3 mm is {conicity:.4g}, outside (0, 0.5]: give "
-            f"wheelset.conicity for the dynamics",
+            kind,
+            f"must be a standard {kind} ({', '.join(STANDARD_PROFILES[kind])}) or a profile "
+            f"file's path, got {_kind(value)}",
         )
-    if shift is None:  # flangeless wheels (a test cone): held only where the table ends
-        from rail_mj.contact.geometry import DEFAULT_YS
-
-        shift = float(-DEFAULT_YS[0])
-    return profiles, conicity, shift
-
-
-TREAD_ANGLE = 0.2  # rad
-TREAD_HALF_WIDTH = 0.025  # m either side of the taping line
-
-
-@functools.lru_cache(maxsize=32)
-def _profiles_conicity(profiles: Profiles, r0: float, _stamp) -> tuple[float, float | None]:
-    """The profiles' equivalent conicity at 3 mm (EN 15302) from their contact geometry,
-    and where a flange first touches. Once per profiles."""
-    from rail_mj.contact import geometry
-    from rail_mj.contact.conicity import QUOTED_AMPLITUDE, ConicityError
-
-    track = geometry.track_of_profiles(profiles, r0)
-    centred = geometry.contact_table(track, ys=[0.0])
-    # Centred, each wheel must stand on its tread, near its taping line: tread cones are 1:40
-    # to 1:10 (0.025-0.1 rad) and run about 25 mm either side of the taping line (S1002: the
-    # flange root begins 26 mm inside it); a flange is at 65-75 degrees. A wheel touching
-    # farther out, steeper, or at the end of its profile is placed wrongly (flange back
-    # spacing, gauge or cant), not a wheel standing on a rail.
-    lo, hi = float(track.wheel.y[0]), float(track.wheel.y[-1])
-    for side in ("left", "right"):
-        angle = float(getattr(centred, f"contact_angle_{side}")[0])
-        s = float(getattr(centred, f"wheel_s_{side}")[0])
-        if abs(s) > TREAD_HALF_WIDTH:
-            raise geometry.GeometryError(
-                f"centred, the {side} wheel touches its rail {s * 1e3:.1f} mm from its taping line, off its "
-                f"tread: check flange_back_spacing, track_gauge and rail_inclination"
-            )
-        if abs(angle) > TREAD_ANGLE:
-            raise geometry.GeometryError(
-                f"centred, the {side} wheel touches its rail at {angle:.3g} rad (s = {s * 1e3:.1f} mm), not on "
-                f"its tread: check flange_back_spacing, track_gauge and rail_inclination"
-            )
-        if not lo + 0.001 < s < hi - 0.001:
-            raise geometry.GeometryError(
-                f"centred, the {side} wheel touches its rail at the edge of its profile (s = {s * 1e3:.1f} mm): "
-                f"check flange_back_spacing, track_gauge and rail_inclination"
-            )
-    table = geometry.default_table(profiles, r0)
-    shift = geometry.flange_contact_shift(table)
-    try:
-        return geometry.equivalent_conicity(table, QUOTED_AMPLITUDE), shift
-    except ConicityError as e:
-        raise geometry.GeometryError(f"no equivalent conicity: {e}") from None
+    if value.lower() in STANDARD_PROFILES[kind]:
+        return value.lower()
+    other = "rail" if kind == "wheel" else "wheel"
+    if value.lower() in STANDARD_PROFILES[other]:
+        t.fail(kind, f"{value!r} is a standard {other} profile, not a {kind}")
+    base = Path(t.source).parent if t.source != "<layout>" else Path(".")
+    path = (base / value) if not Path(value).is_absolute() else Path(value)
+    if path.suffix.lower() not in (".csv", ".prw", ".prr"):
+        t.fail(
+            kind,
+            f"must be {', '.join(STANDARD_PROFILES[kind])} or a profile file (.csv, SIMPACK .prw "
+            f"or .prr), got {value!r}",
+        )
+    if not path.is_file():
+        t.fail(kind, f"{path}: no such file (paths are relative to the layout file)")
+    return str(path)
 
 
-def _contact(t: _Table, wheelset: Wheelset, profiled: bool = False):
-    """[contact]: Hertz's ellipse and Kalker's coefficients (docs/contact.md). With
-    [profiles] only the steel: the profiles give every point's curvatures."""
-    if profiled:
-        for key in ("rail_transverse_radius", "wheel_transverse_radius"):
-            if key in t.data:
-                t.fail(key, "not used with [profiles]: the profiles give each contact point's curvatures")
-    poisson = RANGES["contact.poisson_ratio"].refuse  # Kalker's table
-    contact = Contact(
-        young_modulus=t.positive("young_modulus"),
-        poisson_ratio=t.number("poisson_ratio", low=poisson[0], high=poisson[1]),
-        rail_transverse_radius=None if profiled else t.positive("rail_transverse_radius"),
-        wheel_transverse_radius=None if profiled else t.positive("wheel_transverse_radius", required=False),
-    )
-    t.done()
-    if profiled:
-        return contact, None
-    from rail_mj.contact.hertz import ContactError  # scipy: only for layouts that need it
-
-    try:
-        patch = _patch(contact, wheelset)
-    except ContactError as e:
-        t.fail(None, str(e))
-    return contact, patch.creep_coefficients
-
-
-def _patch(contact: Contact, wheelset: Wheelset):
-    """The Hertz ellipse and Kalker coefficients of [contact] under `wheelset`'s wheels."""
-    from rail_mj.contact.hertz import contact_patch
-
-    # A [contact] on cones has its rail's crown and its wheel load (the reader requires both).
-    assert contact.rail_transverse_radius is not None and wheelset.wheel_load is not None
-    return contact_patch(
-        wheelset.wheel_load,
-        wheelset.rolling_radius,
-        contact.rail_transverse_radius,
-        young_modulus=contact.young_modulus,
-        poisson_ratio=contact.poisson_ratio,
-        wheel_transverse_radius=contact.wheel_transverse_radius,
-    )
-
-
-def contact_patch_of(layout: Layout):
-    """The Hertz ellipse and Kalker coefficients of a layout with [contact]."""
+def contact_patch_of(layout: Layout) -> ContactPatch:
+    """The Hertz ellipse and Kalker coefficients of a layout with [contact] on coned wheels."""
     if layout.contact is None:
         raise ValueError(f"{layout.source}: no [contact] table: no Hertz ellipse")
-    return _patch(layout.contact, layout.wheelset)
+    if layout.wheelset.wheel_load is None:  # the reader refuses [contact] without one
+        raise ValueError(f"{layout.source}: no wheel load: no Hertz ellipse")
+    return derive.contact_ellipse(layout.contact, layout.wheelset.wheel_load, layout.wheelset.rolling_radius)
 
 
 def load_layout(path: str | Path) -> Layout:
