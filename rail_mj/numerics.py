@@ -74,8 +74,8 @@ TRACK_AT = 6  # offset of the track part's offset within a vehicle's entries
 # Then per breakpoint (curvature and cant linear between them) BREAKPOINT entries: x (m),
 # curvature (1/m), cant (m), heading (rad: the integral of the curvature from x = 0) and its
 # integral (m); per body: body, x in the vehicle (m), height of its centre of mass above the
-# rail (m; 0 in a planar model, whose bodies have no height), mass (kg), then the joints from
-# it to the world as a wheelset's; per joint: its dof, stiffness and damping, the number of
+# rail (m; 0 in a planar model, whose bodies have no height), mass (kg), yaw inertia (kg m^2),
+# then the joints from it to the world as a wheelset's; per joint: its dof, stiffness and damping, the number of
 # terms, then (pose, coefficient) per term, where pose 3*b + k is body b's lateral offset
 # (k = 0), heading (1) or cant roll (2) that the track gives it; per tendon: tendon, its
 # length's terms as a joint's, then the dofs it acts on: count, then (dof, coefficient).
@@ -99,7 +99,7 @@ def track_part_size(data: np.ndarray, k: int) -> int:
     breakpoints, bodies, joints, tendons = (int(v) for v in data[k + 2 : k + TRACK_HEADER])
     e = k + TRACK_HEADER + BREAKPOINT * breakpoints
     for _ in range(bodies):
-        e += 5 + 3 * int(data[e + 4])
+        e += 6 + 3 * int(data[e + 5])
     for _ in range(joints):
         e += 4 + 2 * int(data[e + 3])
     for _ in range(tendons):

@@ -16,6 +16,7 @@ from rail_mj.cli.options import (
     layout_of,
     span_of,
     status_line,
+    track_of,
     uses_stdout,
 )
 from rail_mj.files import staged
@@ -54,6 +55,11 @@ from rail_mj.studies.span import GRID, SPEEDS, Span
     "a critical speed per case (as critical-speed --method).",
 )
 @click.option("--distance", type=float, default=1000.0, show_default=True, help="run: distance of each run, m.")
+@click.option(
+    "--track",
+    type=click.Path(dir_okay=False),
+    help="run: a track file every run follows from its start (docs/track.md).",
+)
 @click.option("--workers", type=int, help="Threads on this machine [default: every core].")
 @click.option("--scheduler", help="Address of a Dask distributed scheduler to run the cases on instead.")
 @click.option(
@@ -67,7 +73,7 @@ from rail_mj.studies.span import GRID, SPEEDS, Span
     help="The table, .csv or .parquet. Run again, the same sweep keeps its finished rows.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print a summary as JSON.")
-def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler, rrd_dir, out, as_json):
+def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, scheduler, rrd_dir, out, as_json):
     """Run LAYOUT over speeds and layout parameters: one row per case, in a table."""
     layout_of(layout)
     speed_span = span_of("--speeds", speeds, SPEEDS)
@@ -75,6 +81,9 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler,
     if Path(out).suffix not in (".csv", ".parquet"):
         raise Failure(f"-o {out}: the table must be .csv or .parquet", EXIT_BAD_INPUT)
     check_outputs(layout, [("-o", out)])
+    if track is not None:
+        check_outputs(track, [("-o", out)], source="the track file")
+        track_of(track)  # its warnings, once
     if rrd_dir:
         check_outputs(layout, [("--rrd-dir", rrd_dir)], folders=True)
     from rail_mj.studies.sweep import SweepError, summarise, sweep
@@ -98,6 +107,7 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, workers, scheduler,
                 out=out,
                 recordings=rrd_dir,
                 progress=progress,
+                track=track,
             )
     except SweepError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None

@@ -146,11 +146,17 @@ class _Queue:
             return chosen
 
     def take_like(self, prepared: Prepared) -> tuple[int, Prepared] | None:
-        """The longest run that can take the place of `prepared` in its model: its timestep
-        and an equal layout (so an equal vehicle), the speed alone differing."""
+        """The longest run that can take the place of `prepared` in its model: its timestep,
+        an equal layout and an equal track (so an equal vehicle: the track is in its model, with
+        its odometer), the speed alone differing."""
         with self._ready:
             for item in self._items:
-                if item[1].timestep == prepared.timestep and _same(item[1].request.layout, prepared.request.layout):
+                request = item[1].request
+                if (
+                    item[1].timestep == prepared.timestep
+                    and _same(request.layout, prepared.request.layout)
+                    and request.track == prepared.request.track
+                ):
                     self._items.remove(item)
                     return item
             return None

@@ -9,7 +9,9 @@ commercial codes. What the curve adds, each evaluated at each body's own station
 
 - the uncompensated lateral acceleration: F_y = -m*(V^2*k*cos(theta) - g*sin(theta)) at each
   body's centre of mass in the track plane, and its normal part -m*(g*cos(theta) +
-  V^2*k*sin(theta) - g) (the model's own gravity gives -m*g);
+  V^2*k*sin(theta) - g) (the model's own gravity gives -m*g); along a transition the yaw
+  moment -I_z*V^2*k' of the frame's angular acceleration (the roll acceleration at the ends of a
+  cant ramp, an impulse, is left out);
 - the suspension's geometric pre-deflections: every spring and damper deflected, besides the
   bodies' motion, by the track's geometry between the stations of the bodies it joins (each
   body's lateral offset from the reference tangent, heading and cant roll, through the
@@ -27,26 +29,24 @@ import numba
 import numpy as np
 
 from rail_mj.numerics import BREAKPOINT, POSES, TRACK_HEADER
-
-# Cant is given over the distance between the rail centres (rail_mj.track.geometry.CANT_BASE).
-CANT_BASE = 1.5  # m
+from rail_mj.track.geometry import CANT_BASE
 
 
 @numba.njit(cache=True)
 def track_at(table, s):
-    """(curvature, cant, heading, heading's integral, cant's slope) at distance `s` from the
-    breakpoints `table` (rows: x, curvature, cant, heading, heading's integral), curvature and
-    cant linear between breakpoints and held beyond the ends."""
+    """(curvature, cant, heading, heading's integral, cant's slope, curvature's slope) at
+    distance `s` from the breakpoints `table` (rows: x, curvature, cant, heading, heading's
+    integral), curvature and cant linear between breakpoints and held beyond the ends."""
     m = table.shape[0]
     if s <= table[0, 0]:
         t = s - table[0, 0]
         k = table[0, 1]
-        return k, table[0, 2], table[0, 3] + k * t, table[0, 4] + table[0, 3] * t + 0.5 * k * t * t, 0.0
+        return k, table[0, 2], table[0, 3] + k * t, table[0, 4] + table[0, 3] * t + 0.5 * k * t * t, 0.0, 0.0
     if s >= table[m - 1, 0]:
         t = s - table[m - 1, 0]
         k = table[m - 1, 1]
         heading, integral = table[m - 1, 3], table[m - 1, 4]
-        return k, table[m - 1, 2], heading + k * t, integral + heading * t + 0.5 * k * t * t, 0.0
+        return k, table[m - 1, 2], heading + k * t, integral + heading * t + 0.5 * k * t * t, 0.0, 0.0
     lo, hi = 0, m - 1  # the last breakpoint at or before s: table[lo, 0] <= s < table[hi, 0]
     while hi - lo > 1:
         mid = (lo + hi) // 2
@@ -63,7 +63,7 @@ def track_at(table, s):
     curvature = k0 + dk * t / length
     heading = heading0 + k0 * t + dk * t * t / (2.0 * length)
     integral = table[i, 4] + heading0 * t + 0.5 * k0 * t * t + dk * t * t * t / (6.0 * length)
-    return curvature, table[i, 2] + slope * t, heading, integral, slope
+    return curvature, table[i, 2] + slope * t, heading, integral, slope, dk / length
 
 
 @numba.njit(cache=True)
@@ -91,15 +91,16 @@ def _table(block, k):
 
 
 @numba.njit(cache=True)
-def _push(force, chain, count, xpos, xanchor, xaxis, body, fy, fz):
-    """Add J^T F for a force F = (0, fy, fz) at `body`'s origin over the joints `chain`."""
+def _push(force, chain, count, xpos, xanchor, xaxis, body, fy, fz, mz):
+    """Add J^T (F, M) for a force F = (0, fy, fz) at `body`'s origin (its centre of mass: rail-mj
+    puts every body's there) and a moment M = (0, 0, mz), over the joints `chain`."""
     px, py, pz = xpos[3 * body], xpos[3 * body + 1], xpos[3 * body + 2]
     for c in range(count):
         j, dof, hinge = int(chain[3 * c]), int(chain[3 * c + 1]), chain[3 * c + 2]
         ax, ay, az = xaxis[3 * j], xaxis[3 * j + 1], xaxis[3 * j + 2]
         if hinge:  # axis . (r x F)
             rx, ry, rz = px - xanchor[3 * j], py - xanchor[3 * j + 1], pz - xanchor[3 * j + 2]
-            force[dof] += ax * (ry * fz - rz * fy) + ay * (-rx * fz) + az * (rx * fy)
+            force[dof] += ax * (ry * fz - rz * fy) + ay * (-rx * fz) + az * (rx * fy + mz)
         else:
             force[dof] += ay * fy + az * fz
 
@@ -126,7 +127,7 @@ def add_curve_forces(block, k, speed, xpos, xanchor, xaxis, stiffness, damping, 
     m, nb, nr, nt = int(block[k + 2]), int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
     table = _table(block, k)
     e = k + TRACK_HEADER + BREAKPOINT * m
-    k_ref, cant_ref, h_ref, i_ref, slope_ref = track_at(table, s_ref)
+    k_ref, cant_ref, h_ref, i_ref, slope_ref, _ = track_at(table, s_ref)
     # The reference: the track plane at the vehicle's origin, which the model's world is.
     theta_ref = math.asin(cant_ref / CANT_BASE)
     theta_rate_ref = speed * slope_ref / (CANT_BASE * math.cos(theta_ref))
@@ -134,10 +135,11 @@ def add_curve_forces(block, k, speed, xpos, xanchor, xaxis, stiffness, damping, 
     scratch = np.empty(2 * POSES * nb)
     pose, rate = scratch[: POSES * nb], scratch[POSES * nb :]
     for b in range(nb):
-        body, x, height, mass, count = int(block[e]), block[e + 1], block[e + 2], block[e + 3], int(block[e + 4])
-        chain = numba.carray(block, (e + 5 + 3 * count,))[e + 5 :]
-        e += 5 + 3 * count
-        curvature, cant, heading, integral, slope = track_at(table, s_ref + x)
+        body, x, height, mass, yaw_inertia = int(block[e]), block[e + 1], block[e + 2], block[e + 3], block[e + 4]
+        count = int(block[e + 5])
+        chain = numba.carray(block, (e + 6 + 3 * count,))[e + 6 :]
+        e += 6 + 3 * count
+        curvature, cant, heading, integral, slope, curvature_slope = track_at(table, s_ref + x)
         theta = math.asin(cant / CANT_BASE)
         theta_rate = speed * slope / (CANT_BASE * math.cos(theta))
         # Off the reference tangent: the integral of the heading's change from the reference;
@@ -153,7 +155,10 @@ def add_curve_forces(block, k, speed, xpos, xanchor, xaxis, stiffness, damping, 
         centripetal = speed * speed * curvature
         fy = -mass * (centripetal * math.cos(theta) - gravity * math.sin(theta))
         fz = -mass * (gravity * math.cos(theta) + centripetal * math.sin(theta) - gravity)
-        _push(force, chain, count, xpos, xanchor, xaxis, body, fy, fz)
+        # Along a transition the track's heading turns faster and faster under the body: in the
+        # track-following frame, the frame's angular acceleration V^2*k' as a yaw moment.
+        mz = -yaw_inertia * speed * speed * curvature_slope
+        _push(force, chain, count, xpos, xanchor, xaxis, body, fy, fz, mz)
     for _ in range(nr):
         dof, k_joint, c_joint, terms = int(block[e]), block[e + 1], block[e + 2], int(block[e + 3])
         q, q_rate = 0.0, 0.0

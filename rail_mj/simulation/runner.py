@@ -33,6 +33,7 @@ from rail_mj.simulation.stepping import Prepared, step_alone
 from rail_mj.simulation.timestep import STEP_FRACTION, stable_timestep
 from rail_mj.track import Track
 from rail_mj.vehicle.block import set_speed
+from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.spec import Vehicle
 
 MAX_STEPS = 50_000_000  # about half an hour of stepping: beyond this, refuse
@@ -55,19 +56,11 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
             f"(|y| must be below {DERAILMENT_LATERAL} m)"
         )
     track = request.track
-    if track is not None:
-        # The vehicle's origin (the car body's centre) starts at the track's start and its
-        # leading wheelset must still be on it at the end (beyond its ends a track goes on as
-        # it begins and ends, rail_mj.track: the bodies behind are on track all the way).
-        reach = track.length - max(layout.wheelset_x)
-        if distance > reach:
-            raise ValueError(
-                f"distance {distance:g} m is longer than the track ({track.source}: {track.length:g} m, "
-                f"{reach:g} m for the vehicle's centre with its leading wheelset on it)"
-            )
-        if python_callback:
-            raise ValueError("curved track runs with the native callback only; leave out the Python callback")
+    if track is not None and python_callback:
+        raise ValueError("curved track runs with the native callback only; leave out the Python callback")
     vehicle = Vehicle(layout, track)
+    if track is not None:
+        _check_on_track(request, vehicle, track)
     set_speed(vehicle.model, speed)
     forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed) if python_callback else None
     dt = stable_timestep(vehicle, forces)
@@ -86,6 +79,22 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
             f"shorten --distance"
         )
     return Prepared(request, vehicle, dt, math.ceil(steps), forces, time.perf_counter() - started)
+
+
+def _check_on_track(request: Request, vehicle: Vehicle, track: Track) -> None:
+    """Refuse a run that would leave its track: the vehicle's origin (the car body's centre)
+    starts at the track's start, or where a continued run's odometer had come to, and its
+    leading wheelset must still be on the track at the end (beyond its ends a track goes on as
+    it begins and ends, rail_mj.track: the bodies behind are on track all the way)."""
+    start = 0.0
+    if request.state is not None:
+        start = float(request.state[0][vehicle.model.joint(ODOMETER).qposadr[0]])
+    reach = track.length - max(request.layout.wheelset_x) - start
+    if request.distance > reach:
+        raise ValueError(
+            f"distance {request.distance:g} m is longer than the track ({track.source}: {track.length:g} m, "
+            f"{reach:g} m for the vehicle's centre from {start:g} m with its leading wheelset on it)"
+        )
 
 
 def simulate(

@@ -202,6 +202,8 @@ class Pack:
                 self.state[1 + nq + place.odometer[1]] = run.prepared.request.speed
         else:
             self.state[1 + place.qpos], self.state[1 + nq + place.qvel] = run.state
+            if place.odometer is not None:  # continued at the request's speed, where it had come to
+                self.state[1 + nq + place.odometer[1]] = run.prepared.request.speed
 
     def state_of(self, m: int, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(qpos, qvel) of run m in a state vector of this model."""

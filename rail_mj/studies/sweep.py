@@ -43,6 +43,7 @@ import numpy as np
 from rail_mj.files import is_special, staged
 from rail_mj.layout import LayoutError, layout_from_dict
 from rail_mj.studies.span import GRID, SEARCH, SWEEP, Span, SpanError
+from rail_mj.track import Track
 
 METHODS = ("run", "eigen", "time", "nonlinear")
 DEFAULT_DISTANCE = 1000.0  # m a run
@@ -143,6 +144,8 @@ class Case:
     speeds: tuple[float, float, int]  # the range: A, B, N
     distance: float  # m (run)
     recording: str | None = None  # .rrd path (run), or None
+    track: Track | None = None  # a curved track the runs follow (rail_mj.track), or None: straight
+    track_text: str | None = None  # its file's text, what the result depends on
 
     @property
     def run_speed(self) -> float:
@@ -154,8 +157,10 @@ class Case:
     def key(self) -> str:
         """What determines the result: changes if the layout, method or case does."""
         what: list[object]
-        if self.method == "run":  # a run: its layout, speed and distance
+        if self.method == "run":  # a run: its layout, speed and distance (and track, if any)
             what = [self.method, self.layout, self.params, self.speed, self.distance]
+            if self.track_text is not None:
+                what.append(self.track_text)
         else:  # a critical speed: its layout and the range searched
             what = [self.method, self.layout, self.params, self.speeds]
         text = json.dumps(what, sort_keys=True)
@@ -170,10 +175,13 @@ def plan(
     method: str = "run",
     distance: float = DEFAULT_DISTANCE,
     recordings: str | Path | None = None,
+    track: str | Path | None = None,
 ) -> list[Case]:
-    """Every case of a sweep, in order: grid points (first key slowest), then speeds."""
+    """Every case of a sweep, in order: grid points (first key slowest), then speeds. `track`: a
+    track file (rail_mj.track) every run follows from its start."""
     if method not in METHODS:
         raise SweepError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    the_track, track_text = _track(track, method)
     a, b, n = speeds
     try:
         span = Span.of(a, b, n, SWEEP, "speeds")
@@ -228,8 +236,37 @@ def plan(
             recording = (
                 str(Path(recordings) / f"case-{index:05d}.rrd") if recordings is not None and method == "run" else None
             )
-            cases.append(Case(index, method, variant, str(path), point, speed, (a, b, n), distance, recording))
+            cases.append(
+                Case(
+                    index,
+                    method,
+                    variant,
+                    str(path),
+                    point,
+                    speed,
+                    (a, b, n),
+                    distance,
+                    recording,
+                    the_track,
+                    track_text,
+                )
+            )
     return cases
+
+
+def _track(path: str | Path | None, method: str) -> tuple[Track | None, str | None]:
+    """The sweep's track, checked, and its file's text (None, None: straight track)."""
+    if path is None:
+        return None, None
+    if method != "run":
+        raise SweepError(f"--track is for runs (--method run); the {method} critical speed is on straight track")
+    from rail_mj.track import TrackError, load_track
+
+    try:
+        track = load_track(path)
+    except TrackError as e:
+        raise SweepError(str(e)) from None
+    return track, Path(path).read_text(encoding="utf-8")
 
 
 def _run_speeds(span: Span) -> list[float]:
@@ -286,7 +323,7 @@ def run_rows(cases: list[Case], threads: int = 1) -> Iterator[dict]:
     for case in cases:
         try:
             layout = layout_from_dict(case.layout, source=case.source)
-            requests.append(Request(layout, case.run_speed, case.distance, DEFAULT_INITIAL_LATERAL))
+            requests.append(Request(layout, case.run_speed, case.distance, DEFAULT_INITIAL_LATERAL, track=case.track))
             owners.append((case, layout))
         except (LayoutError, ValueError):
             yield run_case(case)  # says why its layout is refused
@@ -349,7 +386,8 @@ def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> di
 def _run(case: Case, layout) -> dict:
     from rail_mj.simulation.runner import simulate
 
-    return _summarise_run(case, layout, simulate(layout, case.run_speed, case.distance, DEFAULT_INITIAL_LATERAL))
+    run = simulate(layout, case.run_speed, case.distance, DEFAULT_INITIAL_LATERAL, track=case.track)
+    return _summarise_run(case, layout, run)
 
 
 def _summarise_run(case: Case, layout, run) -> dict:
@@ -509,15 +547,16 @@ def sweep(
     out: str | Path | None = None,
     recordings: str | Path | None = None,
     progress: Callable[[int, int, dict], None] | None = None,
+    track: str | Path | None = None,
 ):
     """Run a sweep (see `plan`) and return its table (pyarrow), one row per case.
 
     `workers` threads (default: every core), or the Dask scheduler at `scheduler`. With
     `out` (.csv or .parquet) rows already there or in its journal are kept and not run
     again; the table is written there at the end. `progress(done, total, row)` is told
-    each finished row.
+    each finished row. `track`: a track file every run follows (rail_mj.track; runs only).
     """
-    cases = plan(layout_path, speeds, sets, grids, method, distance, recordings)
+    cases = plan(layout_path, speeds, sets, grids, method, distance, recordings, track)
     columns = columns_of(cases)
     output = Path(out) if out is not None else None
     if output is not None and output.suffix not in (".csv", ".parquet"):

@@ -82,3 +82,16 @@ def test_curving_refuses_a_radius_no_track_has(capsys):
         "rail-mj: error: --radius must be at least 10 m (tighter than trams run; a 2.5 m wheelbase would "
         "turn through 0.25 rad), got 5; check the units (m)"
     ]
+
+
+def test_a_sweep_along_a_track_keys_its_cases_by_the_track(tmp_path, capsys):
+    out = tmp_path / "sweep.csv"
+    argv = ["sweep", BOGIE, "--speeds", "20:30:2", "--distance", "400", "-o", out, "--json"]
+    status, text, err = run([*argv, "--track", CURVE], capsys)
+    assert status == 0, err
+    assert json.loads(text)["by_status"] == {"ok": 2, "diverged": 0, "refused": 0, "failed": 0}
+    curved = out.read_text()
+    # The same sweep on straight track is another sweep: its cases' keys differ.
+    status, _text, err = run(argv, capsys)
+    assert status == 2 and "holds results of another sweep" in err
+    assert out.read_text() == curved
