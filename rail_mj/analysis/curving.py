@@ -4,9 +4,10 @@ For each curve's constant part (rail_mj.track.Track.curves) the samples with the
 vehicle inside it (every wheelset between its start and end) are the curve's steady running;
 over them, per wheelset: the lateral displacement and yaw from the track (the track-following
 frame, docs/track.md), the angle of attack (the yaw towards the outer rail, positive when
-the wheelset points at it, flange-leading), the guiding force Sigma Y and each wheel's Y/Q
-(EN 14363, rail_mj.analysis.en14363), as means and extremes; and the curve's radius, cant,
-cant deficiency and uncompensated acceleration at the run's speed.
+the wheelset points at it, flange-leading), the guiding force Sigma Y, each wheel's Y/Q
+(EN 14363, rail_mj.analysis.en14363) and each wheel's wear number T-gamma (the energy its creep
+dissipates per metre rolled, N: rail_mj.contact.creep.wear_number), as means and extremes; and
+the curve's radius, cant, cant deficiency and uncompensated acceleration at the run's speed.
 
 Example:
 
@@ -45,7 +46,9 @@ def curves(run: Run) -> list[dict]:
         # The outer rail is the right one on a left curve (positive curvature), the left on a right.
         outward = -1.0 if section.curvature_start > 0 else 1.0
         y, psi = run.y[inside], run.psi[inside]
-        forces = run.contact_forces().lateral[inside]
+        contact = run.contact_forces()
+        forces = contact.lateral[inside]
+        wear = np.stack([contact.wear_left[inside], contact.wear_right[inside]], axis=-1)
         quotients = derailment_quotients(run)[inside]
         wheelsets = []
         for i in range(run.n_wheelsets):
@@ -60,6 +63,8 @@ def curves(run: Run) -> list[dict]:
                     "mean_guiding_force_n": float(np.mean(forces[:, i])),
                     "max_abs_guiding_force_n": float(np.max(np.abs(forces[:, i]))),
                     "max_y_over_q": _finite_max(quotients[:, i]),
+                    "mean_wear_number_n": [float(v) for v in np.mean(wear[:, i], axis=0)],
+                    "max_wear_number_n": [float(v) for v in np.max(wear[:, i], axis=0)],
                 }
             )
         out.append(
@@ -174,8 +179,9 @@ def _solve(layout: Layout, radius: float, cant: float, speed: float, guess: np.n
 def steady_curving(layout: Layout, radius: float, speed: float, cant: float = 0.0) -> dict:
     """The steady state on a constant curve (`steady_state`) as practitioners read it: the
     curve's cant deficiency and uncompensated acceleration; per wheelset its lateral
-    displacement, yaw and angle of attack, the guiding force Sigma Y and each wheel's Q, Y and
-    Y/Q; each frame's and car body's lateral displacement and yaw (and a spatial vehicle's roll)."""
+    displacement, yaw and angle of attack, the guiding force Sigma Y and each wheel's Q, Y, Y/Q and
+    wear number T-gamma (N, left then right: rail_mj.contact.creep.wear_number); each frame's and
+    car body's lateral displacement and yaw (and a spatial vehicle's roll)."""
     run = steady_state(layout, radius, speed, cant)
     assert run.track is not None
     outward = -1.0 if radius > 0 else 1.0
@@ -194,6 +200,7 @@ def steady_curving(layout: Layout, radius: float, speed: float, cant: float = 0.
                 "wheel_loads_n": [float(v) for v in q[i]],
                 "wheel_lateral_forces_n": [float(v) for v in y[i]],
                 "y_over_q": [None if not np.isfinite(v) else float(v) for v in quotients[i]],
+                "wear_number_n": [float(forces.wear_left[0, i]), float(forces.wear_right[0, i])],
             }
         )
     frames = []

@@ -23,8 +23,8 @@ from rail_mj.studies.span import SPEEDS
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON (a list, one per radius and speed).")
 def curving_cmd(layout, radius, radii, cant, speed, speeds, as_json):
     """The steady (quasi-static) state of LAYOUT on a constant curve, solved directly: per
-    wheelset the lateral displacement, angle of attack, guiding force and each wheel's Q, Y
-    and Y/Q; each frame's and car body's displacement; the cant deficiency."""
+    wheelset the lateral displacement, angle of attack, guiding force and each wheel's Q, Y,
+    Y/Q and wear number Tgamma; each frame's and car body's displacement; the cant deficiency."""
     lay = layout_of(layout)
     radii_list = _radii(radius, radii)
     speed_list = _speeds(speed, speeds)
@@ -89,13 +89,17 @@ def _print(result: dict) -> None:
         f"{result['speed_m_per_s']:g} m/s: cant deficiency {result['cant_deficiency_mm']:.0f} mm "
         f"({result['uncompensated_acceleration_m_per_s2']:.2f} m/s^2)"
     )
-    click.echo("wheelset  y (mm)  angle of attack (mrad)  Sigma Y (kN)  Q left/right (kN)  Y/Q left/right")
+    click.echo(
+        "wheelset  y (mm)  angle of attack (mrad)  Sigma Y (kN)  Q left/right (kN)  Y/Q left/right"
+        "  Tgamma left/right (N)"
+    )
     for w in result["wheelsets"]:
         q = "/".join(f"{v / 1e3:.1f}" for v in w["wheel_loads_n"])
         ratio = "/".join("-" if v is None else f"{v:.3f}" for v in w["y_over_q"])
+        wear = "/".join(f"{v:.1f}" for v in w["wear_number_n"])
         click.echo(
             f"{w['wheelset']:>8}  {w['lateral_m'] * 1e3:>6.2f}  {w['angle_of_attack_rad'] * 1e3:>22.2f}"
-            f"  {w['guiding_force_n'] / 1e3:>12.2f}  {q:>17}  {ratio:>14}"
+            f"  {w['guiding_force_n'] / 1e3:>12.2f}  {q:>17}  {ratio:>14}  {wear:>21}"
         )
     for b in result["bodies"]:
         roll = f", roll {b['roll_rad'] * 1e3:.2f} mrad" if "roll_rad" in b else ""

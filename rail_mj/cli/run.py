@@ -254,12 +254,13 @@ def _print_summary(result: dict, err: bool = False) -> None:
             f"curve (section {curve['section']}, R {curve['radius_m']:g} m, cant {curve['cant_m'] * 1e3:g} mm, "
             f"deficiency {deficiency:.0f} mm, {a_nc:.2f} m/s^2), x = {curve['from_m']:.0f} to {curve['to_m']:.0f} m:"
         )
-        say("  wheelset  mean y (mm)  angle of attack (mrad)  Sigma Y (kN)  max Y/Q")
+        say("  wheelset  mean y (mm)  angle of attack (mrad)  Sigma Y (kN)  max Y/Q  Tgamma left/right (N)")
         for w in curve["wheelsets"]:
             attack = w["mean_angle_of_attack_rad"] * 1e3
+            wear = "/".join(f"{v:.1f}" for v in w["mean_wear_number_n"])
             say(
                 f"  {w['wheelset']:>8}  {w['mean_lateral_m'] * 1e3:>11.2f}  {attack:>22.2f}"
-                f"  {w['mean_guiding_force_n'] / 1e3:>12.2f}  {_fmt(w['max_y_over_q'], '>7.3f')}"
+                f"  {w['mean_guiding_force_n'] / 1e3:>12.2f}  {_fmt(w['max_y_over_q'], '>7.3f')}  {wear:>21}"
             )
     if "csv" in result:
         say(f"samples: {result['csv']}")

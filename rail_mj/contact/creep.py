@@ -473,9 +473,24 @@ class ContactForces(NamedTuple):
     lateral_right: np.ndarray
     # A spatial vehicle's spinning wheelset: the gyroscopic yaw moment (in `yaw`; not a contact force).
     gyroscopic: np.ndarray
+    # Per wheel: the wear number T-gamma (N, i.e. J/m), the energy the creep dissipates in the
+    # contact per metre rolled, -(Fx*xi_x + Fy*xi_y + Mz*xi_sp) over the wheel's contact points with
+    # the rail's forces on the wheel and the creepages the law is given (`wear_number`); >= 0.
+    wear_left: np.ndarray
+    wear_right: np.ndarray
 
 
 FORCE_ROWS = len(ContactForces._fields)
+
+
+@numba.njit(cache=True)
+def wear_number(fx, fy, mz, xi_x, xi_y, xi_sp):
+    """The wear number T-gamma of one contact (N, J/m): the energy the creep forces dissipate in it
+    per metre rolled, -(Fx*xi_x + Fy*xi_y + Mz*xi_sp), with (Fx, Fy, Mz) the rail's forces and spin
+    moment on the wheel and xi_x, xi_y, xi_sp (rad/m) the creepages they are computed from. The
+    forces oppose the creepages, so it is >= 0: Kalker's linear law gives f11*xi_x^2 + f22*xi_y^2 +
+    f33*xi_sp^2 (the f23 terms cancel), a saturating law that times its factor (docs/track.md, section 9)."""
+    return -(fx * xi_x + fy * xi_y + mz * xi_sp)
 
 
 @numba.njit(cache=True)
@@ -487,9 +502,11 @@ def _saturation_factor(law, fx, fy, limit):
 
 
 @numba.njit(cache=True)
-def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_left, q_right):
+def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_left, q_right, wear=False):
     """Both wheels' creep forces by Kalker's linear law, saturated by `law` (not FASTSIM):
-    (creep lateral, creep couple, spin moment, left wheel's lateral, right wheel's lateral).
+    (creep lateral, creep couple, spin moment, left wheel's lateral, right wheel's lateral, left
+    wheel's wear number, right wheel's: `wear_number`, here scale*(f11*xi_x^2 + f22*xi_y^2 +
+    f33*xi_sp^2) with the wheel's coefficients, as f23's two terms cancel; 0 unless `wear`).
 
     q_left, q_right: each wheel's load over the load the coefficients are given at (1, 1 on a
     planar vehicle). Kalker's coefficients are G*(a*b)*C11, G*(a*b)*C22, G*(a*b)^(3/2)*C23 and
@@ -527,7 +544,11 @@ def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_l
         creep_lateral = scale_left * fy_left + scale_right * fy_right
         spin = scale_left * mz_left + scale_right * mz_right
     couple = p[_B] * (scale_right * fx_right - scale_left * fx_left)  # Fx_left at y = +b
-    return creep_lateral, couple, spin, scale_left * fy_left, scale_right * fy_right
+    wear_left = wear_right = 0.0
+    if wear:
+        wear_left = scale_left * wear_number(fx_left, fy_left, mz_left, xi_left, xi_y, xi_sp)
+        wear_right = scale_right * wear_number(fx_right, fy_right, mz_right, xi_right, xi_y, xi_sp)
+    return creep_lateral, couple, spin, scale_left * fy_left, scale_right * fy_right, wear_left, wear_right
 
 
 @numba.njit(cache=True)
@@ -613,6 +634,7 @@ def wheelset_contact(
     nominal=math.nan,
     spin_inertia=0.0,
     cone_gravity=False,
+    wear=False,
 ):
     """The rails' forces on one wheelset, by origin: (creep lateral, flange lateral, creep
     couple, spin moment, flange moment), N and N m (see `ContactForces`), then each wheel's
@@ -626,7 +648,9 @@ def wheelset_contact(
     both wheels carry `nominal` and the coefficients are used as given. With a `load`:
     `spin_inertia` (I_y, 0: off) adds the spinning wheelset's gyroscopic terms (`gyroscopic`),
     `cone_gravity` the normal forces' lateral parts on knife-edge rails (`cone_gravity_forces`),
-    counted with the flange's. Returns the gyroscopic yaw moment last."""
+    counted with the flange's. Returns the gyroscopic yaw moment, then each wheel's wear number
+    (`wear_number`: left, right) if `wear`, else zeros: the native callback, which reads the first
+    ten entries only, leaves `wear` out, and its compiled law has no trace of it."""
     # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and
     # xi_x_right is its negative; the lateral creepage is the same on both wheels, and the
     # spin differs between them only by the constant contact-angle term, which cancels
@@ -656,9 +680,13 @@ def wheelset_contact(
         creep_lateral = y_left + y_right
         couple = p[_B] * (fx_right - fx_left)  # Fx_left at y = +b
         spin = mz_left + mz_right
+        wear_left = wear_right = 0.0
+        if wear:
+            wear_left = wear_number(fx_left, y_left, mz_left, xi_left, xi_y, xi_sp)
+            wear_right = wear_number(fx_right, y_right, mz_right, xi_right, xi_y, xi_sp)
     else:
-        creep_lateral, couple, spin, y_left, y_right = _kalker_wheelset(
-            p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_left, q_right
+        creep_lateral, couple, spin, y_left, y_right, wear_left, wear_right = _kalker_wheelset(
+            p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_left, q_right, wear
         )
     flange_lateral = flange_moment = 0.0
     if flange:
@@ -686,6 +714,8 @@ def wheelset_contact(
         y_left,
         y_right,
         gyro_yaw,
+        wear_left,
+        wear_right,
     )
 
 
@@ -753,7 +783,9 @@ NADAL_PASSES = 5
 
 
 @numba.njit(cache=True, error_model="numpy")
-def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0, spin_inertia=0.0):
+def profiled_contact(
+    geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0, spin_inertia=0.0, wear=False
+):
     """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
     them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
     its contact table (rail_mj.contact.tables), interpolated linearly in y and held at its end rows
@@ -774,8 +806,10 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
     `load`, `moment`: a spatial vehicle's axle load and suspension roll moment about the rail
     level (`_normal_loads`); NaN: the table's axle load, moments about the centre. Returns
     the five forces, then each wheel's vertical load and lateral force (Q_left, Q_right,
-    Y_left, Y_right) as `wheelset_contact` does, and the gyroscopic yaw moment (`spin_inertia`,
-    a spatial vehicle's: the wheelset's roll rate from the table's roll against y).
+    Y_left, Y_right) as `wheelset_contact` does, the gyroscopic yaw moment (`spin_inertia`,
+    a spatial vehicle's: the wheelset's roll rate from the table's roll against y), and each
+    wheel's wear number, summed over its contact points, each with its own creepages, if `wear`
+    (else zeros, as `wheelset_contact`).
     """
     # The table is stored in mm, kN and GPa (rail_mj.contact.tables): SI from here on.
     y0, dy, rows = geo[0, _t.HEADER_Y0] * M_PER_MM, geo[0, _t.HEADER_DY] * M_PER_MM, int(geo[0, _t.HEADER_ROWS])
@@ -783,7 +817,8 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
     mu, r0 = geo[0, _t.HEADER_FRICTION], geo[0, _t.HEADER_R0] * M_PER_MM
     gravity, spinning = geo[0, _t.HEADER_GRAVITY] != 0.0, geo[0, _t.HEADER_SPIN] != 0.0
     if math.isnan(y):  # a diverged state: no table row, and the runner reports it
-        return math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
+        nan = math.nan
+        return nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan
     u = min(max((y - y0) / dy, 0.0), rows - 1.0)
     i = min(int(u), rows - 2)
     t = u - i
@@ -798,7 +833,7 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
         lo, hi, t, load if spatial else axle_load, r0, moment if spatial else 0.0, spatial
     )
     f = _points(
-        lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right
+        lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right, wear
     )
     # Nadal's balance (a spatial vehicle): the creep forces' vertical parts (large on a steep
     # flange) belong in the wheelset's equilibrium, and they grow with the loads they act under.
@@ -818,7 +853,24 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
             break
         n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load, r0, moment, True, creep_left, creep_right)
         f = _points(
-            lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right
+            lo,
+            hi,
+            t,
+            p,
+            law,
+            falling,
+            psi,
+            y_dot,
+            psi_dot,
+            speed,
+            shear,
+            mu,
+            r0,
+            gravity,
+            spinning,
+            n_left,
+            n_right,
+            wear,
         )
         vertical = n_left * v_left + n_right * v_right
         if creep_left != (0.0, 0.0):
@@ -834,7 +886,7 @@ def profiled_contact(geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=m
         q_left += f[7]
     if creep_right != (0.0, 0.0):
         q_right += f[8]
-    return f[0], f[1], f[2], f[3], f[4], q_left, q_right, f[5], f[6], gyro_yaw
+    return f[0], f[1], f[2], f[3], f[4], q_left, q_right, f[5], f[6], gyro_yaw, f[11], f[12]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -863,11 +915,31 @@ def _creepages(cos_g, sin_g, s, cos_roll, sin_roll, rise, lever, r0, y_dot, psi,
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right):
+def _points(
+    lo,
+    hi,
+    t,
+    p,
+    law,
+    falling,
+    psi,
+    y_dot,
+    psi_dot,
+    speed,
+    shear,
+    mu,
+    r0,
+    gravity,
+    spinning,
+    n_left,
+    n_right,
+    wear=False,
+):
     """Every contact point's forces under the wheels' normal loads (`profiled_contact`): (creep
     lateral, normal lateral, couple, spin, lead moment, Y_left, Y_right, and per wheel the creep
     forces' vertical force and roll moment about the rail level under the wheelset's centre:
-    Fz_left, Fz_right, Mx_left, Mx_right). A point's creep force in its contact plane, across the
+    Fz_left, Fz_right, Mx_left, Mx_right; and each wheel's wear number, `wear_number` summed over
+    its points: wear_left, wear_right, if `wear`, else zeros). A point's creep force in its contact plane, across the
     rolling direction, has the track components (cos(g), s*sin(g)) (the plane's tangent).
 
     The wheelset's roll phi (the table's, left side up) tilts its axle: a point at the track-frame
@@ -877,6 +949,7 @@ def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r
     creep_lateral = normal_lateral = couple = spin = lead_moment = 0.0
     y_left = y_right = 0.0
     fz_left = fz_right = mx_left = mx_right = 0.0
+    wear_left = wear_right = 0.0
     wheelset_roll = _between(lo, hi, t, _t.ROLL) * RAD_PER_MRAD  # rad, left side up
     cos_roll, sin_roll = math.cos(wheelset_roll), math.sin(wheelset_roll)
     for side in range(2):
@@ -935,6 +1008,12 @@ def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r
                 y_right += lateral + pushed
                 fz_right += vertical
                 mx_right += roll
+            if wear:
+                dissipated = scale * wear_number(fx, fy, mz, xi_x, xi_y, xi_sp)
+                if side == 0:
+                    wear_left += dissipated
+                else:
+                    wear_right += dissipated
             couple -= lever * scale * fx
             spin += scale * mz * cos_g
             # Where the point lies along the track: a yawed wheel touches a straight rail
@@ -952,6 +1031,8 @@ def _points(lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r
         fz_right,
         mx_left,
         mx_right,
+        wear_left,
+        wear_right,
     )
 
 
@@ -994,6 +1075,7 @@ def _kernel(
                 load[k],
                 moment[k],
                 spin_inertia,
+                True,
             )
         else:
             forces = wheelset_contact(
@@ -1011,6 +1093,7 @@ def _kernel(
                 nominal,
                 spin_inertia,
                 cone_gravity,
+                True,
             )
         for row in range(5):
             out[row, k] = forces[row]
@@ -1020,6 +1103,8 @@ def _kernel(
             out[6, k] += forces[9]
         for row in range(5):
             out[7 + row, k] = forces[5 + row]
+        out[12, k] = forces[10]
+        out[13, k] = forces[11]
     return out
 
 

@@ -6,6 +6,8 @@ Entity paths (stable; later tools read them back), in review units: mm, mrad, kN
     /yaw/wheelset<i>       yaw psi of wheelset i, mrad (Scalars)
     /guiding/wheelset<i>   the sum of guiding forces Sigma Y on wheelset i, kN (Scalars):
                            the lateral force of the rails, creep and flange
+    /wear/wheelset<i>/<side>  (on a curved track) each wheel's wear number T-gamma, N: the
+                           energy its creep dissipates per metre rolled (left, right)
     /flange/wheelset<i>    (with [flange] contact) the flange's part of it, kN: the rail's
                            lateral force on the flange, positive to the left, 0 off the flange;
                            on profiles the normal forces' lateral part (gravitational
@@ -140,6 +142,11 @@ def curvature_path(i: int) -> str:
 
 def cant_path(i: int) -> str:
     return f"/track/cant/wheelset{i + 1}"
+
+
+def wear_path(i: int, side: str) -> str:
+    """Each wheel's wear number T-gamma on a curved track; `side`: left or right."""
+    return f"/wear/wheelset{i + 1}/{side}"
 
 
 def frame_lateral_path(name: str) -> str:
@@ -309,6 +316,11 @@ def plots(run: Run) -> list[Plot]:
                 "Track under the wheelsets: cant (mm)",
                 wheelset_series(cant_path, "mm", run.track.cant(stations) * MM_PER_M),
             ),
+            Plot(
+                "Wheels: wear number Tγ (N)",
+                _wheel_series(wheelsets, wear_path, "N", np.stack([forces.wear_left, forces.wear_right], axis=-1)),
+                positive=True,
+            ),
         ]
     match contact_model(run.layout):
         case Profiled():  # the normal forces: gravitational stiffness and the flange
@@ -333,23 +345,30 @@ def _wheel_plots(run: Run, wheelsets: list[tuple[str, tuple[int, int, int]]]) ->
     from rail_mj.analysis.en14363 import Y_OVER_Q_LIMIT, derailment_quotients
 
     loads, quotients = run.wheel_loads(), derailment_quotients(run)
-
-    def series(path, unit, values):
-        out = []
-        for i, (label, colour) in enumerate(wheelsets):
-            for k, side in enumerate(("left", "right")):
-                shade = colour if k == 0 else _darker(colour)
-                out.append(
-                    Series(
-                        path(i, side), f"{label} {side} ({unit})" if unit else f"{label} {side}", shade, values[:, i, k]
-                    )
-                )
-        return out
-
     return [
-        Plot("Wheels: vertical load Q (kN)", series(wheel_load_path, "kN", loads / N_PER_KN), positive=True),
-        Plot(f"Wheels: derailment quotient Y/Q (limit {Y_OVER_Q_LIMIT:g})", series(quotient_path, "", quotients)),
+        Plot(
+            "Wheels: vertical load Q (kN)",
+            _wheel_series(wheelsets, wheel_load_path, "kN", loads / N_PER_KN),
+            positive=True,
+        ),
+        Plot(
+            f"Wheels: derailment quotient Y/Q (limit {Y_OVER_Q_LIMIT:g})",
+            _wheel_series(wheelsets, quotient_path, "", quotients),
+        ),
     ]
+
+
+def _wheel_series(wheelsets: list[tuple[str, tuple[int, int, int]]], path, unit: str, values) -> list[Series]:
+    """A series per wheel, `values` (n_samples, n_wheelsets, 2) left then right, the right wheel
+    a darker shade of its wheelset's colour."""
+    out = []
+    for i, (label, colour) in enumerate(wheelsets):
+        for k, side in enumerate(("left", "right")):
+            shade = colour if k == 0 else _darker(colour)
+            out.append(
+                Series(path(i, side), f"{label} {side} ({unit})" if unit else f"{label} {side}", shade, values[:, i, k])
+            )
+    return out
 
 
 def _darker(colour: tuple[int, int, int]) -> tuple[int, int, int]:

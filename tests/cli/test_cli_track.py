@@ -33,6 +33,11 @@ def test_a_run_along_a_track_reports_each_curve_and_writes_the_track_columns(tmp
     leading = curve["wheelsets"][0]
     assert leading["mean_angle_of_attack_rad"] > 0  # the leading wheelset points at the outer rail
     assert leading["mean_lateral_m"] < 0  # and runs towards it (the right rail of a left curve)
+    # Each wheel's wear number, left and right, mean and largest: the leading wheelset's, pressed
+    # against its yaw spring by the curve, above the trailing one's.
+    assert len(leading["mean_wear_number_n"]) == 2 and len(leading["max_wear_number_n"]) == 2
+    trailing = curve["wheelsets"][1]
+    assert min(leading["mean_wear_number_n"]) > max(trailing["mean_wear_number_n"]) >= 0.0
     header = out.read_text().splitlines()[0].split(",")
     assert header[-4:] == ["curvature1", "curvature2", "cant1", "cant2"]
 
@@ -67,6 +72,7 @@ def test_curving_gives_each_radius_and_speed_its_steady_state(capsys):
         (-1200.0, 30.0),
     ]
     left, right = results[0], results[2]
+    assert all(v >= 0.0 for r in results for w in r["wheelsets"] for v in w["wear_number_n"])
     assert right["cant_m"] == -0.05  # the outer rail of a right curve is the left one
     # Either hand, the leading wheelset points at its outer rail and runs towards it.
     for result, outward in ((left, -1.0), (right, 1.0)):

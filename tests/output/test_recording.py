@@ -386,3 +386,23 @@ def test_a_run_on_a_curved_track_is_drawn_along_it(tmp_path):
     half = np.linalg.norm(left - right, axis=1) / 2
     # Rerun keeps positions in float32: 6e-8 of up to 800 m.
     np.testing.assert_allclose(half, run.layout.wheelset.contact_half_spacing, rtol=0, atol=1e-4)
+
+
+def test_a_run_on_a_curved_track_plots_each_wheel_s_wear_number(tmp_path):
+    """On curved track the recording plots each wheel's T-gamma (N, from 0) beside the curvature and
+    cant, the values of Run.contact_forces(); a run on straight track has no such plot."""
+    from rail_mj.output.recording import wear_path
+    from rail_mj.track import load_track
+
+    track = load_track(MODELS / "tracks" / "curve-600.toml")
+    run = simulate(load_layout(COACH), 30.0, 420.0, track=track)
+    titles = [p.title for p in plots(run)]
+    assert titles.index("Wheels: wear number Tγ (N)") == titles.index("Track under the wheelsets: cant (mm)") + 1
+    rrd = write_recording(run, tmp_path / "curve.rrd", rate=math.inf)
+    series = read_series(rrd)
+    forces = run.contact_forces()
+    np.testing.assert_allclose(series[wear_path(0, "right")][2], forces.wear_right[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(series[wear_path(3, "left")][2], forces.wear_left[:, 3], rtol=1e-12)
+    assert np.max(forces.wear_right[:, 0]) > 0.0
+    straight = simulate(load_layout(COACH), 30.0, 10.0, initial_lateral=0.002)
+    assert not any("Tγ" in p.title for p in plots(straight))

@@ -218,6 +218,49 @@ def test_the_steady_state_solved_directly_is_the_elastic_bogie_s_closed_form():
     assert result["cant_deficiency_mm"] == pytest.approx(1.5e3 * (math.tan(theta) - math.sin(theta)), rel=1e-9)
 
 
+def test_the_elastic_bogie_s_wear_numbers_are_its_creepages_squared():
+    """T-gamma per wheel on the linear law without spin is f11*xi_x^2 + f22*xi_y^2 (docs/track.md,
+    section 9), at the elastic bogie's steady state at the balance speed: xi_y = -psi with psi the
+    closed form of Wickens (2003), xi_x = -/+(lam*y/r0 + b/R) on the left/right wheel (the track
+    turning under the wheelset at V/R) with y the solved state's. The same on both wheels of a
+    wheelset; the leading wheelset's, at its larger rolling-radius deficit, several times the
+    trailing one's."""
+    from rail_mj.analysis.curving import steady_curving
+
+    data = _linear("bogie", secondary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0, "lateral_damping": 64e3})
+    layout = layout_from_dict(data)
+    radius, speed = 1000.0, 10.0
+    result = steady_curving(layout, radius, speed, _balance_cant(radius, speed))
+    w, c, p = layout.wheelset, layout.creep, layout.primary
+    assert layout.bogie is not None
+    a, b, lam, r0 = layout.bogie.wheelset_positions[0], w.contact_half_spacing, w.conicity, w.rolling_radius
+    ky, kpsi = p.lateral_stiffness, p.yaw_stiffness
+    d = 4 * a * a * c.f11 * c.f22 * ky * b * lam + 4 * c.f11 * c.f22 * kpsi * b * lam + kpsi**2 * ky * r0
+    psi1 = (a / radius) * kpsi**2 * ky * r0 / d
+    wheelsets = result["wheelsets"]
+    for wheelset, psi in zip(wheelsets, (-psi1, psi1)):  # rail-mj's signs: the leading one nose-right
+        assert wheelset["yaw_rad"] == pytest.approx(psi, rel=1e-7)
+        xi_x = lam * wheelset["lateral_m"] / r0 + b / radius
+        expected = c.f11 * xi_x**2 + c.f22 * psi**2
+        np.testing.assert_allclose(wheelset["wear_number_n"], [expected, expected], rtol=1e-6)
+    assert wheelsets[0]["wear_number_n"][0] > 3 * wheelsets[1]["wear_number_n"][0] > 0.0
+
+
+def test_the_flanging_wheel_of_the_s1002_coach_dissipates_most():
+    """The coach on S1002/60E1 in a 300 m curve: its leading wheelset's outer (right) wheel runs on
+    its flange, whose contact angle gives it a large spin and a steep rise of the rolling radius;
+    its T-gamma is 2.5 times the inner wheel's (274 N against 109 N), and every wheel's is positive."""
+    from rail_mj.analysis.curving import steady_curving
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml")
+    result = steady_curving(layout, 300.0, 15.0, 0.1)
+    wear = np.array([w["wear_number_n"] for w in result["wheelsets"]])
+    assert np.all(wear > 0.0)
+    inner, outer = wear[0]
+    assert outer > 2 * inner
+
+
 @pytest.mark.parametrize(
     ("name", "radius", "speed", "cant"),
     [("bogie", 600.0, 20.0, 0.0), ("manchester-coach-s1002", 300.0, 15.0, 0.1)],
