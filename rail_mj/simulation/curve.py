@@ -77,10 +77,28 @@ def _spring(stiffness, low, high, length):
 
 
 @numba.njit(cache=True)
-def add_curve_forces(block, k, e, scratch, xpos, xanchor, xaxis, stiffness, damping, springlength, length, force):
+def add_curve_forces(
+    block,
+    k,
+    e,
+    scratch,
+    xpos,
+    xanchor,
+    xaxis,
+    stiffness,
+    damping,
+    springlength,
+    length,
+    velocity,
+    shifted,
+    shifted_rate,
+    force,
+):
     """Add the curve's forces (see the module) of the vehicle whose track part starts at `k`,
     its bodies' poses, rates and loads in `scratch` and their entries ending at `e`
-    (rail_mj.vehicle.poses.curve_state); where the part ends."""
+    (rail_mj.vehicle.poses.curve_state), its tendons' model lengths and rates `length`,
+    `velocity` and their real ones, shifted (rail_mj.vehicle.poses.add_tendon_shifts); where the
+    part ends."""
     nb, nr, nt = int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
     rates, loads = POSES * nb, 2 * POSES * nb
     b = k + TRACK_HEADER + BREAKPOINT * int(block[k + 2])  # the bodies' entries
@@ -100,17 +118,11 @@ def add_curve_forces(block, k, e, scratch, xpos, xanchor, xaxis, stiffness, damp
         force[dof] -= k_joint * q + c_joint * q_rate
         e += 4 + 2 * terms
     for _ in range(nt):
-        t, terms = int(block[e]), int(block[e + 1])
-        e += 2
-        shift, shift_rate = 0.0, 0.0
-        for c in range(terms):
-            p, coefficient = int(block[e + 2 * c]), block[e + 1 + 2 * c]
-            shift += coefficient * scratch[p]
-            shift_rate += coefficient * scratch[rates + p]
-        e += 2 * terms
+        t = int(block[e])
+        e += 2 + 2 * int(block[e + 1])
         low, high = springlength[2 * t], springlength[2 * t + 1]
-        extra = _spring(stiffness[t], low, high, length[t] + shift) - _spring(stiffness[t], low, high, length[t])
-        extra -= damping[t] * shift_rate
+        extra = _spring(stiffness[t], low, high, shifted[t]) - _spring(stiffness[t], low, high, length[t])
+        extra -= damping[t] * (shifted_rate[t] - velocity[t])
         dofs = int(block[e])
         for c in range(dofs):
             force[int(block[e + 1 + 2 * c])] += block[e + 2 + 2 * c] * extra

@@ -52,7 +52,7 @@ from rail_mj.contact.creep import profiled_contact, wheelset_contact
 from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, TRACK_AT, TRACK_HEADER, VEHICLE_HEADER
 from rail_mj.simulation.curve import add_curve_forces, curvature_at, odometer
 from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-exported: a native model's speed)
-from rail_mj.vehicle.poses import add_tendon_shifts, curve_state
+from rail_mj.vehicle.poses import add_tendon_shifts, curve_state, scratch_size
 
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
 
@@ -247,9 +247,14 @@ def _apply(
         # (rail_mj.vehicle.poses), copies for this call; on straight track the model's own.
         lengths, velocities = numba.carray(length, ntendon), numba.carray(velocity, ntendon)
         scratch, bodies_end = lengths[:0], 0
-        if curved:
-            scratch, bodies_end = curve_state(block, track, speed, s_ref)
-            lengths, velocities = lengths.copy(), velocities.copy()
+        if curved:  # one allocation a call: the bodies' poses, then the tendons' real lengths and rates
+            size = scratch_size(block, track)
+            buffer = np.empty(size + 2 * ntendon)
+            scratch = buffer[:size]
+            bodies_end = curve_state(block, track, speed, s_ref, scratch)
+            lengths, velocities = buffer[size : size + ntendon], buffer[size + ntendon :]
+            for t in range(ntendon):
+                lengths[t], velocities[t] = length[t], velocity[t]
             add_tendon_shifts(block, track, bodies_end, scratch, lengths, velocities)
         k += VEHICLE_HEADER
         table = numba.carray(block, (k + ROWS * n,))[k:].reshape((ROWS, n))
@@ -324,7 +329,21 @@ def _apply(
             force[int(block[e + 4])] += load * lengths[int(block[e + 2])]
         if curved:
             k = add_curve_forces(
-                block, track, bodies_end, scratch, xpos, xanchor, xaxis, stiffness, damping, springlength, length, force
+                block,
+                track,
+                bodies_end,
+                scratch,
+                xpos,
+                xanchor,
+                xaxis,
+                stiffness,
+                damping,
+                springlength,
+                length,
+                velocity,
+                lengths,
+                velocities,
+                force,
             )
         else:
             k = track + TRACK_HEADER

@@ -69,12 +69,18 @@ def table_of(block, k):
     return numba.carray(block, (start + BREAKPOINT * m,))[start:].reshape((m, BREAKPOINT))
 
 
+@numba.njit(cache=True, inline="always")
+def scratch_size(block, k):
+    """The size of `curve_state`'s scratch for the track part at `k`."""
+    return (2 * POSES + LOADS) * int(block[k + 3])
+
+
 @numba.njit(cache=True)
-def curve_state(block, k, speed, s_ref):
-    """The track part at `k` with the vehicle's origin at station `s_ref`: a scratch array
-    holding each body's pose (POSES per body: lateral offset, heading, cant roll), their rates,
-    then its curve loads (fy, fz, mz: rail_mj.simulation.curve), and where the bodies' entries
-    end. One allocation a call: nothing is shared between threads."""
+def curve_state(block, k, speed, s_ref, scratch):
+    """The track part at `k` with the vehicle's origin at station `s_ref`: fill `scratch`
+    (`scratch_size`, the caller's: nothing is shared between threads) with each body's pose
+    (POSES per body: lateral offset, heading, cant roll), their rates, then its curve loads (fy,
+    fz, mz: rail_mj.simulation.curve); where the bodies' entries end."""
     gravity = block[k + 1]
     m, nb = int(block[k + 2]), int(block[k + 3])
     table = table_of(block, k)
@@ -83,7 +89,6 @@ def curve_state(block, k, speed, s_ref):
     # The reference: the track plane at the vehicle's origin, which the model's world is.
     theta_ref = math.asin(cant_ref / CANT_BASE)
     theta_rate_ref = speed * slope_ref / (CANT_BASE * math.cos(theta_ref))
-    scratch = np.empty((2 * POSES + LOADS) * nb)
     rates, loads = POSES * nb, 2 * POSES * nb
     for b in range(nb):
         x, height, mass, yaw_inertia = block[e + 1], block[e + 2], block[e + 3], block[e + 4]
@@ -107,7 +112,7 @@ def curve_state(block, k, speed, s_ref):
         # Along a transition the track's heading turns faster and faster under the body: in the
         # track-following frame, the frame's angular acceleration V^2*k' as a yaw moment.
         scratch[loads + LOADS * b + 2] = -yaw_inertia * speed * speed * curvature_slope
-    return scratch, e
+    return e
 
 
 @numba.njit(cache=True)
@@ -150,6 +155,7 @@ def tendon_shifts(data, k, speed, stations, lengths, rates):
     (`add_tendon_shifts`), the vehicle's origin at `stations` (samples,): the track part at `k`
     of the native block `data` (the model's first numeric, as an array)."""
     block = _pointer(data)
+    scratch = np.empty(scratch_size(block, k))
     for i in range(stations.shape[0]):
-        scratch, e = curve_state(block, k, speed, stations[i])
+        e = curve_state(block, k, speed, stations[i], scratch)
         add_tendon_shifts(block, k, e, scratch, lengths[i], rates[i])
