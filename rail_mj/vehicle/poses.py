@@ -94,8 +94,11 @@ def curve_state(block, k, speed, s_ref, scratch):
         x, height, mass, yaw_inertia = block[e + 1], block[e + 2], block[e + 3], block[e + 4]
         e += 6 + 3 * int(block[e + 5])
         curvature, cant, heading, integral, slope, curvature_slope = track_at(table, s_ref + x)
-        theta = math.asin(cant / CANT_BASE)
-        theta_rate = speed * slope / (CANT_BASE * math.cos(theta))
+        # sin and cos of the cant angle from the cant itself: one transcendental a body, not four.
+        sine = cant / CANT_BASE
+        cosine = math.sqrt(1.0 - sine * sine)
+        theta = math.asin(sine)
+        theta_rate = speed * slope / (CANT_BASE * cosine)
         # Off the reference tangent: the integral of the heading's change from the reference;
         # the track plane here rolled from the reference's (the right rail up: about +x,
         # -theta) about the rail-level centreline, which moves a centre of mass at `height`.
@@ -107,8 +110,8 @@ def curve_state(block, k, speed, s_ref, scratch):
         scratch[rates + POSES * b + 1] = speed * (curvature - k_ref)
         scratch[rates + POSES * b + 2] = -twist_rate
         centripetal = speed * speed * curvature
-        scratch[loads + LOADS * b] = -mass * (centripetal * math.cos(theta) - gravity * math.sin(theta))
-        scratch[loads + LOADS * b + 1] = -mass * (gravity * math.cos(theta) + centripetal * math.sin(theta) - gravity)
+        scratch[loads + LOADS * b] = -mass * (centripetal * cosine - gravity * sine)
+        scratch[loads + LOADS * b + 1] = -mass * (gravity * cosine + centripetal * sine - gravity)
         # Along a transition the track's heading turns faster and faster under the body: in the
         # track-following frame, the frame's angular acceleration V^2*k' as a yaw moment.
         scratch[loads + LOADS * b + 2] = -yaw_inertia * speed * speed * curvature_slope
