@@ -75,6 +75,14 @@ def track_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: str 
     turns g into the track plane."""
     spatial = layout.spatial is not None
     gravity = layout.spatial is None or layout.spatial.gravity
+    if spatial and not gravity and _cant_varies(track):
+        # A wheelset's cant roll reaches its axlebox springs through their roll levers, which only a
+        # spatial vehicle with gravity carries (its wheel loads' numeric, rail_mj.vehicle.loads).
+        raise ValueError(
+            f"{layout.source}: a spatial vehicle without gravity on a track whose cant varies is not modelled "
+            f"yet (its wheelsets' cant roll would not reach their axlebox springs; docs/track.md): set "
+            f"[spatial] gravity = true, or run it on {track.source} with constant cant"
+        )
     odometer = model.body(prefix + ODOMETER).id
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
@@ -149,6 +157,12 @@ def track_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: str 
         n_tendons += 1
     part += [float(len(table)), float(len(own)), float(n_joints), float(n_tendons)]
     return np.concatenate([part, table.reshape(-1), bodies, joints, tendons])
+
+
+def _cant_varies(track: Track) -> bool:
+    """Whether the cant changes anywhere along `track` (a ramp, or a step between sections)."""
+    cants = [d for section in track.sections for d in (section.cant_start, section.cant_end)]
+    return any(d != cants[0] for d in cants)
 
 
 def _wheelset_roll(

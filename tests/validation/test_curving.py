@@ -360,6 +360,32 @@ def test_a_spatial_run_packed_with_others_on_a_cant_ramp_is_the_run_alone():
         np.testing.assert_array_equal(run.wheel_loads(), alone.wheel_loads())
 
 
+def test_a_spatial_vehicle_without_gravity_on_a_cant_ramp_is_refused_in_one_line():
+    """Without gravity a spatial vehicle carries no axlebox roll levers (its wheel loads are the
+    layout's static ones), so a wheelset's cant roll along a ramp would not reach its axlebox
+    springs: refused there; on constant cant, where the wheelsets do not roll from the vehicle's
+    origin, it runs."""
+    import tomllib
+
+    data = tomllib.loads(SPATIAL_CONED.read_text())
+    data["spatial"]["gravity"] = False
+    for switch in ("gravitational_stiffness", "gyroscopic"):
+        data["spatial"].pop(switch, None)
+    layout = layout_from_dict(data)
+    ramp = track_from_dict(
+        {
+            "section": [
+                {"kind": "straight", "length": 50.0},
+                {"kind": "transition", "length": 50.0},
+                {"kind": "curve", "length": 400.0, "radius": 1200.0, "cant": 0.08},
+            ]
+        }
+    )
+    with pytest.raises(ValueError, match=r"a spatial vehicle without gravity on a track whose cant varies"):
+        simulate(layout, 30.0, 100.0, track=ramp)
+    assert simulate(layout, 30.0, 20.0, track=_curve(1200.0, 0.08)).station[-1] == pytest.approx(20.0, abs=0.05)
+
+
 def test_straight_and_curved_runs_stepped_together_are_each_run_alone():
     """More runs than a pack holds, on straight track and on two tracks, the same layout: a place
     freed by one run is taken only by a run of the same vehicle on the same track."""
