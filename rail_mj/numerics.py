@@ -78,7 +78,8 @@ TRACK_AT = 6  # offset of the track part's offset within a vehicle's entries
 # then the joints from it to the world as a wheelset's; per joint: its dof, stiffness and damping, the number of
 # terms, then (pose, coefficient) per term, where pose 3*b + k is body b's lateral offset
 # (k = 0), heading (1) or cant roll (2) that the track gives it; per tendon: tendon, its
-# length's terms as a joint's, then the dofs it acts on: count, then (dof, coefficient).
+# length's terms as a joint's (an axlebox tendon's include its wheelset's cant roll, which no
+# joint takes: rail_mj.vehicle.curve), then the dofs it acts on: count, then (dof, coefficient).
 TRACK_HEADER = 6
 BREAKPOINT = 5
 POSES = 3  # per body: lateral offset, heading, roll

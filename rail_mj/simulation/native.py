@@ -49,9 +49,10 @@ from numba import types
 from numba.extending import intrinsic
 
 from rail_mj.contact.creep import profiled_contact, wheelset_contact
-from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, TRACK_AT, VEHICLE_HEADER
+from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, TRACK_AT, TRACK_HEADER, VEHICLE_HEADER
 from rail_mj.simulation.curve import add_curve_forces, curvature_at, odometer
 from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-exported: a native model's speed)
+from rail_mj.vehicle.poses import add_tendon_shifts, curve_state, scratch_size
 
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
 
@@ -106,7 +107,7 @@ def _struct(name: str, structs) -> type[ctypes.Structure]:
 
 
 # What the callback reads: model sizes and the numeric data; data arrays it reads and writes.
-MODEL_FIELDS = ("nnumeric", "numeric_data", "tendon_stiffness", "tendon_damping", "tendon_lengthspring")
+MODEL_FIELDS = ("nnumeric", "ntendon", "numeric_data", "tendon_stiffness", "tendon_damping", "tendon_lengthspring")
 DATA_FIELDS = ("qvel", "xpos", "xmat", "xanchor", "xaxis", "ten_length", "ten_velocity", "qfrc_passive")
 
 
@@ -202,6 +203,7 @@ def _apply(
     model,
     data,
     off_nnumeric,
+    off_ntendon,
     off_numeric,
     off_stiffness,
     off_damping,
@@ -232,6 +234,7 @@ def _apply(
     stiffness, damping = _pointer_at(model, off_stiffness), _pointer_at(model, off_damping)
     springlength = _pointer_at(model, off_springlength)
     length, velocity = _pointer_at(data, off_length), _pointer_at(data, off_velocity)
+    ntendon = _size_at(model, off_ntendon)
     k = 2
     for _ in range(int(block[1])):
         speed, n = block[k], int(block[k + 1])
@@ -239,6 +242,20 @@ def _apply(
         rows = int(block[k + 5])
         track = k + int(block[k + TRACK_AT])
         s_ref = odometer(block, track, xpos)  # NaN on straight track
+        curved = s_ref == s_ref
+        # The tendons' real deflections and rates: on a curve their model lengths plus their shifts
+        # (rail_mj.vehicle.poses), copies for this call; on straight track the model's own.
+        lengths, velocities = numba.carray(length, ntendon), numba.carray(velocity, ntendon)
+        scratch, bodies_end = lengths[:0], 0
+        if curved:  # one allocation a call: the bodies' poses, then the tendons' real lengths and rates
+            size = scratch_size(block, track)
+            buffer = np.empty(size + 2 * ntendon)
+            scratch = buffer[:size]
+            bodies_end = curve_state(block, track, speed, s_ref, scratch)
+            lengths, velocities = buffer[size : size + ntendon], buffer[size + ntendon :]
+            for t in range(ntendon):
+                lengths[t], velocities[t] = length[t], velocity[t]
+            add_tendon_shifts(block, track, bodies_end, scratch, lengths, velocities)
         k += VEHICLE_HEADER
         table = numba.carray(block, (k + ROWS * n,))[k:].reshape((ROWS, n))
         k += ROWS * n
@@ -255,14 +272,14 @@ def _apply(
             if tendons:  # a spatial vehicle: its axle load and roll moment (rail_mj.vehicle.loads)
                 load = weight
                 for c in range(tendons):
-                    f = _tendon_force(stiffness, damping, springlength, length, velocity, int(block[k + 3 * c]))
+                    f = _tendon_force(stiffness, damping, springlength, lengths, velocities, int(block[k + 3 * c]))
                     load += block[k + 3 * c + 1] * f
                     moment += block[k + 3 * c + 2] * f
                 k += 3 * tendons
             pairs = int(block[k])
             for c in range(pairs):  # the axlebox loads passed on at the frame's seats (rail_mj.vehicle.loads)
                 z, lateral = int(block[k + 1 + 2 * c]), int(block[k + 2 + 2 * c])
-                moment -= _tendon_force(stiffness, damping, springlength, length, velocity, z) * length[lateral]
+                moment -= _tendon_force(stiffness, damping, springlength, lengths, velocities, z) * lengths[lateral]
             k += 1 + 2 * pairs
             if speed <= 0.0:
                 continue  # no speed set: no rolling, no creep
@@ -307,10 +324,29 @@ def _apply(
         couples = int(block[k])
         for c in range(couples):  # the frames' shear couples (rail_mj.vehicle.loads.ShearCouples)
             e = k + 1 + COUPLE * c
-            load = _tendon_force(stiffness, damping, springlength, length, velocity, int(block[e]))
-            force[int(block[e + 3])] -= load * length[int(block[e + 1])]
-            force[int(block[e + 4])] += load * length[int(block[e + 2])]
-        k = add_curve_forces(block, track, speed, xpos, xanchor, xaxis, stiffness, damping, springlength, length, force)
+            load = _tendon_force(stiffness, damping, springlength, lengths, velocities, int(block[e]))
+            force[int(block[e + 3])] -= load * lengths[int(block[e + 1])]
+            force[int(block[e + 4])] += load * lengths[int(block[e + 2])]
+        if curved:
+            k = add_curve_forces(
+                block,
+                track,
+                bodies_end,
+                scratch,
+                xpos,
+                xanchor,
+                xaxis,
+                stiffness,
+                damping,
+                springlength,
+                length,
+                velocity,
+                lengths,
+                velocities,
+                force,
+            )
+        else:
+            k = track + TRACK_HEADER
 
 
 _CALLBACK = None

@@ -14,6 +14,7 @@ mjcf.py        the MJCF files: model, scene, assets (`generate`)
 loads.py       a spatial vehicle's axle loads from its axlebox tendons
 block.py       the one writer of the native block the compiled callback reads (rail_mj.numerics)
 curve.py       a vehicle on a curved track: its odometer and the block's track part
+poses.py       each body's pose on the track and the tendons' shifts, compiled: the callback's and the records'
 """
 
 from rail_mj import _lazy

@@ -26,6 +26,7 @@ from rail_mj.numerics import POSES
 from rail_mj.track import Track
 from rail_mj.units import GRAVITY
 from rail_mj.vehicle.block import joint_chain
+from rail_mj.vehicle.joints import PITCH, ROLL
 
 ODOMETER = "odometer"
 # Small beside nothing: the odometer is coupled to no other body, so its mass only has to be
@@ -73,19 +74,15 @@ def track_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: str 
     whether the model weighs them; a planar model has no vertical motion, and its cant still
     turns g into the track plane."""
     spatial = layout.spatial is not None
-    if spatial and any(
-        k != 0.0 or d != 0.0
-        for section in track.sections
-        for k, d in ((section.curvature_start, section.cant_start), (section.curvature_end, section.cant_end))
-    ):
-        # The curve's pre-deflections reach the springs, but not yet the wheel loads and the
-        # preloads' shear couples that a spatial vehicle reads off its tendons
-        # (rail_mj.vehicle.loads): they would take the chord offset for a deflection.
-        raise ValueError(
-            f"{layout.source}: a spatial vehicle on a curved or canted track is not modelled yet (its wheel "
-            f"loads do not take the curve's geometry; docs/track.md): run its planar equivalent on {track.source}"
-        )
     gravity = layout.spatial is None or layout.spatial.gravity
+    if spatial and not gravity and _cant_varies(track):
+        # A wheelset's cant roll reaches its axlebox springs through their roll levers, which only a
+        # spatial vehicle with gravity carries (its wheel loads' numeric, rail_mj.vehicle.loads).
+        raise ValueError(
+            f"{layout.source}: a spatial vehicle without gravity on a track whose cant varies is not modelled "
+            f"yet (its wheelsets' cant roll would not reach their axlebox springs; docs/track.md): set "
+            f"[spatial] gravity = true, or run it on {track.source} with constant cant"
+        )
     odometer = model.body(prefix + ODOMETER).id
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
@@ -131,10 +128,17 @@ def track_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: str 
     for dof in dofs:
         joint = int(model.dof_jntid[dof])
         stiffness, damping = float(model.jnt_stiffness[joint]), float(model.dof_damping[dof])
+        if spatial and model.joint(joint).name.removeprefix(prefix).rpartition("_")[2] in (ROLL, PITCH):
+            # A spatial body's roll and pitch hinges are stiff only with the gravitational
+            # stiffness (rail_mj.vehicle.statics), added after the first compile: the gravity's
+            # tilt at each body is its F_y and F_z already, and the hinge takes no pre-deflection
+            # (so that the part is the same from the model before it as after).
+            stiffness = 0.0
         if (stiffness == 0.0 and damping == 0.0) or not np.any(g[column[dof]]):
             continue  # nothing to deflect, or the track moves it not
         joints += [float(dof), stiffness, damping, *_terms(g[column[dof]])]
         n_joints += 1
+    roll = _wheelset_roll(model, layout, prefix, own, data)
     tendons: list[float] = []
     n_tendons = 0
     for t in range(model.ntendon):
@@ -144,11 +148,50 @@ def track_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: str 
             continue
         coefficients = _tendon_coefficients(model, t)
         row = sum((c * g[column[dof]] for dof, c in coefficients), np.zeros(jacobian.shape[0]))
+        if t in roll:  # an axlebox tendon: its wheelset's cant roll, which no joint takes
+            index, on_moment, height = roll[t]
+            row[POSES * index + 2] += on_moment + row[POSES * index] * height
+            row[np.abs(row) < ROUND_OFF] = 0.0
         tendons += [float(t), *_terms(row), float(len(coefficients))]
         tendons += [v for dof, c in coefficients for v in (float(dof), c)]
         n_tendons += 1
     part += [float(len(table)), float(len(own)), float(n_joints), float(n_tendons)]
     return np.concatenate([part, table.reshape(-1), bodies, joints, tendons])
+
+
+def _cant_varies(track: Track) -> bool:
+    """Whether the cant changes anywhere along `track` (a ramp, or a step between sections)."""
+    cants = [d for section in track.sections for d in (section.cant_start, section.cant_end)]
+    return any(d != cants[0] for d in cants)
+
+
+def _wheelset_roll(
+    model: mujoco.MjModel, layout: Layout, prefix: str, own: list[int], data: mujoco.MjData
+) -> dict[int, tuple[int, float, float]]:
+    """Per axlebox tendon (rail_mj.vehicle.loads.AxleLoads): its wheelset's index among `own`,
+    its coefficient on the roll moment M and the wheelset's centre's height.
+
+    A wheelset has no roll joint (the rails hold it), so the least squares of G leave its cant
+    roll out, and every axlebox tendon would take its frame's whole twist along a cant ramp. The
+    coefficient on M is the tendon length's rate in the wheelset's roll about the rail level
+    (M is the moment of the tendons' forces about it: virtual work), -s*d for a z tendon and h
+    for a y tendon; the roll also moves the wheelset's centre, at its height r0, by -r0 per
+    radian sideways, which G gives through the wheelset's lateral offset (its pose carries
+    twist*height): the roll's own term is what is left, on_M + (term on the lateral offset)*r0
+    (h - r0 for a y tendon, -s*d for a z tendon)."""
+    from rail_mj.vehicle.loads import AxleLoads
+
+    names = [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)]
+    loads = AxleLoads.of(model, names, prefix)
+    if loads is None:
+        return {}
+    out = {}
+    for i, name in enumerate(names):
+        body = model.body(prefix + name).id
+        index = own.index(body)
+        for tendon, _, on_moment in loads.rows(model, i, prefix):
+            out[int(tendon)] = (index, float(on_moment), float(data.xipos[body, 2]))
+    return out
 
 
 def _own_joints(model: mujoco.MjModel, body: int) -> range:

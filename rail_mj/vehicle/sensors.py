@@ -75,6 +75,13 @@ class Sensors:
             self.tendons = np.array([model.tendon(prefix + n).id for n in names], dtype=np.int64)
             self.tendon_length = np.array([address(f"{n}_length") for n in names])
             self.tendon_rate = np.array([address(f"{n}_rate") for n in names])
+        # On a curved or canted track, where the vehicle's track part sits in the native block and
+        # where its odometer's reading is: the tendons' lengths are shifted by the track's geometry.
+        self.track_part, self.station = _track_part(model, prefix), -1
+        if self.track_part is not None:
+            from rail_mj.vehicle.curve import ODOMETER
+
+            self.station = address(f"{ODOMETER}_pos")
 
     def poses(self, readings: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
         """Fill every moving body's position and quaternion (w, x, y, z) from sensor readings
@@ -97,4 +104,40 @@ class Sensors:
         rates = np.zeros_like(lengths)
         lengths[:, self.tendons] = readings[:, self.tendon_length]
         rates[:, self.tendons] = readings[:, self.tendon_rate]
+        if self.track_part is not None:  # the real deflections: plus each tendon's shift, per sample
+            from rail_mj.numerics import SPEED
+            from rail_mj.vehicle.poses import tendon_shifts
+
+            start, k = self.track_part
+            block = _block(self.model)
+            stations = np.ascontiguousarray(readings[:, self.station], dtype=np.float64)
+            tendon_shifts(block, k, float(block[start + SPEED]), stations, lengths, rates)
         loads[..., 0], loads[..., 1] = self.axle_loads.evaluate(self.model, lengths, rates, self.prefix)
+
+
+def _block(model: mujoco.MjModel) -> np.ndarray:
+    """The native block: the model's first numeric's data (rail_mj.numerics), a copy."""
+    adr, size = int(model.numeric_adr[0]), int(model.numeric_size[0])
+    return np.array(model.numeric_data[adr : adr + size], dtype=np.float64)
+
+
+def _track_part(model: mujoco.MjModel, prefix: str) -> tuple[int, int] | None:
+    """(where the vehicle's entries start, where its track part starts) in the native block,
+    for the vehicle under `prefix` on a track; None on straight track (no track part)."""
+    from rail_mj.numerics import MAGIC, TRACK_AT, vehicle_starts
+    from rail_mj.vehicle.curve import ODOMETER
+
+    try:
+        odometer = model.body(prefix + ODOMETER).id
+    except KeyError:
+        return None
+    if model.nnumeric == 0:
+        return None
+    block = _block(model)
+    if block[0] != MAGIC:
+        return None
+    for start in vehicle_starts(block):
+        k = start + int(block[start + TRACK_AT])
+        if int(block[k]) == odometer:
+            return start, k
+    return None

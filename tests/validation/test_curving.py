@@ -85,19 +85,20 @@ def test_an_elastic_bogie_at_the_balance_speed_takes_the_closed_form_angles_of_a
     np.testing.assert_allclose(run.frame_psi[late, 0], -psi_b, rtol=1e-6)
 
 
-@pytest.mark.parametrize("name", ["manchester-coach", "two-coaches"])
-def test_the_rails_carry_the_whole_vehicle_uncompensated_force(name):
+@pytest.mark.parametrize(
+    ("name", "distance"), [("manchester-coach", 400.0), ("two-coaches", 400.0), ("manchester-coach-spatial", 1200.0)]
+)
+def test_the_rails_carry_the_whole_vehicle_uncompensated_force(name, distance):
     """Steady on a constant curve, the lateral forces of the rails on all wheelsets (Sigma Y,
     creep and flange) carry the uncompensated force of every body, m*(V^2*k*cos(theta) -
-    g*sin(theta)) summed over the vehicle's mass: Newton, for a planar vehicle and a train;
-    at the balance speed they carry nothing. The suspension's pre-deflections are
-    internal and sum to zero."""
+    g*sin(theta)) summed over the vehicle's mass: Newton, for a planar vehicle, a train and a
+    spatial vehicle (whose body roll settles slowest: 1200 m); at the balance speed they carry
+    nothing. The suspension's pre-deflections are internal and sum to zero."""
     from rail_mj.layout import load_layout
 
     layout = load_layout(MODELS / name / f"{name}.toml")
     radius, speed, cant = 1200.0, 30.0, 0.08
     track = _curve(radius, cant)
-    distance = 400.0
     run = simulate(layout, speed, distance, track=track)
     model = run.vehicle.model
     moving = [b for b in range(1, model.nbody) if model.body_dofnum[b] > 0 and model.body(b).name != "odometer"]
@@ -282,16 +283,150 @@ def test_the_steady_state_solved_directly_is_where_a_run_settles(name, radius, s
         assert steady.y[0, 0] < -0.9 * layout.wheelset.flangeway_clearance
 
 
-def test_a_spatial_vehicle_on_a_curve_is_refused_in_one_line():
-    """Its wheel loads and shear couples read its tendons' lengths, which on a curve hold the chord
-    offsets as well as the deflections: refused until they take the curve's geometry."""
+SPATIAL_CONED = MODELS.parent / "tests" / "data" / "manchester-coach-spatial.toml"
+
+
+def test_a_spatial_vehicle_at_the_balance_speed_neither_rolls_nor_unloads_a_wheel():
+    """At the balance speed the track plane carries the whole weight and nothing pushes a body
+    sideways: every body's roll is nil (to the steady solve's resolution, here 2e-6 rad: the
+    frames' roll under the wheelsets' opposite steering forces) and each wheelset's Q_left -
+    Q_right is only its steering's share. The lateral creep force Sigma Y at the rail, which
+    its primary springs react at the axlebox height h, rolls it by h*Sigma Y; the offset y of the
+    wheelset from the rails' centre moves its load P sideways by P*y; divided by the contact
+    half spacing b, with 25 % for the terms this leaves out (the gyroscopic moment, the
+    primary's shear couples). (Before the wheel loads took the curve's geometry: the car body
+    rolled by -3.1 mrad and Q_left - Q_right was 10-15 kN per wheelset of the S1002 coach at
+    R 600 m, 150 mm, with Sigma Y of 2 kN.)"""
+    from rail_mj.analysis.curving import steady_curving
     from rail_mj.layout import load_layout
 
-    layout = load_layout(MODELS / "manchester-coach-spatial" / "manchester-coach-spatial.toml")
-    with pytest.raises(ValueError, match=r"a spatial vehicle on a curved or canted track is not modelled yet"):
-        simulate(layout, 30.0, 100.0, track=_curve(1200.0, 0.08))
-    straight = track_from_dict({"section": [{"kind": "straight", "length": 500.0}]})
-    assert simulate(layout, 30.0, 50.0, track=straight).station[-1] == pytest.approx(50.0, abs=0.05)
+    layout = load_layout(SPATIAL_CONED)
+    radius, cant = 1200.0, 0.08
+    speed = math.sqrt(GRAVITY * radius * math.tan(math.asin(cant / 1.5)))
+    result = steady_curving(layout, radius, speed, cant)
+    assert result["uncompensated_acceleration_m_per_s2"] == pytest.approx(0.0, abs=1e-12)
+    for body in result["bodies"]:
+        assert abs(body["roll_rad"]) < 1e-5, body
+    from rail_mj.numerics import NUMERIC_LOADS
+    from rail_mj.vehicle.spec import Vehicle
+
+    h = float(Vehicle(layout).model.numeric(NUMERIC_LOADS).data[3])  # the axleboxes' height above the rail
+    b = layout.wheelset.contact_half_spacing
+    for w in result["wheelsets"]:
+        left, right = w["wheel_loads_n"]
+        share = (h * abs(w["guiding_force_n"]) + (left + right) * abs(w["lateral_m"])) / b
+        assert abs(left - right) < 1.25 * share, w
+
+
+def _static_roll(layout, lateral: float, normal: float) -> float:
+    """The car body's roll, rad, of `layout` at rest on straight track under the acceleration
+    (0, -lateral, -normal) in place of gravity, its wheelsets held on the rails' centre (at
+    rest they have no creep to hold them: the rails do, as in the curve)."""
+    import mujoco
+    from scipy.optimize import root
+
+    from rail_mj.simulation import native
+    from rail_mj.vehicle.spec import Vehicle
+
+    vehicle = Vehicle(layout)
+    model = vehicle.model
+    assert model.numeric_data[2] == 0.0  # no speed set: no rolling, no creep
+    model.opt.gravity[:] = (0.0, -lateral, -normal)
+    data = mujoco.MjData(model)
+    held = {model.joint(f"{w}_{m}").dofadr[0] for w in vehicle.wheelset_names for m in ("lateral", "yaw")}
+    free = np.array([d for d in range(model.nv) if d not in held], dtype=np.int64)
+
+    def accelerations(q):
+        data.qpos[:] = model.qpos0
+        data.qpos[free] += q
+        data.qvel[:] = 0.0
+        mujoco.mj_forward(model, data)
+        return data.qacc[free].copy()
+
+    with native.installed():
+        solution = root(accelerations, np.zeros(len(free)), method="hybr", options={"xtol": 1e-13})
+        assert np.max(np.abs(accelerations(solution.x))) < 1e-8
+    return float(data.qpos[model.joint("carbody_roll").qposadr[0]])
+
+
+def test_under_cant_deficiency_the_car_body_rolls_outward_as_on_straight_track_under_the_same_acceleration():
+    """Past the balance speed the uncompensated acceleration a_nc = V^2*k*cos(theta) -
+    g*sin(theta) pushes every body outward in the track plane, and the car body rolls outward on
+    its springs (positive on a left curve) by what the same vehicle gives at rest on straight
+    track under the lateral acceleration a_nc and the normal g*cos(theta) + V^2*k*sin(theta): the
+    same loads on the same suspension. On the curve the wheelsets run off the rails' centre and
+    steer, but their creep forces, opposite on a bogie's leading and trailing wheelsets, are
+    internal to the bogie: its primary springs pass on the same sum, at the same height, as the
+    rails' hold at rest. So the roll is the same to the steady solves' tolerance (measured
+    5e-13 relative; before the wheel loads took the curve's geometry, the balance speed alone
+    rolled the S1002 coach's car body by -3.1 mrad)."""
+    from rail_mj.analysis.curving import steady_curving
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(SPATIAL_CONED)
+    radius, cant = 1200.0, 0.08
+    theta = math.asin(cant / 1.5)
+    speed = 1.3 * math.sqrt(GRAVITY * radius * math.tan(theta))
+    result = steady_curving(layout, radius, speed, cant)
+    roll = next(b["roll_rad"] for b in result["bodies"] if b["body"] == "carbody")
+    centripetal = speed * speed / radius
+    lateral = centripetal * math.cos(theta) - GRAVITY * math.sin(theta)
+    normal = GRAVITY * math.cos(theta) + centripetal * math.sin(theta)
+    static = _static_roll(layout, lateral, normal)
+    assert roll > 0.0
+    assert roll == pytest.approx(static, rel=1e-9)
+
+
+def test_a_spatial_run_packed_with_others_on_a_cant_ramp_is_the_run_alone():
+    """The track part of a packed spatial vehicle is the one it has alone (its gravitational
+    stiffness's hinges take no pre-deflection either way): bit for bit, along a transition whose
+    cant ramps up."""
+    from rail_mj.layout import load_layout
+    from rail_mj.simulation.batch import simulate_many
+
+    layout = load_layout(SPATIAL_CONED)
+    track = track_from_dict(
+        {
+            "section": [
+                {"kind": "straight", "length": 30.0},
+                {"kind": "transition", "length": 60.0},
+                {"kind": "curve", "length": 200.0, "radius": 800.0, "cant": 0.1},
+            ]
+        }
+    )
+    requests = [Request(layout, v, 80.0, 0.002, track=track) for v in (20.0, 25.0)]
+    together = simulate_many(requests)
+    for request, run in zip(requests, together):
+        alone = simulate(layout, request.speed, request.distance, 0.002, track=track)
+        np.testing.assert_array_equal(run.body_pos, alone.body_pos)
+        np.testing.assert_array_equal(run.body_quat, alone.body_quat)
+        np.testing.assert_array_equal(run.wheel_loads(), alone.wheel_loads())
+
+
+def test_a_spatial_vehicle_without_gravity_on_a_cant_ramp_is_refused_in_one_line():
+    """Without gravity a spatial vehicle carries no axlebox roll levers (its wheel loads are the
+    layout's static ones), so a wheelset's cant roll along a ramp would not reach its axlebox
+    springs: refused there; on constant cant, where the wheelsets do not roll from the vehicle's
+    origin, it runs."""
+    import tomllib
+
+    data = tomllib.loads(SPATIAL_CONED.read_text())
+    data["spatial"]["gravity"] = False
+    for switch in ("gravitational_stiffness", "gyroscopic"):
+        data["spatial"].pop(switch, None)
+    layout = layout_from_dict(data)
+    ramp = track_from_dict(
+        {
+            "section": [
+                {"kind": "straight", "length": 50.0},
+                {"kind": "transition", "length": 50.0},
+                {"kind": "curve", "length": 400.0, "radius": 1200.0, "cant": 0.08},
+            ]
+        }
+    )
+    with pytest.raises(ValueError, match=r"a spatial vehicle without gravity on a track whose cant varies"):
+        simulate(layout, 30.0, 100.0, track=ramp)
+    assert simulate(layout, 30.0, 20.0, track=_curve(1200.0, 0.08)).station[-1] == pytest.approx(20.0, abs=0.05)
 
 
 def test_straight_and_curved_runs_stepped_together_are_each_run_alone():
