@@ -43,6 +43,26 @@ def _balance_cant(radius: float, speed: float) -> float:
     return 1.5 * math.sin(math.atan(speed * speed / (GRAVITY * radius)))
 
 
+ELASTIC_RADIUS, ELASTIC_SPEED = 1000.0, 10.0  # m, m/s: the elastic bogie's curve, at its balance speed
+
+
+def _elastic_bogie():
+    """The shipped bogie on the linear law with its frame free of the car body, and the closed
+    form of its steady curving at the balance speed (Wickens 2003, the elastic bogie):
+    psi_1 = -psi_2 = (a/R)*k_psi^2*k_y*r0/D and the frame's psi_b = 2*a^2*f22*k_psi*k_y*r0/(R*D),
+    D = 4a^2 f11 f22 k_y b lam + 4 f11 f22 k_psi b lam + k_psi^2 k_y r0, the leading wheelset yawed
+    outward. Returns (layout, psi_1, psi_b)."""
+    data = _linear("bogie", secondary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0, "lateral_damping": 64e3})
+    layout = layout_from_dict(data)
+    radius = ELASTIC_RADIUS
+    w, c, p = layout.wheelset, layout.creep, layout.primary
+    assert layout.bogie is not None
+    a, b, lam, r0 = layout.bogie.wheelset_positions[0], w.contact_half_spacing, w.conicity, w.rolling_radius
+    ky, kpsi = p.lateral_stiffness, p.yaw_stiffness
+    d = 4 * a * a * c.f11 * c.f22 * ky * b * lam + 4 * c.f11 * c.f22 * kpsi * b * lam + kpsi**2 * ky * r0
+    return layout, (a / radius) * kpsi**2 * ky * r0 / d, 2 * a * a * c.f22 * kpsi * ky * r0 / (radius * d)
+
+
 def test_a_restrained_wheelset_settles_where_its_creep_and_spring_balance_the_curve():
     """A wheelset with yaw stiffness k_psi and no lateral spring, on a constant curve without cant:
     its lateral creep force carries the centrifugal force, 2*f22*psi = m*V^2*k, and its creep
@@ -69,17 +89,9 @@ def test_an_elastic_bogie_at_the_balance_speed_takes_the_closed_form_angles_of_a
     frame's psi_b = 2*a^2*f22*k_psi*k_y*r0/(R*D), D = 4a^2 f11 f22 k_y b lam + 4 f11 f22 k_psi
     b lam + k_psi^2 k_y r0 (Wickens 2003, the elastic bogie), the leading wheelset yawed
     outward, here negative."""
-    data = _linear("bogie", secondary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0, "lateral_damping": 64e3})
-    layout = layout_from_dict(data)
-    radius, speed = 1000.0, 10.0
+    layout, psi1, psi_b = _elastic_bogie()
+    radius, speed = ELASTIC_RADIUS, ELASTIC_SPEED
     run = simulate(layout, speed, 600.0, track=_curve(radius, _balance_cant(radius, speed)))
-    w, c, p = layout.wheelset, layout.creep, layout.primary
-    assert layout.bogie is not None
-    a, b, lam, r0 = layout.bogie.wheelset_positions[0], w.contact_half_spacing, w.conicity, w.rolling_radius
-    ky, kpsi = p.lateral_stiffness, p.yaw_stiffness
-    d = 4 * a * a * c.f11 * c.f22 * ky * b * lam + 4 * c.f11 * c.f22 * kpsi * b * lam + kpsi**2 * ky * r0
-    psi1 = (a / radius) * kpsi**2 * ky * r0 / d
-    psi_b = 2 * a * a * c.f22 * kpsi * ky * r0 / (radius * d)
     late = run.x > run.x[-1] - 100.0
     np.testing.assert_allclose(run.psi[late], np.broadcast_to([-psi1, psi1], run.psi[late].shape), rtol=1e-6)
     np.testing.assert_allclose(run.frame_psi[late, 0], -psi_b, rtol=1e-6)
@@ -200,16 +212,9 @@ def test_the_steady_state_solved_directly_is_the_elastic_bogie_s_closed_form():
     balance speed: the closed form of Wickens (2003) as the time run above gives it."""
     from rail_mj.analysis.curving import steady_curving
 
-    data = _linear("bogie", secondary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0, "lateral_damping": 64e3})
-    layout = layout_from_dict(data)
-    radius, speed = 1000.0, 10.0
+    layout, psi1, _ = _elastic_bogie()
+    radius, speed = ELASTIC_RADIUS, ELASTIC_SPEED
     result = steady_curving(layout, radius, speed, _balance_cant(radius, speed))
-    w, c, p = layout.wheelset, layout.creep, layout.primary
-    assert layout.bogie is not None
-    a, b, lam, r0 = layout.bogie.wheelset_positions[0], w.contact_half_spacing, w.conicity, w.rolling_radius
-    ky, kpsi = p.lateral_stiffness, p.yaw_stiffness
-    d = 4 * a * a * c.f11 * c.f22 * ky * b * lam + 4 * c.f11 * c.f22 * kpsi * b * lam + kpsi**2 * ky * r0
-    psi1 = (a / radius) * kpsi**2 * ky * r0 / d
     # The angle of attack is the yaw towards the outer rail: the leading wheelset's positive.
     attack = [w["angle_of_attack_rad"] for w in result["wheelsets"]]
     np.testing.assert_allclose(attack, [psi1, -psi1], rtol=1e-7)
@@ -228,16 +233,11 @@ def test_the_elastic_bogie_s_wear_numbers_are_its_creepages_squared():
     trailing one's."""
     from rail_mj.analysis.curving import steady_curving
 
-    data = _linear("bogie", secondary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0, "lateral_damping": 64e3})
-    layout = layout_from_dict(data)
-    radius, speed = 1000.0, 10.0
+    layout, psi1, _ = _elastic_bogie()
+    radius, speed = ELASTIC_RADIUS, ELASTIC_SPEED
     result = steady_curving(layout, radius, speed, _balance_cant(radius, speed))
-    w, c, p = layout.wheelset, layout.creep, layout.primary
-    assert layout.bogie is not None
-    a, b, lam, r0 = layout.bogie.wheelset_positions[0], w.contact_half_spacing, w.conicity, w.rolling_radius
-    ky, kpsi = p.lateral_stiffness, p.yaw_stiffness
-    d = 4 * a * a * c.f11 * c.f22 * ky * b * lam + 4 * c.f11 * c.f22 * kpsi * b * lam + kpsi**2 * ky * r0
-    psi1 = (a / radius) * kpsi**2 * ky * r0 / d
+    c, w = layout.creep, layout.wheelset
+    lam, r0, b = w.conicity, w.rolling_radius, w.contact_half_spacing
     wheelsets = result["wheelsets"]
     for wheelset, psi in zip(wheelsets, (-psi1, psi1)):  # rail-mj's signs: the leading one nose-right
         assert wheelset["yaw_rad"] == pytest.approx(psi, rel=1e-7)
