@@ -248,6 +248,13 @@ def _print_summary(result: dict, err: bool = False) -> None:
                 f"{low['wheel']} at x = {low['x_m']:.4g} m)"
             )
         say(line)
+    if "track" in result:
+        # The motion figures and EN 14363's frequency are taken from the whole lateral motion, which
+        # on a curved track holds the quasi-static curving offsets as well as any oscillation.
+        say(
+            "on a curved track the wheelsets' figures above (and EN 14363's frequency) include their "
+            "curving offsets; each curve's steady values follow"
+        )
     for curve in result.get("curves", []):
         deficiency, a_nc = curve["cant_deficiency_mm"], curve["uncompensated_acceleration_m_per_s2"]
         say(
