@@ -48,11 +48,12 @@ from rail_mj.studies.span import GRID, SPEEDS, Span
 )
 @click.option(
     "--method",
-    type=click.Choice(["run", "eigen", "time", "nonlinear"]),
+    type=click.Choice(["run", "eigen", "time", "nonlinear", "curving"]),
     default="run",
     show_default=True,
     help="run: a simulation and its summary per case; eigen, time, nonlinear: "
-    "a critical speed per case (as critical-speed --method).",
+    "a critical speed per case (as critical-speed --method); curving: the steady state on a curve "
+    "(keys track.radius, track.cant) at each speed (as rail-mj curving).",
 )
 @click.option("--distance", type=float, default=1000.0, show_default=True, help="run: distance of each run, m.")
 @click.option(

@@ -45,7 +45,10 @@ from rail_mj.layout import LayoutError, layout_from_dict
 from rail_mj.studies.span import GRID, SEARCH, SWEEP, Span, SpanError
 from rail_mj.track import Track
 
-METHODS = ("run", "eigen", "time", "nonlinear")
+METHODS = ("run", "eigen", "time", "nonlinear", "curving")
+# The keys of a curving sweep's curve (--set, --grid): its radius (m, + left) and cant (m, the outer
+# rail over the inner), not the layout's.
+CURVE_KEYS = ("track.radius", "track.cant")
 DEFAULT_DISTANCE = 1000.0  # m a run
 DEFAULT_INITIAL_LATERAL = 0.002  # m, as `rail-mj run`
 STATUSES = ("ok", "diverged", "refused", "failed")
@@ -65,7 +68,23 @@ RESULTS = {
         "hunting_limit_n",
     ),
     "critical": ("critical_speed_m_per_s", "frequency_hz", "mode", "linear_critical_speed_m_per_s", "outcome", "note"),
+    # The steady state on the curve (rail_mj.analysis.curving.steady_curving): the leading wheelset's
+    # lateral displacement and angle of attack, and over every wheel the largest Y/Q and T-gamma.
+    "curving": (
+        "cant_deficiency_mm",
+        "leading_lateral_m",
+        "leading_angle_of_attack_rad",
+        "max_y_over_q",
+        "max_wear_number_n",
+    ),
 }
+
+
+def _results(method: str) -> tuple[str, ...]:
+    """The result columns of a method's rows."""
+    return RESULTS[method if method in ("run", "curving") else "critical"]
+
+
 TAIL = ("status", "message", "wall_time_s", "case_key")
 
 
@@ -146,6 +165,7 @@ class Case:
     recording: str | None = None  # .rrd path (run), or None
     track: Track | None = None  # a curved track the runs follow (rail_mj.track), or None: straight
     track_text: str | None = None  # its file's text, what the result depends on
+    curve: dict[str, float] | None = None  # a curving case's track.radius and track.cant
 
     @property
     def run_speed(self) -> float:
@@ -161,6 +181,8 @@ class Case:
             what = [self.method, self.layout, self.params, self.speed, self.distance]
             if self.track_text is not None:
                 what.append(self.track_text)
+        elif self.method == "curving":  # a steady state: its layout, curve and speed
+            what = [self.method, self.layout, self.params, self.curve, self.speed]
         else:  # a critical speed: its layout and the range searched
             what = [self.method, self.layout, self.params, self.speeds]
         text = json.dumps(what, sort_keys=True)
@@ -185,7 +207,7 @@ def plan(
     a, b, n = speeds
     try:
         span = Span.of(a, b, n, SWEEP, "speeds")
-        if method != "run":
+        if method not in ("run", "curving"):
             span.check(SEARCH, "speeds")
     except SpanError as e:
         raise SweepError(str(e)) from None
@@ -198,8 +220,12 @@ def plan(
         raise SweepError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise SweepError(f"{path}: not valid TOML: {e}") from None
+    curve: dict[str, float] = {}  # a curving sweep's curve keys given with --set
     for text in sets:
         key, value = parse_assignment(text, "--set")
+        if key in CURVE_KEYS:
+            curve[key] = _curve_value(key, toml_value(value), method)
+            continue
         data = with_value(data, key, toml_value(value))
     axes: list[tuple[str, list[float]]] = []
     for text in grids:
@@ -219,18 +245,26 @@ def plan(
                 f"law (set them with --set, or in the layout)"
             )
     for key, values in axes:  # a key the layout does not know fails the sweep, not each case
+        if key in CURVE_KEYS:
+            for v in values:
+                _curve_value(key, v, method)
+            continue
         try:
             layout_from_dict(with_value(data, key, values[0]), source=str(path))
         except LayoutError as e:
             if "unknown key" in str(e) or "must be a table" in str(e):
                 raise SweepError(f"--grid {key}: {e}") from None
     points = [dict(zip([k for k, _ in axes], combo)) for combo in itertools.product(*[v for _, v in axes])]
-    run_speeds = _run_speeds(span) if method == "run" else [None]
+    if method == "curving" and "track.radius" not in curve and "track.radius" not in (k for k, _ in axes):
+        raise SweepError("--method curving needs the curve's radius: --set track.radius=R or --grid track.radius=A:B:N")
+    run_speeds = _run_speeds(span) if method in ("run", "curving") else [None]
     cases: list[Case] = []
     for point in points:
         variant = data
         for key, grid_value in point.items():
-            variant = with_value(variant, key, grid_value)
+            if key not in CURVE_KEYS:
+                variant = with_value(variant, key, grid_value)
+        on_curve = {**curve, **{k: v for k, v in point.items() if k in CURVE_KEYS}}
         for speed in run_speeds:
             index = len(cases)
             recording = (
@@ -249,6 +283,7 @@ def plan(
                     recording,
                     the_track,
                     track_text,
+                    on_curve or None,
                 )
             )
     return cases
@@ -287,7 +322,9 @@ def run_case(case: Case) -> dict:
 
     def compute() -> dict:
         layout = layout_from_dict(case.layout, source=case.source)
-        return _run(case, layout) if case.method == "run" else _critical(case, layout)
+        if case.method == "run":
+            return _run(case, layout)
+        return _curving(case, layout) if case.method == "curving" else _critical(case, layout)
 
     return _row(case, compute)
 
@@ -365,7 +402,7 @@ def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> di
 
     started = time.perf_counter()
     row = {"case": case.index, **case.params, "speed_m_per_s": case.speed}
-    row.update(dict.fromkeys(RESULTS["run" if case.method == "run" else "critical"]))
+    row.update(dict.fromkeys(_results(case.method)))
     try:
         row.update(compute())
         status, message = "ok", ""
@@ -419,6 +456,38 @@ def _summarise_run(case: Case, layout, run) -> dict:
     }
 
 
+def _curve_value(key: str, value: Any, method: str) -> float:
+    """A curving sweep's track.radius or track.cant, checked against the table of practice."""
+    from rail_mj.practice import RANGES
+
+    if method != "curving":
+        raise SweepError(f"{key} is a key of --method curving, not of {method}")
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise SweepError(f"{key} must be a number, got {value!r}")
+    error = RANGES[key].check(abs(value) if key == "track.radius" else value)
+    if error:
+        raise SweepError(f"{key} {error}")
+    return float(value)
+
+
+def _curving(case: Case, layout) -> dict:
+    from rail_mj.analysis.curving import steady_curving
+
+    curve = case.curve or {}
+    radius, cant = curve["track.radius"], curve.get("track.cant", 0.0)
+    # The cant is the outer rail's, on the side the curve turns away from (as `rail-mj curving`).
+    result = steady_curving(layout, radius, case.run_speed, cant if radius > 0 else -cant)
+    wheelsets = result["wheelsets"]
+    quotients = [q for w in wheelsets for q in w["y_over_q"] if q is not None]
+    return {
+        "cant_deficiency_mm": result["cant_deficiency_mm"],
+        "leading_lateral_m": wheelsets[0]["lateral_m"],
+        "leading_angle_of_attack_rad": wheelsets[0]["angle_of_attack_rad"],
+        "max_y_over_q": max(quotients) if quotients else None,
+        "max_wear_number_n": max(t for w in wheelsets for t in w["wear_number_n"]),
+    }
+
+
 def _critical(case: Case, layout) -> dict:
     vmin, vmax, points = case.speeds
     if case.method == "eigen":
@@ -449,7 +518,7 @@ def _critical(case: Case, layout) -> dict:
 def columns_of(cases: list[Case]) -> list[str]:
     method = cases[0].method if cases else "run"
     params = list(cases[0].params) if cases else []
-    return ["case", *params, "speed_m_per_s", *RESULTS["run" if method == "run" else "critical"], *TAIL]
+    return ["case", *params, "speed_m_per_s", *_results(method), *TAIL]
 
 
 class Journal:

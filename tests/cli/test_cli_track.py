@@ -101,3 +101,41 @@ def test_a_sweep_along_a_track_keys_its_cases_by_the_track(tmp_path, capsys):
     status, _text, err = run(argv, capsys)
     assert status == 2 and "holds results of another sweep" in err
     assert out.read_text() == curved
+
+
+def test_a_curving_sweep_takes_the_curve_as_keys_and_gives_curving_s_numbers(tmp_path, capsys):
+    """`sweep --method curving`: track.radius and track.cant as --grid and --set keys, a case per
+    grid point and speed, each row the steady state `rail-mj curving` gives."""
+    out = tmp_path / "curving.csv"
+    argv = ["sweep", BOGIE, "--method", "curving", "--grid", "track.radius=600:1200:2", "--set", "track.cant=0.1"]
+    status, _text, err = run([*argv, "--speeds", "20:30:2", "-o", out], capsys)
+    assert status == 0, err
+    lines = out.read_text().splitlines()
+    assert lines[0].split(",")[:9] == [
+        '"case"',
+        '"track.radius"',
+        '"speed_m_per_s"',
+        '"cant_deficiency_mm"',
+        '"leading_lateral_m"',
+        '"leading_angle_of_attack_rad"',
+        '"max_y_over_q"',
+        '"max_wear_number_n"',
+        '"status"',
+    ]
+    assert len(lines) == 5
+    status, text, err = run(["curving", BOGIE, "--radius", "1200", "--cant", "0.1", "--speed", "30", "--json"], capsys)
+    assert status == 0, err
+    leading = json.loads(text)[0]["wheelsets"][0]
+    case = lines[4].split(",")  # the last case: 1200 m at 30 m/s
+    assert float(case[1]) == 1200.0 and float(case[2]) == 30.0
+    assert float(case[5]) == leading["angle_of_attack_rad"]
+
+
+def test_curve_keys_belong_to_a_curving_sweep(capsys):
+    status, _out, err = run(
+        ["sweep", BOGIE, "--grid", "track.radius=300:600:2", "--speeds", "20:30:2", "-o", "x.csv"], capsys
+    )
+    assert status == 2
+    assert err.strip() == "rail-mj: error: track.radius is a key of --method curving, not of run"
+    status, _out, err = run(["sweep", BOGIE, "--method", "curving", "--speeds", "20:30:2", "-o", "x.csv"], capsys)
+    assert status == 2 and "needs the curve's radius" in err
