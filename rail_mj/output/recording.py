@@ -306,7 +306,6 @@ def plots(run: Run) -> list[Plot]:
         ]
         out += _wheel_plots(run, wheelsets)
     if run.track is not None:  # the curve under each wheelset, which its lateral and yaw follow
-        stations = run.station[:, None] + np.asarray(run.layout.wheelset_x)[None, :]
         out += [
             Plot(
                 "Track under the wheelsets: curvature (1/km)",
@@ -314,7 +313,7 @@ def plots(run: Run) -> list[Plot]:
             ),
             Plot(
                 "Track under the wheelsets: cant (mm)",
-                wheelset_series(cant_path, "mm", run.track.cant(stations) * MM_PER_M),
+                wheelset_series(cant_path, "mm", run.track.cant(run.wheelset_station) * MM_PER_M),
             ),
             Plot(
                 "Wheels: wear number Tγ (N)",

@@ -65,8 +65,7 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
             names += [f"bounce_{name}", f"roll_{name}", f"pitch_{name}"]
             cols += [bounce[:, k], roll[:, k], pitch[:, k]]
     if run.track is not None:  # a run on straight track keeps its columns
-        stations = run.station[:, None] + np.asarray(run.layout.wheelset_x)[None, :]
-        cant = run.track.cant(stations)
+        cant = run.track.cant(run.wheelset_station)
         for i in range(run.n_wheelsets):
             names.append(f"curvature{i + 1}")
             cols.append(run.wheelset_curvature[:, i])

@@ -286,7 +286,7 @@ def _apply(
             y = xpos[3 * body + 1]
             psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
-            if s_ref == s_ref:  # on a curve the track turns under the wheelset: its absolute yaw rate
+            if curved:  # on a curve the track turns under the wheelset: its absolute yaw rate
                 psi_dot += speed * curvature_at(block, track, s_ref + xpos[3 * body])
             if rows > 0:
                 f = profiled_contact(

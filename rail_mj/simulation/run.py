@@ -165,11 +165,16 @@ class Run:
         return self.body_pos[:, self.vehicle.model.body(ODOMETER).id, 0]
 
     @functools.cached_property
+    def wheelset_station(self) -> np.ndarray:
+        """(n_samples, n_wheelsets): each wheelset's distance along the track, m."""
+        return self.station[:, None] + np.asarray(self.layout.wheelset_x)[None, :]
+
+    @functools.cached_property
     def wheelset_curvature(self) -> np.ndarray:
         """(n_samples, n_wheelsets): the track's curvature under each wheelset, 1/m (+ left)."""
         if self.track is None:
             return np.zeros_like(self.y)
-        return self.track.curvature(self.station[:, None] + np.asarray(self.layout.wheelset_x)[None, :])
+        return self.track.curvature(self.wheelset_station)
 
     @property
     def frame_names(self) -> tuple[str, ...]:
