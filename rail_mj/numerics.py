@@ -47,9 +47,10 @@ NUMERIC_COUPLES = "rail_mj/couples"
 
 # --- the native block: the first numeric, "rail_mj/native" -------------------------------
 
-# The block's first number, "this is rail-mj's native block, version 5": six significant
-# figures, as MuJoCo's MJCF writer keeps them. Version 5 added the track part (below).
-MAGIC = 7043.05
+# The block's first number, "this is rail-mj's native block, version 6": six significant
+# figures, as MuJoCo's MJCF writer keeps them. Version 5 added the track part (below), version 6
+# its speed profile.
+MAGIC = 7043.06
 # Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
 # of rows of its profile contact table (0: coned wheels), where its track part starts (from
 # the vehicle's first entry), then the contact parameters (ContactParameters.table,
@@ -70,9 +71,12 @@ TRACK_AT = 6  # offset of the track part's offset within a vehicle's entries
 # The track part: the odometer body (a slide along x whose position is the distance along the
 # track of the vehicle's origin; -1: straight track, and the counts are 0), the gravity (m/s^2)
 # that the cant turns into the track plane, the number of the track's breakpoints, of the
-# bodies the curve loads, of the joints its geometry deflects and of the tendons it deflects.
-# Then per breakpoint (curvature and cant linear between them) BREAKPOINT entries: x (m),
-# curvature (1/m), cant (m), heading (rad: the integral of the curvature from x = 0) and its
+# bodies the curve loads, of the joints its geometry deflects and of the tendons it deflects,
+# the odometer's dof and the number of points of the run's speed profile (0: the speed is the
+# vehicle's constant one). Then per speed point SPEED_POINT entries, the odometer's station (m)
+# and the speed there (m/s), linear between them (rail_mj.track.speed); per breakpoint
+# (curvature and cant linear between them) BREAKPOINT entries: x (m), curvature (1/m), cant (m),
+# heading (rad: the integral of the curvature from x = 0) and its
 # integral (m); per body: body, x in the vehicle (m), height of its centre of mass above the
 # rail (m; 0 in a planar model, whose bodies have no height), mass (kg), yaw inertia (kg m^2),
 # then the joints from it to the world as a wheelset's; per joint: its dof, stiffness and damping, the number of
@@ -80,8 +84,12 @@ TRACK_AT = 6  # offset of the track part's offset within a vehicle's entries
 # (k = 0), heading (1) or cant roll (2) that the track gives it; per tendon: tendon, its
 # length's terms as a joint's (an axlebox tendon's include its wheelset's cant roll, which no
 # joint takes: rail_mj.vehicle.curve), then the dofs it acts on: count, then (dof, coefficient).
-TRACK_HEADER = 6
+TRACK_HEADER = 8
 BREAKPOINT = 5
+SPEED_POINT = 2
+# The odometer's mass, kg: it is coupled to no other body, so its mass only has to be positive
+# for MuJoCo; a speed profile drives it with the force ODOMETER_MASS * V * dV/ds.
+ODOMETER_MASS = 1.0
 POSES = 3  # per body: lateral offset, heading, roll
 
 
@@ -97,8 +105,8 @@ def vehicle_starts(data: np.ndarray) -> list[int]:
 
 def track_part_size(data: np.ndarray, k: int) -> int:
     """The number of entries of the track part starting at `k`."""
-    breakpoints, bodies, joints, tendons = (int(v) for v in data[k + 2 : k + TRACK_HEADER])
-    e = k + TRACK_HEADER + BREAKPOINT * breakpoints
+    breakpoints, bodies, joints, tendons = (int(v) for v in data[k + 2 : k + 6])
+    e = k + TRACK_HEADER + SPEED_POINT * int(data[k + 7]) + BREAKPOINT * breakpoints
     for _ in range(bodies):
         e += 6 + 3 * int(data[e + 5])
     for _ in range(joints):

@@ -1054,8 +1054,8 @@ def _kernel(
     spin_inertia,
     cone_gravity,
 ):
-    """`contact_forces` over flat, contiguous state arrays: the last axis of the original
-    shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
+    """`contact_forces` over flat, contiguous state arrays (the speed one of them): the last
+    axis of the original shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
     ContactForces, in order. A non-empty `geometry` is the wheelsets' contact table."""
     n = table.shape[1]
     out = np.zeros((FORCE_ROWS, y.size))
@@ -1071,7 +1071,7 @@ def _kernel(
                 psi[k],
                 y_dot[k],
                 psi_dot[k],
-                speed,
+                speed[k],
                 load[k],
                 moment[k],
                 spin_inertia,
@@ -1087,7 +1087,7 @@ def _kernel(
                 psi[k],
                 y_dot[k],
                 psi_dot[k],
-                speed,
+                speed[k],
                 load[k],
                 moment[k],
                 nominal,
@@ -1114,7 +1114,7 @@ def _evaluate(
     psi,
     y_dot,
     psi_dot,
-    speed: float,
+    speed,
     load=None,
     moment=None,
     nominal: float | None = None,
@@ -1128,6 +1128,8 @@ def _evaluate(
         loads = [np.full(flat[0].size, np.nan), np.zeros(flat[0].size)]
     else:
         loads = [np.ascontiguousarray(np.broadcast_to(v, shape), dtype=np.float64).reshape(-1) for v in (load, moment)]
+    # A speed a sample (a run on a speed profile) or one for all: broadcast like the states.
+    speeds = np.ascontiguousarray(np.broadcast_to(np.asarray(speed, dtype=np.float64), shape)).reshape(-1)
     return _kernel(
         p.table,
         p.geometry,
@@ -1135,7 +1137,7 @@ def _evaluate(
         p.flange,
         p.falling,
         *flat,
-        float(speed),
+        speeds,
         *loads,
         np.nan if nominal is None else float(nominal),
         float(spin_inertia),
@@ -1149,7 +1151,7 @@ def contact_forces(
     psi,
     y_dot,
     psi_dot,
-    speed: float,
+    speed: float | np.ndarray,
     load=None,
     moment=None,
     nominal: float | None = None,
@@ -1166,6 +1168,7 @@ def contact_forces(
     y = +b and Fx_right at y = -b, make the yaw moment b*(Fx_right - Fx_left). On the flange
     the rail adds its lateral force, applied at the contact's lead (`flange_lead`).
 
+    `speed`: one for all, or shaped like the states (a run on a speed profile).
     `load`, `moment` (shaped like the states, or None: a planar vehicle): a spatial vehicle's
     axle loads and suspension roll moments about the rail level (docs/spatial.md, wheel
     loads); `nominal`: the wheel load the coefficients hold at (on cones each wheel's are
@@ -1183,7 +1186,7 @@ def wheelset_forces(
     psi,
     y_dot,
     psi_dot,
-    speed: float,
+    speed: float | np.ndarray,
     load=None,
     moment=None,
     nominal: float | None = None,

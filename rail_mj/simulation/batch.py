@@ -147,8 +147,8 @@ class _Queue:
 
     def take_like(self, prepared: Prepared) -> tuple[int, Prepared] | None:
         """The longest run that can take the place of `prepared` in its model: its timestep,
-        an equal layout and an equal track (so an equal vehicle: the track is in its model, with
-        its odometer), the speed alone differing."""
+        an equal layout, an equal track and speed profile (so an equal vehicle: both are in its
+        model, with its odometer), the speed alone differing."""
         with self._ready:
             for item in self._items:
                 request = item[1].request
@@ -156,6 +156,7 @@ class _Queue:
                     item[1].timestep == prepared.timestep
                     and _same(request.layout, prepared.request.layout)
                     and request.track == prepared.request.track
+                    and request.profile == prepared.request.profile
                 ):
                     self._items.remove(item)
                     return item

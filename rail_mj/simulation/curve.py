@@ -31,8 +31,8 @@ import math
 
 import numba
 
-from rail_mj.numerics import BREAKPOINT, POSES, TRACK_HEADER
-from rail_mj.vehicle.poses import LOADS, table_of, track_at
+from rail_mj.numerics import BREAKPOINT, ODOMETER_MASS, POSES, SPEED_POINT, TRACK_HEADER
+from rail_mj.vehicle.poses import LOADS, breakpoints_at, table_of, track_at
 
 
 @numba.njit(cache=True)
@@ -43,6 +43,30 @@ def odometer(block, k, xpos):
     if body < 0:
         return math.nan
     return xpos[3 * body]
+
+
+@numba.njit(cache=True)
+def profiled_speed(block, k, s, qvel, force):
+    """A vehicle on a speed profile (the track part at `k` has its points), its odometer at
+    station `s`: its speed, the odometer's velocity, after adding to the odometer the force
+    ODOMETER_MASS * V * dV/ds that keeps it on the profile (dV/dt = V * dV/ds along it; beyond
+    the profile's ends dV/ds = 0);
+    NaN without a profile. The bodies' own longitudinal inertia under the deceleration is
+    left out: the model has no longitudinal freedom (docs/track.md, speed profiles)."""
+    n = int(block[k + 7])
+    if n == 0:
+        return math.nan
+    dof = int(block[k + 6])
+    speed = qvel[dof]
+    gradient = 0.0
+    p = k + TRACK_HEADER
+    for i in range(n - 1):
+        s0, s1 = block[p + SPEED_POINT * i], block[p + SPEED_POINT * (i + 1)]
+        if s0 <= s < s1:
+            gradient = (block[p + SPEED_POINT * (i + 1) + 1] - block[p + SPEED_POINT * i + 1]) / (s1 - s0)
+            break
+    force[dof] += ODOMETER_MASS * speed * gradient
+    return speed
 
 
 @numba.njit(cache=True)
@@ -101,7 +125,7 @@ def add_curve_forces(
     part ends."""
     nb, nr, nt = int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
     rates, loads = POSES * nb, 2 * POSES * nb
-    b = k + TRACK_HEADER + BREAKPOINT * int(block[k + 2])  # the bodies' entries
+    b = breakpoints_at(block, k) + BREAKPOINT * int(block[k + 2])  # the bodies' entries
     for i in range(nb):
         body, count = int(block[b]), int(block[b + 5])
         chain = numba.carray(block, (b + 6 + 3 * count,))[b + 6 :]

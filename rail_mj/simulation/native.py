@@ -50,7 +50,7 @@ from numba.extending import intrinsic
 
 from rail_mj.contact.creep import profiled_contact, wheelset_contact
 from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, TRACK_AT, TRACK_HEADER, VEHICLE_HEADER
-from rail_mj.simulation.curve import add_curve_forces, curvature_at, odometer
+from rail_mj.simulation.curve import add_curve_forces, curvature_at, odometer, profiled_speed
 from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-exported: a native model's speed)
 from rail_mj.vehicle.poses import add_tendon_shifts, curve_state, scratch_size
 
@@ -243,6 +243,10 @@ def _apply(
         track = k + int(block[k + TRACK_AT])
         s_ref = odometer(block, track, xpos)  # NaN on straight track
         curved = s_ref == s_ref
+        if curved:  # on a speed profile the speed is the odometer's, which the profile drives
+            profiled = profiled_speed(block, track, s_ref, qvel, force)
+            if profiled == profiled:
+                speed = profiled
         # The tendons' real deflections and rates: on a curve their model lengths plus their shifts
         # (rail_mj.vehicle.poses), copies for this call; on straight track the model's own.
         lengths, velocities = numba.carray(length, ntendon), numba.carray(velocity, ntendon)

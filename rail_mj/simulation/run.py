@@ -15,7 +15,7 @@ import numpy as np
 
 from rail_mj.contact.creep import ContactForces, contact_forces
 from rail_mj.layout import Layout
-from rail_mj.track import Track
+from rail_mj.track import SpeedProfile, Track
 from rail_mj.vehicle.block import contact_parameters
 from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.loads import AxleLoads
@@ -34,6 +34,8 @@ class Request:
     initial_yaw: float = 0.0
     state: tuple[np.ndarray, np.ndarray] | None = None
     track: Track | None = None  # None: straight track
+    # The speed along the track (rail_mj.track.speed), `speed` its value at the start; None: constant.
+    profile: SpeedProfile | None = None
 
 
 class SimulationError(RuntimeError):
@@ -61,7 +63,7 @@ class Run:
     """
 
     vehicle: Vehicle
-    speed: float
+    speed: float  # m/s; on a speed profile its speed at the start (`speeds`: at every sample)
     timestep: float
     t: np.ndarray
     body_pos: np.ndarray  # (n_samples, nbody, 3): every body's position in the moving frame
@@ -84,7 +86,8 @@ class Run:
         rates = self.wheelset_rates.copy()
         # On a curve the track turns under each wheelset at V*k: its absolute yaw rate, as the
         # callback gives the contact law (rail_mj.simulation.curve).
-        rates[..., 1] += self.speed * self.wheelset_curvature
+        speed = self.speeds[:, None]
+        rates[..., 1] += speed * self.wheelset_curvature
         loads = self.axle_loads
         if loads is None or np.isnan(loads).all():
             return contact_forces(
@@ -93,7 +96,7 @@ class Run:
                 self.psi,
                 rates[..., 0],
                 rates[..., 1],
-                self.speed,
+                speed,
                 nominal=self.layout.wheelset.wheel_load,
             )
         axle = AxleLoads.of(self.vehicle.model, self.vehicle.wheelset_names)
@@ -105,7 +108,7 @@ class Run:
             self.psi,
             rates[..., 0],
             rates[..., 1],
-            self.speed,
+            speed,
             loads[..., 0],
             loads[..., 1],
             **axle.contact(),
@@ -145,7 +148,23 @@ class Run:
     @property
     def x(self) -> np.ndarray:
         """Distance travelled, m."""
-        return self.speed * self.t
+        if self.profile is None:
+            return self.speed * self.t
+        return self.station - self.station[0]
+
+    @property
+    def profile(self) -> SpeedProfile | None:
+        """The speed along the track (rail_mj.track.speed); None: the constant `speed`."""
+        return self.vehicle.profile
+
+    @functools.cached_property
+    def speeds(self) -> np.ndarray:
+        """(n_samples,): the speed at each sample, m/s: `speed`, or on a speed profile the
+        profile's at the odometer's station (which the odometer follows to the integrator's
+        error: rail_mj.simulation.curve.profiled_speed)."""
+        if self.profile is None:
+            return np.full(self.t.shape, float(self.speed))
+        return self.profile.at(self.station)
 
     @property
     def n_wheelsets(self) -> int:

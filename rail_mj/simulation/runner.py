@@ -1,4 +1,5 @@
-"""The headless runner: vehicles at constant speed along a perfect track, straight or curved.
+"""The headless runner: vehicles along a perfect track, straight or curved, at constant speed or
+on a speed profile.
 
 Example:
 
@@ -31,7 +32,7 @@ from rail_mj.simulation.callback import CreepForces
 from rail_mj.simulation.run import Request, Run, RunRefused, SimulationError
 from rail_mj.simulation.stepping import Prepared, step_alone
 from rail_mj.simulation.timestep import STEP_FRACTION, stable_timestep
-from rail_mj.track import Track
+from rail_mj.track import SpeedProfile, Track
 from rail_mj.vehicle.block import set_speed
 from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.spec import Vehicle
@@ -55,16 +56,30 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
             f"initial lateral {request.initial_lateral} m puts the wheels off the rails "
             f"(|y| must be below {DERAILMENT_LATERAL} m)"
         )
-    track = request.track
-    if track is not None and python_callback:
-        raise ValueError("curved track runs with the native callback only; leave out the Python callback")
-    vehicle = Vehicle(layout, track)
+    track, profile = request.track, request.profile
+    if (track is not None or profile is not None) and python_callback:
+        raise ValueError(
+            "curved track and speed profiles run with the native callback only; leave out the Python callback"
+        )
+    if profile is not None and track is None:  # the odometer the profile drives runs along a straight track
+        start = _start_station(request, None)
+        track = Track.straight(start + distance + max(layout.wheelset_x) + 1.0, "<straight track>")
+    vehicle = Vehicle(layout, track, profile)
+    duration = distance / speed
     if track is not None:
-        _check_on_track(request, vehicle, track)
-    set_speed(vehicle.model, speed)
+        start = _check_on_track(request, vehicle, track)
+        if profile is not None:
+            # The speed at the start is the profile's there; the timestep is the stablest for the
+            # speeds along the run (the creep damping 2*f22/V at the lowest, the kinematic modes
+            # at the highest), and the run lasts the profile's time over its distance.
+            speed = float(profile.at(start))
+            request.speed = speed
+            duration = profile.duration(start, start + distance)
+    dt = _timestep(vehicle, python_callback, speed, request)
+    if profile is None:
+        set_speed(vehicle.model, speed)
     forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed) if python_callback else None
-    dt = stable_timestep(vehicle, forces)
-    steps = distance / speed / float(dt)
+    steps = duration / float(dt)
     if not steps <= MAX_STEPS:  # also catches inf from an absurdly slow run
         w, c = layout.wheelset, layout.creep
         creep_rate = 2 * c.f22 / (speed * w.mass)  # lateral creep damping / wheelset mass
@@ -81,25 +96,53 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
     return Prepared(request, vehicle, dt, math.ceil(steps), forces, time.perf_counter() - started)
 
 
-def _check_on_track(request: Request, vehicle: Vehicle, track: Track) -> None:
+def _timestep(vehicle: Vehicle, python_callback: bool, speed: float, request: Request) -> float:
+    """The run's timestep (rail_mj.simulation.timestep) at its speed, or on a speed profile the
+    smallest of those at its lowest and highest speeds; the vehicle's speed is left at `speed`."""
+    profile = request.profile
+    if profile is None:
+        set_speed(vehicle.model, speed)
+        forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed) if python_callback else None
+        return stable_timestep(vehicle, forces)
+    start = speed_start = _start_station(request, vehicle)
+    end = start + request.distance
+    steps = []
+    for v in {profile.lowest(start, end), profile.highest(start, end)}:
+        set_speed(vehicle.model, v)
+        steps.append(stable_timestep(vehicle))
+    set_speed(vehicle.model, float(profile.at(speed_start)))
+    return min(steps)
+
+
+def _start_station(request: Request, vehicle: Vehicle | None) -> float:
+    """Where the vehicle's origin starts along the track: 0, or where a continued run's odometer
+    had come to (its state's odometer entry; `vehicle` None: the request's own layout's model,
+    whose odometer, last in the world, is its state's last qpos entry)."""
+    if request.state is None:
+        return 0.0
+    if vehicle is not None:
+        return float(request.state[0][vehicle.model.joint(ODOMETER).qposadr[0]])
+    return float(request.state[0][-1])
+
+
+def _check_on_track(request: Request, vehicle: Vehicle, track: Track) -> float:
     """Refuse a run that would leave its track: the vehicle's origin (the car body's centre)
     starts at the track's start, or where a continued run's odometer had come to, and its
     leading wheelset must still be on the track at the end (beyond its ends a track goes on as
-    it begins and ends, rail_mj.track: the bodies behind are on track all the way)."""
-    start = 0.0
-    if request.state is not None:
-        start = float(request.state[0][vehicle.model.joint(ODOMETER).qposadr[0]])
+    it begins and ends, rail_mj.track: the bodies behind are on track all the way); where it starts."""
+    start = _start_station(request, vehicle)
     reach = track.length - max(request.layout.wheelset_x) - start
     if request.distance > reach:
         raise ValueError(
             f"distance {request.distance:g} m is longer than the track ({track.source}: {track.length:g} m, "
             f"{reach:g} m for the vehicle's centre from {start:g} m with its leading wheelset on it)"
         )
+    return start
 
 
 def simulate(
     layout: Layout,
-    speed: float,
+    speed: float | SpeedProfile,
     distance: float,
     initial_lateral: float = 0.0,
     initial_yaw: float = 0.0,
@@ -109,7 +152,8 @@ def simulate(
     python_callback: bool = False,
     track: Track | None = None,
 ) -> Run:
-    """Run `layout` at `speed` (m/s) for `distance` (m) from a disturbed start.
+    """Run `layout` at `speed` (m/s, or a `SpeedProfile` of the speed along the track) for
+    `distance` (m) from a disturbed start.
 
     The disturbance: the whole vehicle shifted left by `initial_lateral` (m), and every
     wheelset yawed by `initial_yaw` (rad) about its centre; or, to continue a run at a
@@ -120,7 +164,10 @@ def simulate(
     `track`: a curved or canted track (rail_mj.track) the vehicle's centre runs along from its
     start; None: straight track.
     """
-    request = Request(layout, speed, distance, initial_lateral, initial_yaw, state, track)
+    if isinstance(speed, SpeedProfile):
+        request = Request(layout, float(speed.at(0.0)), distance, initial_lateral, initial_yaw, state, track, speed)
+    else:
+        request = Request(layout, speed, distance, initial_lateral, initial_yaw, state, track)
     prepared = prepare(request, python_callback)
     result = step_alone(prepared, derailment_lateral, progress)
     if isinstance(result, SimulationError):

@@ -271,7 +271,11 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     for k, (vehicle, speed) in enumerate(zip(vehicles, speeds)):
         bodies = [model.body(f"v{k}/{w}").id for w in vehicle.wheelset_names]
         loads = AxleLoads.of(vehicle.model, vehicle.wheelset_names)
-        part = None if vehicle.track is None else track_part(model, vehicle.layout, vehicle.track, f"v{k}/")
+        part = (
+            None
+            if vehicle.track is None
+            else track_part(model, vehicle.layout, vehicle.track, f"v{k}/", profile=vehicle.profile)
+        )
         entries.append(
             block.vehicle_block(
                 model,

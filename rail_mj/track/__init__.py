@@ -2,6 +2,7 @@
 
     geometry.py    `Track`: its sections; curvature, cant, heading, plane position, cant deficiency at x
     reader.py      a track file (TOML sections or CSV design geometry) -> checked `Track`, one line per problem
+    speed.py       `SpeedProfile`: the speed along the track, linear between points (a run that brakes)
     bodies.py      each body at its own station: the track under it, the suspension's geometric pre-deflections
 
 Example:
@@ -15,12 +16,14 @@ Example:
 from rail_mj.track.bodies import AtBodies, PreDeflection, at_bodies, curve_pre_deflections, pre_deflections
 from rail_mj.track.geometry import CANT_BASE, Section, Track, TrackError
 from rail_mj.track.reader import load_track, track_from_csv, track_from_dict
+from rail_mj.track.speed import SpeedProfile
 
 __all__ = [
     "CANT_BASE",
     "AtBodies",
     "PreDeflection",
     "Section",
+    "SpeedProfile",
     "Track",
     "TrackError",
     "at_bodies",

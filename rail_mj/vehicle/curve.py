@@ -5,8 +5,9 @@ from the track at its own station, and what the curve adds is computed in the pa
 callback (rail_mj.simulation.curve) from what this module writes into the block:
 
 - the odometer, a massless-looking body on a slide along x that nothing pushes, started at the
-  run's speed: its position is the distance along the track of the vehicle's origin (the car
-  body's centre), a state like any other, so that a run continues, packs and repacks with it;
+  run's speed (or, on a speed profile, that the profile's force drives: rail_mj.track.speed):
+  its position is the distance along the track of the vehicle's origin (the car body's centre),
+  a state like any other, so that a run continues, packs and repacks with it;
 - the track's breakpoints (curvature and cant linear between them, with the heading and its
   integral at each), which give every body's station;
 - each body's mass, station and height (the uncompensated acceleration);
@@ -22,16 +23,13 @@ import mujoco
 import numpy as np
 
 from rail_mj.layout import Layout
-from rail_mj.numerics import POSES
-from rail_mj.track import Track
+from rail_mj.numerics import ODOMETER_MASS, POSES
+from rail_mj.track import SpeedProfile, Track
 from rail_mj.units import GRAVITY
 from rail_mj.vehicle.block import joint_chain
 from rail_mj.vehicle.joints import PITCH, ROLL
 
 ODOMETER = "odometer"
-# Small beside nothing: the odometer is coupled to no other body, so its mass only has to be
-# positive for MuJoCo (it moves at the speed it is given, exactly, under RK4).
-ODOMETER_MASS = 1.0  # kg
 # Entries of G, the map from the track's geometry to the joints, below this are round-off of
 # the least-squares solve (its entries are lever arms of metres and ones).
 ROUND_OFF = 1e-12
@@ -68,10 +66,13 @@ def breakpoints(track: Track) -> np.ndarray:
     return np.array(rows, dtype=np.float64)
 
 
-def track_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: str = "") -> np.ndarray:
+def track_part(
+    model: mujoco.MjModel, layout: Layout, track: Track, prefix: str = "", profile: SpeedProfile | None = None
+) -> np.ndarray:
     """The track part of the block (rail_mj.numerics) of `layout`'s vehicle under `prefix` in
-    `model`. A spatial vehicle's bodies have heights and roll, and its gravity switch says
-    whether the model weighs them; a planar model has no vertical motion, and its cant still
+    `model`, with the run's speed `profile` (None: a constant speed, the block's). A spatial
+    vehicle's bodies have heights and roll, and its gravity switch says whether the model weighs
+    them; a planar model has no vertical motion, and its cant still
     turns g into the track plane."""
     spatial = layout.spatial is not None
     gravity = layout.spatial is None or layout.spatial.gravity
@@ -156,7 +157,9 @@ def track_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: str 
         tendons += [v for dof, c in coefficients for v in (float(dof), c)]
         n_tendons += 1
     part += [float(len(table)), float(len(own)), float(n_joints), float(n_tendons)]
-    return np.concatenate([part, table.reshape(-1), bodies, joints, tendons])
+    points = [] if profile is None else profile.block()
+    part += [float(model.joint(prefix + ODOMETER).dofadr[0]), float(len(points) // 2)]
+    return np.concatenate([part, points, table.reshape(-1), bodies, joints, tendons])
 
 
 def _cant_varies(track: Track) -> bool:

@@ -21,7 +21,7 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-from rail_mj.numerics import BREAKPOINT, POSES, TRACK_HEADER
+from rail_mj.numerics import BREAKPOINT, POSES, SPEED_POINT, TRACK_HEADER
 from rail_mj.track.geometry import CANT_BASE
 
 LOADS = 3  # per body, after the poses and rates in the scratch: fy, fz, mz
@@ -62,10 +62,16 @@ def track_at(table, s):
 
 
 @numba.njit(cache=True, inline="always")
+def breakpoints_at(block, k):
+    """Where the breakpoints of the track part at `k` start: after its header and speed points."""
+    return k + TRACK_HEADER + SPEED_POINT * int(block[k + 7])
+
+
+@numba.njit(cache=True, inline="always")
 def table_of(block, k):
     """The breakpoints of the track part at `k` (`block` a pointer, as the callback has it)."""
     m = int(block[k + 2])
-    start = k + TRACK_HEADER
+    start = breakpoints_at(block, k)
     return numba.carray(block, (start + BREAKPOINT * m,))[start:].reshape((m, BREAKPOINT))
 
 
@@ -84,7 +90,7 @@ def curve_state(block, k, speed, s_ref, scratch):
     gravity = block[k + 1]
     m, nb = int(block[k + 2]), int(block[k + 3])
     table = table_of(block, k)
-    e = k + TRACK_HEADER + BREAKPOINT * m
+    e = breakpoints_at(block, k) + BREAKPOINT * m
     k_ref, cant_ref, h_ref, i_ref, slope_ref, _ = track_at(table, s_ref)
     # The reference: the track plane at the vehicle's origin, which the model's world is.
     theta_ref = math.asin(cant_ref / CANT_BASE)

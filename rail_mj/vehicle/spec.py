@@ -20,7 +20,7 @@ from rail_mj.numerics import (
     NUMERIC_SATURATION,
     NUMERIC_WHEEL,
 )
-from rail_mj.track import Track
+from rail_mj.track import SpeedProfile, Track
 from rail_mj.units import PA_PER_GPA
 from rail_mj.vehicle.curve import add_odometer
 from rail_mj.vehicle.joints import LATERAL
@@ -156,7 +156,9 @@ def compile_spec(spec: mujoco.MjSpec, layout: Layout) -> mujoco.MjModel:
         raise ValueError(f"{layout.source}: MuJoCo could not compile the model: {why}") from None
 
 
-def compiled(layout: Layout, track: Track | None = None) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+def compiled(
+    layout: Layout, track: Track | None = None, profile: SpeedProfile | None = None
+) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
     """The vehicle's spec and compiled model, its native block filled in: the block lists
     bodies, joints and dofs by the ids the compiler gave them, so it is written after a
     first compile (a millisecond or two) and the model compiled again."""
@@ -177,7 +179,7 @@ def compiled(layout: Layout, track: Track | None = None) -> tuple[mujoco.MjSpec,
     if track is not None:
         from rail_mj.vehicle.curve import track_part
 
-        part = track_part(model, layout, track)
+        part = track_part(model, layout, track, profile=profile)
     spec.numerics[0].data = block.block_for(model, layout.n_wheelsets, part).tolist()
     add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
     add_load_sensors(spec, model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)])
@@ -195,10 +197,14 @@ class Vehicle:
         ('wheelset1', 14)
     """
 
-    def __init__(self, layout: Layout, track: Track | None = None):
-        """`track`: a curved or canted track to run on (None: straight, the shipped MJCF)."""
-        self.layout, self.track = layout, track
-        self.spec, self.model = compiled(layout, track)
+    def __init__(self, layout: Layout, track: Track | None = None, profile: SpeedProfile | None = None):
+        """`track`: a curved or canted track to run on (None: straight, the shipped MJCF);
+        `profile`: the speed along it (rail_mj.track.speed; None: the run's constant speed). A
+        profile needs a track (the odometer it drives): `Track.straight` where there is no curve."""
+        if profile is not None and track is None:
+            raise ValueError("a speed profile needs a track to run along (rail_mj.track.Track.straight)")
+        self.layout, self.track, self.profile = layout, track, profile
+        self.spec, self.model = compiled(layout, track, profile)
         self.wheelset_names = tuple(f"wheelset{i + 1}" for i in range(layout.n_wheelsets))
         self.wheelset_ids = np.array([self.model.body(n).id for n in self.wheelset_names], dtype=np.int64)
 
