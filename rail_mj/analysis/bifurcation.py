@@ -30,6 +30,8 @@ from rail_mj.analysis.stability import CriticalSpeed, Stability
 from rail_mj.layout import Layout
 from rail_mj.layout.kinds import Profiled, contact_model
 from rail_mj.simulation.runner import simulate
+from rail_mj.track import SpeedProfile, Track
+from rail_mj.track.speed import PROFILE_TRACK
 
 # One procedure and one step for every nonlinear critical speed rail-mj reports (the
 # critical-speed command, the bifurcation diagram, the README's tables): 2 % a step, so
@@ -53,13 +55,20 @@ class Branch:
     alive: list[bool]  # whether a settled oscillation (not a dying one) was there
 
 
-def _amplitude(run) -> tuple[float, float, float]:
-    """(amplitude, its change from the first to the second quarter of the late half, frequency)."""
-    t, y = late_motion(run)
+def _amplitude(run, late: bool = True) -> tuple[float, float, float]:
+    """(amplitude, its change from the first to the second quarter of the late half, frequency);
+    not `late`: over the whole run, halves."""
+    t, y = late_motion(run) if late else _largest(run)
     half = len(y) // 2
     first, second = np.max(np.abs(y[:half])), np.max(np.abs(y[half:]))
     freq, _ = oscillation(t, y)
     return float(second), float(second - first), freq
+
+
+def _largest(run) -> tuple[np.ndarray, np.ndarray]:
+    """(t, y) of the wheelset that moves most in `run`."""
+    lead = int(np.argmax(np.max(np.abs(run.y), axis=0)))
+    return run.t, run.y[:, lead]
 
 
 def follow(
@@ -236,3 +245,139 @@ def bifurcation(
         progress=progress,
     )
     return critical, down, up
+
+
+# The ramp: a practitioner's other nonlinear critical speed (a vehicle braked slowly through
+# it on a long straight, as a line test or a simulation in SIMPACK or GENSYS is run), one
+# speed profile instead of the staircase. A slow deceleration keeps the limit cycle settled:
+# its collapse lags the fold by the time it takes (a few seconds) times the deceleration,
+# so the ramp's answer lies below the staircase's by about that (docs/track.md measures it).
+RAMP_DECELERATION = 0.1  # m/s^2: 0.5 % of the speed per second at 70 m/s
+RAMP_SETTLE = 3.0  # s at the starting speed, for the limit cycle to form from the disturbance
+RAMP_CHUNK = 1.0  # s a piece of the ramp, continued from the last: the amplitude's window
+RAMP_STEADY = 0.02  # a piece's amplitude within 2 % of the last one's: the cycle has not begun to collapse
+RAMP_POINT = 0.005  # relative: the profile's points, V^2 = V0^2 - 2*a*s, every 0.5 % in speed
+
+
+def deceleration_profile(start: float, end: float, deceleration: float, settle: float = RAMP_SETTLE) -> SpeedProfile:
+    """A speed profile (rail_mj.track.SpeedProfile) held at `start` m/s for `settle` s, then
+    falling at `deceleration` m/s^2 to `end`: V^2 = V0^2 - 2*a*(s - s0), linear between points
+    RAMP_POINT apart in speed, so dV/dt = V*dV/ds stays within RAMP_POINT of `deceleration`."""
+    s0 = start * settle
+    count = max(1, math.ceil(math.log(end / start) / math.log(1.0 - RAMP_POINT)))
+    speeds = start * (1.0 - RAMP_POINT) ** np.arange(count + 1)
+    speeds[-1] = end
+    stations = s0 + (start**2 - speeds**2) / (2.0 * deceleration)
+    return SpeedProfile(
+        (0.0, *map(float, stations)),
+        (float(start), *map(float, speeds)),
+        f"<deceleration {deceleration:g} m/s^2 from {start:g} to {end:g} m/s>",
+    )
+
+
+def ramp_critical_speed(
+    layout: Layout,
+    vmin: float = 5.0,
+    vmax: float = 150.0,
+    deceleration: float = RAMP_DECELERATION,
+    progress: Callable[[str], None] | None = None,
+    amplitude: float | None = None,
+) -> tuple[CriticalSpeed, Branch | None]:
+    """The speed at which the hunting limit cycle dies as the vehicle is braked through it at
+    `deceleration` m/s^2, with the amplitude and frequency each RAMP_CHUNK s against speed
+    (None: no linear critical speed to start from, the note says why).
+
+    Starts as `nonlinear_critical_speed` does, on the limit cycle at 1.1 x the linear critical
+    speed, holds that speed RAMP_SETTLE s and then brakes down to `vmin`, one run continued
+    piece by piece along one speed profile, until the motion has died (below DEAD_FRACTION of
+    the flangeway clearance). The critical speed is the speed at the end of the last piece that
+    still carried a settled limit cycle, as the staircase's steps are judged (its peaks not
+    shrinking by more than SHRINKING from the first half of the piece to the second), and the
+    frequency is the cycle's before its collapse began (RAMP_STEADY).
+    """
+    contact = contact_model(layout)
+    if not contact.flanged or layout.creep.law == "linear":
+        raise ValueError(
+            f"{layout.source}: the nonlinear critical speed needs flange contact ([flange] or "
+            f"[profiles]) and a saturating creep law: without them hunting grows without bound"
+        )
+    if not (math.isfinite(deceleration) and deceleration > 0):
+        raise ValueError(f"the deceleration must be a positive number (m/s^2), got {deceleration}")
+    linear = Stability(layout, amplitude).critical_speed(vmin, vmax)
+    if linear.critical_speed is None:
+        return CriticalSpeed(
+            "ramp",
+            None,
+            None,
+            None,
+            vmin,
+            vmax,
+            f"no linear critical speed to start from: {linear.note}",
+            outcome=linear.outcome,
+            amplitude_mm=linear.amplitude_mm,
+            deceleration=deceleration,
+        ), None
+    vc = linear.critical_speed
+    start = min(1.1 * vc, vmax)
+    profile = deceleration_profile(start, vmin, deceleration)
+    # One straight track for every piece (the odometer's), past the profile's end by far more
+    # than the pieces that reach vmin; no curvature: the model is the one of straight track.
+    track = Track.straight(profile.stations[-1] + 100.0 * start * RAMP_CHUNK + max(layout.wheelset_x), PROFILE_TRACK)
+    reach = 1.0 if isinstance(contact, Profiled) else 2.0
+    dead = DEAD_FRACTION * layout.wheelset.flangeway_clearance
+    branch = Branch("ramp", [], [], [], [])
+    state = None
+    while True:
+        if state is None:  # onto the flanges, as the staircase starts
+            lateral = reach * layout.wheelset.flangeway_clearance
+            run = simulate(layout, profile, start * RAMP_CHUNK, lateral, 1e-4, track=track)
+        else:
+            run = simulate(layout, profile, float(run.speeds[-1]) * RAMP_CHUNK, state=state, track=track)
+        state = run.final_state
+        size, change, frequency = _amplitude(run, late=False)
+        speed = float(run.speeds[-1])
+        branch.speeds.append(speed)
+        branch.amplitudes.append(size)
+        branch.frequencies.append(frequency)
+        branch.alive.append(bool(size >= dead and change >= -SHRINKING * size))
+        if progress is not None:
+            progress(f"ramp: {speed:.2f} m/s, amplitude {size * 1e3:.2f} mm")
+        settled = run.station[-1] >= profile.stations[1]
+        if (settled and size < dead) or speed <= vmin * (1.0 + 1e-9):
+            break
+
+    def result(note: str, outcome: str, critical=None, frequency=None, mode=None) -> CriticalSpeed:
+        return CriticalSpeed(
+            "ramp",
+            critical,
+            frequency,
+            mode,
+            vmin,
+            vmax,
+            note,
+            linear_critical_speed=vc,
+            amplitude_mm=linear.amplitude_mm,
+            deceleration=deceleration,
+            outcome=outcome,
+        )
+
+    alive = [k for k, ok in enumerate(branch.alive) if ok]
+    if not alive:
+        return result(f"no limit cycle at {start:.2f} m/s", "none"), branch
+    last = alive[-1]  # the last piece that still carried a settled limit cycle
+    if last == len(branch.alive) - 1:
+        return result(f"the limit cycle survives down to {branch.speeds[-1]:.2f} m/s", "unstable"), branch
+    critical = branch.speeds[last]
+    # The frequency of the cycle before it collapses: the last piece whose amplitude is within
+    # RAMP_STEADY of the one before (in the last alive pieces the cycle already shrinks and slows).
+    steady = [k for k in alive if k > 0 and branch.amplitudes[k] >= (1 - RAMP_STEADY) * branch.amplitudes[k - 1]]
+    frequency = branch.frequencies[steady[-1] if steady else last]
+    how = f"braked at {deceleration:g} m/s^2 from {start:.2f} m/s"
+    if critical > vc:
+        note = (
+            f"no limit cycle below the linear critical speed: {how}, it dies at {critical:.2f} m/s, "
+            f"above {vc:.2f} m/s, so hunting starts at the linear critical speed"
+        )
+        return result(note, "linear"), branch
+    note = f"the limit cycle dies at this speed, {how}; the mode is the linear one at {vc:.2f} m/s"
+    return result(note, "crossing", critical, frequency, linear.mode), branch

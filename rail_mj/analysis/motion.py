@@ -120,12 +120,16 @@ def summary(run: Run) -> dict:
                 "final_abs_lateral_m": float(np.max(np.abs(y[run.t >= 0.9 * run.t[-1]]))),
                 "decayed": decayed is not None,
                 "decayed_by_s": decayed,
-                "decayed_by_m": None if decayed is None else decayed * run.speed,
+                "decayed_by_m": None if decayed is None else _distance_at(run, decayed),
                 "growth_rate_per_s": None if math.isnan(sigma) else sigma,
                 "frequency_hz": None if math.isnan(freq) else freq,
-                "wavelength_m": None if math.isnan(freq) else run.speed / freq,
+                "wavelength_m": None if math.isnan(freq) else _mean_speed(run, window) / freq,
             }
         )
+    if run.profile is not None:  # on a speed profile, the speed the motion died at: the ramp's reading
+        for w in wheelsets:
+            at = w["decayed_by_s"]
+            w["decayed_at_speed_m_per_s"] = None if at is None else float(np.interp(at, run.t, run.speeds))
     safety = wheel_safety(run)
     for w, per in zip(wheelsets, safety["wheelsets"]):
         w.update(per)
@@ -140,6 +144,36 @@ def summary(run: Run) -> dict:
         "hunting_note": hunting_assessable(run),
         **safety["run"],
         **_on_track(run),
+        **_on_profile(run),
+    }
+
+
+def _distance_at(run: Run, t: float) -> float:
+    """The distance travelled by time `t`: V*t at constant speed, else the odometer's."""
+    return t * run.speed if run.profile is None else float(np.interp(t, run.t, run.x))
+
+
+def _mean_speed(run: Run, window: np.ndarray) -> float:
+    """The speed, or on a speed profile its mean over the samples `window` (distance over time),
+    which with the motion's frequency gives its wavelength."""
+    if run.profile is None:
+        return run.speed
+    t, x = run.t[window], run.x[window]
+    return float((x[-1] - x[0]) / (t[-1] - t[0])) if len(t) > 1 else float(run.speeds[window][0])
+
+
+def _on_profile(run: Run) -> dict:
+    """A run on a speed profile's: the profile's points and the speed at its start and end."""
+    profile = run.profile
+    if profile is None:
+        return {}
+    return {
+        "speed_profile": {
+            "stations_m": list(profile.stations),
+            "speeds_m_per_s": list(profile.speeds),
+            "start_m_per_s": float(run.speeds[0]),
+            "end_m_per_s": float(run.speeds[-1]),
+        }
     }
 
 

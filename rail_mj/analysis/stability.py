@@ -93,6 +93,7 @@ class CriticalSpeed:
     unstable_ranges: list[list[float]] = dataclasses.field(default_factory=list)
     linear_critical_speed: float | None = None  # m/s (nonlinear method: where it started from)
     step: float | None = None  # nonlinear method: the speed step, a fraction of the speed
+    deceleration: float | None = None  # ramp method: m/s^2 through the critical speed
     amplitude_mm: float | None = None  # on profiles: the amplitude the linear analysis linearises at
     # What the search found, for programs: "crossing" (a critical speed), "stable" (stable
     # over the whole range), "unstable" (unstable from its lowest speed), or for the

@@ -52,7 +52,12 @@ def generate_cmd(layout, out_dir):
 
 @click.command("run")
 @click.argument("layout", type=click.Path(dir_okay=False))
-@click.option("--speed", type=float, required=True, help="Forward speed, m/s.")
+@click.option("--speed", type=float, help="Forward speed, m/s (or --speed-profile).")
+@click.option(
+    "--speed-profile",
+    help="The speed along the track instead: S:V,S:V,... (stations in m from the start, speeds in m/s), "
+    "linear between the points and held beyond them, e.g. 0:90,3000:60 to brake slowly.",
+)
 @click.option("--distance", type=float, required=True, help="Distance to run, m.")
 @click.option(
     "--initial-lateral",
@@ -82,14 +87,19 @@ def generate_cmd(layout, out_dir):
 )
 @click.option("--out", type=click.Path(dir_okay=False), help="Write the samples as CSV here.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, track, rrd, rrd_rate, out, as_json):
-    """Run LAYOUT at constant speed on straight track (or along --track) and summarise each
-    wheelset's motion (and its steady curving in each curve).
+def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw, track, rrd, rrd_rate, out, as_json):
+    """Run LAYOUT at constant speed (or along --speed-profile) on straight track (or along
+    --track) and summarise each wheelset's motion (and its steady curving in each curve).
 
     Outputs may be `-` (standard output; the summary then goes to stderr), a FIFO or a
     device: they are written through, never replaced."""
     lay = layout_of(layout)
-    check_speed("--speed", speed)
+    if (speed is None) == (speed_profile is None):
+        raise Failure("give either --speed or --speed-profile", EXIT_BAD_INPUT)
+    if speed is not None:
+        check_speed("--speed", speed)
+    else:
+        speed = _profile_of(speed_profile)
     if not (math.isfinite(distance) and distance > 0):
         raise Failure(f"--distance must be a positive number, got {distance}", EXIT_BAD_INPUT)
     _check_disturbance(lay, initial_lateral, initial_yaw)
@@ -132,6 +142,16 @@ def run_cmd(layout, speed, distance, initial_lateral, initial_yaw, track, rrd, r
         click.echo(json.dumps(result, indent=2), err=to_stderr)
     else:
         _print_summary(result, to_stderr)
+
+
+def _profile_of(text: str):
+    """--speed-profile as a SpeedProfile (rail_mj.track.speed), or a one-line refusal."""
+    from rail_mj.track import SpeedProfile, TrackError
+
+    try:
+        return SpeedProfile.parse(text)
+    except TrackError as e:
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
 
 
 def _recording_rate(text: str) -> float | None:
@@ -181,7 +201,8 @@ def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw, 
 
     if not sys.stderr.isatty():
         return simulate(lay, speed, distance, initial_lateral, initial_yaw, track=track)
-    with click.progressbar(length=1000, label=f"{lay.name} at {speed:g} m/s", file=sys.stderr) as bar:
+    at = f"{speed:g} m/s" if isinstance(speed, float | int) else "its speed profile"
+    with click.progressbar(length=1000, label=f"{lay.name} at {at}", file=sys.stderr) as bar:
         done = [0]
 
         def progress(fraction: float) -> None:
@@ -204,8 +225,14 @@ def _print_summary(result: dict, err: bool = False) -> None:
     def say(text: str) -> None:
         click.echo(text, err=err)
 
+    profile = result.get("speed_profile")
+    at = (
+        f"{result['speed_m_per_s']:g} m/s"
+        if profile is None
+        else f"{profile['start_m_per_s']:.4g} to {profile['end_m_per_s']:.4g} m/s (--speed-profile)"
+    )
     say(
-        f"{result['layout']}: {result['distance_m']:g} m at {result['speed_m_per_s']:g} m/s "
+        f"{result['layout']}: {result['distance_m']:g} m at {at} "
         f"({result['duration_s']:.3g} s, timestep {result['timestep_s']:.3g} s)"
     )
     say("wheelset  max|y| (mm)  end|y| (mm)  growth (1/s)  frequency (Hz)  wavelength (m)")
@@ -216,7 +243,9 @@ def _print_summary(result: dict, err: bool = False) -> None:
             f"{_fmt(w['frequency_hz'], '>14.4f')}  {_fmt(w['wavelength_m'], '>14.3f')}"
         )
         if w["decayed"]:
-            line += f"  decayed by {w['decayed_by_s']:.3g} s ({w['decayed_by_m']:.4g} m)"
+            at = w.get("decayed_at_speed_m_per_s")
+            speed = "" if at is None else f", {at:.4g} m/s"
+            line += f"  decayed by {w['decayed_by_s']:.3g} s ({w['decayed_by_m']:.4g} m{speed})"
         say(line)
     if any(w["decayed"] for w in result["wheelsets"]):
         say(

@@ -112,16 +112,34 @@ def _check_step(step: float | None) -> float:
     return step
 
 
+def _check_deceleration(deceleration: float | None) -> float:
+    """--deceleration, or the ramp's default; refused outside the table of practice, warned
+    about outside its usual range."""
+    if deceleration is None:
+        from rail_mj.analysis.bifurcation import RAMP_DECELERATION
+
+        return RAMP_DECELERATION
+    limits = RANGES["ramp.deceleration"]
+    problem = limits.check(deceleration) if math.isfinite(deceleration) else f"must be finite, got {deceleration}"
+    if problem is not None:
+        raise Failure(f"--deceleration {problem}", EXIT_BAD_INPUT)
+    warning = limits.warning(deceleration)
+    if warning is not None:
+        click.echo(f"warning: --deceleration {warning}", err=True)
+    return deceleration
+
+
 @click.command("critical-speed")
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option(
     "--method",
-    type=click.Choice(["eigen", "time", "nonlinear"]),
+    type=click.Choice(["eigen", "time", "nonlinear", "ramp"]),
     default="eigen",
     show_default=True,
     help="eigen: where the least-damped root crosses zero; time: simulations from a small "
-    "disturbance; nonlinear: lower the speed from hunting until the limit cycle dies "
-    "(needs [flange] and a saturating creep law).",
+    "disturbance; nonlinear: lower the speed in steps from hunting until the limit cycle dies; "
+    "ramp: brake slowly from hunting until it dies (nonlinear and ramp need [flange] or "
+    "[profiles] and a saturating creep law).",
 )
 @click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed searched, m/s.")
 @click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed searched, m/s.")
@@ -132,13 +150,20 @@ def _check_step(step: float | None) -> float:
     "nonlinear critical speed is known to within it)  [default: 0.02, "
     "rail_mj.analysis.bifurcation.STEP]",
 )
+@click.option(
+    "--deceleration",
+    type=float,
+    help="ramp: the deceleration through the critical speed, m/s^2  [default: 0.1, "
+    "rail_mj.analysis.bifurcation.RAMP_DECELERATION]",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @_amplitude_option
-def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
+def critical_speed_cmd(layout, method, vmin, vmax, step, deceleration, as_json, amplitude):
     """The lowest speed at which LAYOUT stops being stable, and the mode that sets it."""
     lay = layout_of(layout)
     check_speed_range(vmin, vmax)
     step = _check_step(step)
+    deceleration = _check_deceleration(deceleration)
     from rail_mj.simulation.runner import SimulationError
 
     stability = _stability(lay, amplitude)  # a model that does not compile fails here, with exit 2
@@ -150,6 +175,10 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, as_json, amplitude):
                 from rail_mj.analysis.bifurcation import nonlinear_critical_speed
 
                 result, _ = nonlinear_critical_speed(lay, vmin, vmax, step, progress=progress, amplitude=amplitude)
+            elif method == "ramp":
+                from rail_mj.analysis.bifurcation import ramp_critical_speed
+
+                result, _ = ramp_critical_speed(lay, vmin, vmax, deceleration, progress=progress, amplitude=amplitude)
             else:
                 from rail_mj.analysis.stability import time_critical_speed
 

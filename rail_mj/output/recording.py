@@ -144,6 +144,9 @@ def cant_path(i: int) -> str:
     return f"/track/cant/wheelset{i + 1}"
 
 
+SPEED_PATH = "/vehicle/speed"
+
+
 def wear_path(i: int, side: str) -> str:
     """Each wheel's wear number T-gamma on a curved track; `side`: left or right."""
     return f"/wear/wheelset{i + 1}/{side}"
@@ -321,6 +324,8 @@ def plots(run: Run) -> list[Plot]:
                 positive=True,
             ),
         ]
+    if run.profile is not None:  # a speed that changes: what the motion's growth and decay follow
+        out.append(Plot("Vehicle: speed (m/s)", [Series(SPEED_PATH, "speed (m/s)", CARBODY_COLOUR, run.speeds)]))
     match contact_model(run.layout):
         case Profiled():  # the normal forces: gravitational stiffness and the flange
             out.append(
@@ -449,11 +454,18 @@ def _layout_text(run: Run, keep: np.ndarray) -> str:
     rate = sample_rate(run) / every
     return (
         f"# {run.layout.name}\n\n"
-        f"speed {run.speed:g} m/s, distance {run.x[-1]:g} m, timestep {run.timestep:.4g} s\n\n"
+        f"speed {_speed_text(run)}, distance {run.x[-1]:g} m, timestep {run.timestep:.4g} s\n\n"
         f"recorded at {rate:.4g} samples/s, one in {every} of the run's samples (the CSV of "
         f"`rail-mj run --out` has them all)\n\n"
         f"```toml\n{source}\n```\n"
     )
+
+
+def _speed_text(run: Run) -> str:
+    if run.profile is None:
+        return f"{run.speed:g} m/s"
+    points = ", ".join(f"{v:g} m/s at {s:g} m" for s, v in zip(run.profile.stations, run.profile.speeds, strict=True))
+    return f"{run.speeds[0]:.4g} to {run.speeds[-1]:.4g} m/s along the profile {points}"
 
 
 def log_run(rec: rr.RecordingStream, run: Run, rate: float | None = None) -> None:

@@ -38,6 +38,7 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
     pitch_bogie1, ...               displacement from the static equilibrium (m), roll and pitch
     curvature1, ..., cant1, ...     on a curved track (--track): the track's curvature (1/m, +
                                     left) and cant (m, signed as the curvature) under each wheelset
+    speed                           on a speed profile (--speed-profile): the speed, m/s
     """
     names = ["t", "x"]
     cols = [run.t, run.x]
@@ -72,6 +73,9 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
         for i in range(run.n_wheelsets):
             names.append(f"cant{i + 1}")
             cols.append(cant[:, i])
+    if run.profile is not None:  # a run at constant speed keeps its columns
+        names.append("speed")
+        cols.append(run.speeds)
     return names, np.column_stack(cols)
 
 

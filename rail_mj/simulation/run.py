@@ -16,6 +16,7 @@ import numpy as np
 from rail_mj.contact.creep import ContactForces, contact_forces
 from rail_mj.layout import Layout
 from rail_mj.track import SpeedProfile, Track
+from rail_mj.track.speed import PROFILE_TRACK
 from rail_mj.vehicle.block import contact_parameters
 from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.loads import AxleLoads
@@ -172,14 +173,16 @@ class Run:
 
     @property
     def track(self) -> Track | None:
-        """The curved or canted track of the run (rail_mj.track); None: straight."""
-        return self.vehicle.track
+        """The curved or canted track of the run (rail_mj.track); None: straight (also the
+        straight track a speed profile runs along when none was given)."""
+        track = self.vehicle.track
+        return None if track is None or track.source == PROFILE_TRACK else track
 
     @functools.cached_property
     def station(self) -> np.ndarray:
         """(n_samples,): the distance along the track of the vehicle's origin (its car body's
         centre), m: the odometer's (rail_mj.vehicle.curve); on straight track, `x`."""
-        if self.track is None:
+        if self.vehicle.track is None:
             return self.x
         return self.body_pos[:, self.vehicle.model.body(ODOMETER).id, 0]
 

@@ -33,6 +33,7 @@ from rail_mj.simulation.run import Request, Run, RunRefused, SimulationError
 from rail_mj.simulation.stepping import Prepared, step_alone
 from rail_mj.simulation.timestep import STEP_FRACTION, stable_timestep
 from rail_mj.track import SpeedProfile, Track
+from rail_mj.track.speed import PROFILE_TRACK
 from rail_mj.vehicle.block import set_speed
 from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.spec import Vehicle
@@ -63,7 +64,7 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
         )
     if profile is not None and track is None:  # the odometer the profile drives runs along a straight track
         start = _start_station(request, None)
-        track = Track.straight(start + distance + max(layout.wheelset_x) + 1.0, "<straight track>")
+        track = Track.straight(start + distance + max(layout.wheelset_x) + 1.0, PROFILE_TRACK)
     vehicle = Vehicle(layout, track, profile)
     duration = distance / speed
     if track is not None:

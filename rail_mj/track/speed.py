@@ -29,6 +29,10 @@ from rail_mj.track.geometry import TrackError
 
 Array = NDArray[np.float64]
 
+# The source of the straight track a speed profile runs along when no track is given (the
+# odometer it drives needs one): a run on it is a run on straight track (rail_mj.simulation.run).
+PROFILE_TRACK = "<straight track of a speed profile>"
+
 
 @dataclasses.dataclass(frozen=True)
 class SpeedProfile:

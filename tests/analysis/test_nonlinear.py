@@ -314,3 +314,39 @@ def test_a_limit_cycle_dying_above_the_linear_critical_speed_gives_no_nonlinear_
     assert critical.critical_speed is None
     assert "no limit cycle below the linear critical speed" in critical.note
     assert critical.linear_critical_speed == pytest.approx(57.50, abs=0.01)
+
+
+def test_the_ramp_agrees_with_the_staircase_and_converges_as_it_slows(tmp_path):
+    """Braked through it, the limit cycle dies at the nonlinear critical speed less the lag of
+    its collapse (a few seconds times the deceleration): at 0.4 and 0.1 m/s^2 the ramp's
+    speed rises towards the staircase's as the ramp slows, the slower one within the
+    staircase's own bracket (its lowest live step less 4 %, the step here) and below that
+    step. Both start on the same limit cycle at 1.1 x the linear critical speed."""
+    from rail_mj.analysis.bifurcation import nonlinear_critical_speed, ramp_critical_speed
+
+    layout = load_layout(flanged_wheelset(tmp_path))
+    stairs, _ = nonlinear_critical_speed(layout, step=0.04, dwell=3.0)
+    fast, _ = ramp_critical_speed(layout, deceleration=0.4)
+    slow, branch = ramp_critical_speed(layout, deceleration=0.1)
+    assert slow.method == "ramp" and slow.deceleration == 0.1 and slow.outcome == "crossing"
+    assert slow.linear_critical_speed == pytest.approx(57.50, abs=0.01)
+    assert fast.critical_speed < slow.critical_speed < slow.linear_critical_speed
+    assert stairs.critical_speed * (1 - 0.04) <= slow.critical_speed <= stairs.critical_speed
+    # Along the ramp the cycle is the staircase's: at the staircase's lowest live step its
+    # frequency is that step's (zero crossings over 1 s against 1.5 s; 5.527 against 5.521 Hz measured, 1 % allowed).
+    at = int(np.argmin(np.abs(np.array(branch.speeds) - stairs.critical_speed)))
+    assert branch.frequencies[at] == pytest.approx(stairs.frequency, rel=0.01)
+    assert slow.frequency in branch.frequencies
+    assert branch.speeds[0] > slow.linear_critical_speed and not branch.alive[-1]
+
+
+def test_cli_ramp_critical_speed(tmp_path, capsys):
+    path = str(flanged_wheelset(tmp_path))
+    assert main(["critical-speed", path, "--method", "ramp", "--deceleration", "0.4", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["method"] == "ramp" and result["deceleration"] == 0.4
+    assert 0 < result["critical_speed"] < result["linear_critical_speed"]
+    assert main(["critical-speed", path, "--method", "ramp", "--deceleration", "0.8"]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("critical speed (ramp): ") and "braked at 0.8 m/s^2" in out
+    assert "warning: --deceleration 0.8 m/s^2 is outside railway practice" in err

@@ -134,6 +134,17 @@ HOSTILE = [
     ["critical-speed", WHEELSET, "--method", "nonlinear", "--step", "nan"],
     ["critical-speed", MODELS / "wagon" / "wagon.toml", "--method", "nonlinear"],
     ["critical-speed", WHEELSET, "--method", "warp"],
+    ["critical-speed", WHEELSET, "--method", "ramp", "--deceleration", "0"],
+    ["critical-speed", WHEELSET, "--method", "ramp", "--deceleration", "nan"],
+    ["critical-speed", WHEELSET, "--method", "ramp", "--deceleration", "50"],
+    ["critical-speed", MODELS / "wagon" / "wagon.toml", "--method", "ramp"],
+    # speed profiles
+    ["run", BOGIE, "--distance", "5"],
+    ["run", BOGIE, "--speed", "30", "--speed-profile", "0:30", "--distance", "5"],
+    ["run", BOGIE, "--speed-profile", "0:30,0:40", "--distance", "5"],
+    ["run", BOGIE, "--speed-profile", "0:30,10:-1", "--distance", "5"],
+    ["run", BOGIE, "--speed-profile", "0:30,10", "--distance", "5"],
+    ["run", BOGIE, "--speed-profile", "0:30,10:1e-300", "--distance", "5"],
     # --amplitude: for profiled layouts only, within the contact tables
     ["eigen", WHEELSET, "--speed", "30", "--amplitude", "3"],
     ["eigen", MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml", "--speed", "30", "--amplitude", "nan"],
