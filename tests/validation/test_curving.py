@@ -83,6 +83,59 @@ def test_a_restrained_wheelset_settles_where_its_creep_and_spring_balance_the_cu
     np.testing.assert_allclose(run.y[late, 0], y, rtol=1e-6)
 
 
+def _uncompensated(radius: float, speed: float, cant: float) -> float:
+    """V^2/R cos(theta) - g sin(theta) in the canted track plane (docs/track.md, section 4)."""
+    theta = math.asin(cant / 1.5)
+    return speed**2 / radius * math.cos(theta) - GRAVITY * math.sin(theta)
+
+
+@pytest.mark.parametrize("balanced", [True, False])
+def test_a_free_wheelset_takes_the_pure_rolling_offset(balanced):
+    """A wheelset with no suspension at all, solved directly (rail_mj.analysis.curving: a free
+    wheelset hunts at every speed, so no run settles): its creep yaw moment vanishes only at
+    pure rolling, lam*y/r0 = -b/R, the offset y0 = r0*b/(lam*R) outward whatever the speed, and its
+    lateral creep force 2*f22*psi alone carries m*a_nc (zero at the balance speed). Both hold to
+    the solver's residual (1e-7 m/s^2 on 1813 kg against f22 = 1e7 N: 1e-14 rad)."""
+    from rail_mj.analysis.curving import steady_curving
+
+    layout = layout_from_dict(_linear("wheelset", primary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0}))
+    radius, speed = 800.0, 25.0
+    cant = _balance_cant(radius, speed) if balanced else 0.0
+    (wheelset,) = steady_curving(layout, radius, speed, cant)["wheelsets"]
+    w, c = layout.wheelset, layout.creep
+    assert wheelset["lateral_m"] == pytest.approx(-w.rolling_radius * w.contact_half_spacing / (w.conicity * radius))
+    psi = w.mass * _uncompensated(radius, speed, cant) / (2 * c.f22)
+    assert wheelset["yaw_rad"] == pytest.approx(psi, rel=1e-9, abs=1e-14)
+
+
+def test_a_rigid_bogie_takes_its_closed_form():
+    """Two wheelsets held rigidly in a frame free in yaw and sideways (primary springs of 1e11 N/m
+    and N m/rad, the secondary removed), Wickens (2003), in rail-mj's signs (the angle of attack
+    outward is a negative yaw here): each wheelset yawed -/+a/R from the track by the frame's
+    heading at the bogie centre, plus the frame's F/(4*f22) that carries the uncompensated force F
+    on the bogie; at the balance speed both at y = -y0*(1 + (f22/f11)*(a/b)^2). The stiff springs
+    still give: forces of ~3e4 N and moments of ~4e4 N m over 1e11, 1e-6 allowed either way."""
+    from rail_mj.analysis.curving import steady_curving
+
+    data = _linear("bogie", secondary={"lateral_stiffness": 0.0, "yaw_stiffness": 0.0, "lateral_damping": 64e3})
+    data["primary"] = dict(data["primary"], lateral_stiffness=1e11, yaw_stiffness=1e11)
+    layout = layout_from_dict(data)
+    assert layout.bogie is not None
+    w, c = layout.wheelset, layout.creep
+    a, b, radius, speed = layout.bogie.wheelset_positions[0], w.contact_half_spacing, 800.0, 25.0
+    for cant in (_balance_cant(radius, speed), 0.0):
+        result = steady_curving(layout, radius, speed, cant)
+        force = _uncompensated(radius, speed, cant) * (2 * w.mass + layout.bogie.mass)
+        frame = force / (4 * c.f22)
+        yaws = [x["yaw_rad"] for x in result["wheelsets"]]
+        np.testing.assert_allclose(yaws, [frame - a / radius, frame + a / radius], rtol=0, atol=1e-6)
+        assert result["bodies"][0]["yaw_rad"] == pytest.approx(frame, abs=1e-6)
+    y0 = w.rolling_radius * b / (w.conicity * radius)
+    balanced = steady_curving(layout, radius, speed, _balance_cant(radius, speed))
+    lateral = [x["lateral_m"] for x in balanced["wheelsets"]]
+    np.testing.assert_allclose(lateral, -y0 * (1 + (c.f22 / c.f11) * (a / b) ** 2), rtol=0, atol=1e-6)
+
+
 def test_an_elastic_bogie_at_the_balance_speed_takes_the_closed_form_angles_of_attack():
     """Two wheelsets on primary springs k_y, k_psi in a frame free of the car body, at the
     balance speed (no uncompensated force): psi_1 = -psi_2 = (a/R)*k_psi^2*k_y*r0/D and the
@@ -442,3 +495,48 @@ def test_straight_and_curved_runs_stepped_together_are_each_run_alone():
     for request, run in zip(requests, together):
         alone = simulate(layout, request.speed, request.distance, 0.001, track=request.track)
         np.testing.assert_array_equal(run.y, alone.y)
+
+
+def test_a_linear_planar_vehicle_settles_on_one_linear_solve():
+    """The general oracle of steady curving for a linear vehicle: K q = f, K its stiffness on
+    straight track (the velocity-independent part of its linear equations: suspension and the
+    creep terms -2*f22*psi, 2*f11*b*lam*y/r0; here dqacc/dq of MuJoCo's dynamics, central
+    differences) and f the curve's loads at q = 0 (the uncompensated force on every body, the
+    suspension's pre-deflections, the curvature's yaw moment 2*f11*b^2/R per wheelset). The
+    coach on the linear law, run 2 km along a 1200 m curve with 100 mm cant, settles on the
+    solve to 1e-7 of its largest coordinate in every coordinate (the differences' relative
+    round-off, eps/FD_STEP = 1e-8, times the stiffness's conditioning; 1.7e-9 m of 3.3e-2 m
+    measured). Newton on f: the root lateral joint, which moves every body, carries the whole
+    uncompensated force, -(sum of masses)*a_nc, to the bodies' headings off the root's,
+    cos(9.5/1200) = 1 - 3e-5."""
+    import mujoco
+
+    from rail_mj.simulation import native
+    from rail_mj.simulation.linear import state_matrix
+    from rail_mj.vehicle.curve import ODOMETER
+    from rail_mj.vehicle.spec import Vehicle
+
+    layout = layout_from_dict(_linear("manchester-coach"))
+    radius, speed, cant = 1200.0, 30.0, 0.1
+    track = _curve(radius, cant)
+    straight = Vehicle(layout)
+    native.set_speed(straight.model, speed)
+    nv = straight.model.nv
+    stiffness = state_matrix(straight.model)[nv:, :nv]  # M^-1 K, as qacc per q
+    curved = Vehicle(layout, track)
+    native.set_speed(curved.model, speed)
+    model = curved.model
+    coordinates = [i for i in range(model.nv) if i != model.joint(ODOMETER).dofadr[0]]
+    data = mujoco.MjData(model)
+    with native.installed():
+        mujoco.mj_forward(model, data)
+    loads = data.qacc[coordinates].copy()  # M^-1 f at q = 0 on the curve
+    solved = np.linalg.solve(stiffness, -loads)
+    run = simulate(layout, speed, 2000.0, track=track)
+    settled = run.final_state[0][coordinates]
+    np.testing.assert_allclose(settled, solved, rtol=0, atol=1e-7 * np.max(np.abs(solved)))
+    force = np.zeros(model.nv)
+    mujoco.mj_mulM(model, data, force, data.qacc)
+    root = model.joint("carbody_lateral").dofadr[0]
+    total = sum(float(model.body_mass[b]) for b in range(model.nbody) if model.body(b).name != ODOMETER)
+    assert force[root] == pytest.approx(-total * _uncompensated(radius, speed, cant), rel=1e-4)
