@@ -67,6 +67,7 @@ def curves(run: Run) -> list[dict]:
                     "max_wear_number_n": [float(v) for v in np.max(wear[:, i], axis=0)],
                 }
             )
+        speed = float(np.interp(middle, run.station, run.speeds))  # on a speed profile, the curve's own
         out.append(
             {
                 "section": section.number,
@@ -75,9 +76,9 @@ def curves(run: Run) -> list[dict]:
                 "from_m": float(run.station[inside][0]),
                 "to_m": float(run.station[inside][-1]),
                 # Both positive outward (a deficiency), negative inward (an excess), on either hand.
-                "cant_deficiency_mm": -outward * float(track.cant_deficiency(middle, run.speed)) * MM_PER_M,
+                "cant_deficiency_mm": -outward * float(track.cant_deficiency(middle, speed)) * MM_PER_M,
                 "uncompensated_acceleration_m_per_s2": -outward
-                * float(track.uncompensated_acceleration(middle, run.speed)),
+                * float(track.uncompensated_acceleration(middle, speed)),
                 "wheelsets": wheelsets,
             }
         )
@@ -121,7 +122,7 @@ def steady_state(layout: Layout, radius: float, speed: float, cant: float = 0.0)
             raise CurvingError(
                 f"{layout.source}: no steady state on a {radius:g} m curve with {cant * MM_PER_M:g} mm cant at "
                 f"{speed:g} m/s: the solver stopped {residual:.2g} m/s^2 from it on the way, at a "
-                f"{radius / share:.4g} m curve ({solution.message.strip()})"
+                f"{radius / share:.4g} m curve ({' '.join(solution.message.split())})"
             )
         guess = solution.x
     model = vehicle.model

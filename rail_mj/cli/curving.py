@@ -46,6 +46,10 @@ def curving_cmd(layout, radius, radii, cant, speed, speeds, as_json):
                 raise Failure(str(e), EXIT_RUN_FAILED) from None
             except ValueError as e:
                 raise Failure(str(e), EXIT_BAD_INPUT) from None
+    for result in results:
+        warning = RANGES["track.cant_deficiency"].warning(round(result["cant_deficiency_mm"]))
+        if warning:
+            warn(f"{result['radius_m']:g} m curve at {result['speed_m_per_s']:g} m/s: cant deficiency {warning}")
     if as_json:
         click.echo(json.dumps(results, indent=2))
         return

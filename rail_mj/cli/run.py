@@ -18,10 +18,11 @@ from rail_mj.cli.options import (
     layout_of,
     track_of,
     uses_stdout,
+    warn,
 )
 from rail_mj.files import staged
 from rail_mj.layout import Layout
-from rail_mj.practice import max_initial_yaw
+from rail_mj.practice import RANGES, max_initial_yaw
 
 
 @click.command("generate")
@@ -119,6 +120,7 @@ def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw
     except ValueError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     result = summary(run)
+    _warn_deficiency(result)
     outputs = [p for p in (out, rrd) if p]
     try:
         with staged(outputs) as temps:  # both or neither
@@ -142,6 +144,14 @@ def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw
         click.echo(json.dumps(result, indent=2), err=to_stderr)
     else:
         _print_summary(result, to_stderr)
+
+
+def _warn_deficiency(result: dict) -> None:
+    """A warning for each curve run through with a cant deficiency or excess beyond practice."""
+    for curve in result.get("curves", []):
+        warning = RANGES["track.cant_deficiency"].warning(round(curve["cant_deficiency_mm"]))
+        if warning:
+            warn(f"curve {curve['section']} ({curve['radius_m']:g} m): cant deficiency {warning}")
 
 
 def _profile_of(text: str):

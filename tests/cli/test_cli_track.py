@@ -139,3 +139,19 @@ def test_curve_keys_belong_to_a_curving_sweep(capsys):
     assert err.strip() == "rail-mj: error: track.radius is a key of --method curving, not of run"
     status, _out, err = run(["sweep", BOGIE, "--method", "curving", "--speeds", "20:30:2", "-o", "x.csv"], capsys)
     assert status == 2 and "needs the curve's radius" in err
+
+
+def test_a_cant_deficiency_beyond_practice_is_warned_about(capsys):
+    """EN 13803's 150 mm for vehicles without tilt: 1.5*V^2/(g*R) - cant, on the 600 m curve with
+    150 mm cant, passes it at 34.3 m/s. One warning line per curve (run) or case (curving), the
+    result still given; none within practice."""
+    deficiency = round(1.5e3 * 36.0**2 / (9.81 * 600.0) - 150.0)  # mm, 180: small-angle form, to 1 mm
+    status, text, err = run(["run", BOGIE, "--speed", "36", "--distance", "580", "--track", CURVE], capsys)
+    assert status == 0 and f"deficiency {deficiency} mm" in text
+    (line,) = err.strip().splitlines()
+    assert line.startswith(f"rail-mj: warning: curve 3 (600 m): cant deficiency {deficiency} mm is")
+    assert "outside railway practice, -110 to 150 mm (EN 13803" in line
+    status, _text, err = run(["curving", BOGIE, "--radius", "600", "--cant", "0.15", "--speeds", "25:36:2"], capsys)
+    assert status == 0
+    (line,) = err.strip().splitlines()
+    assert line.startswith(f"rail-mj: warning: 600 m curve at 36 m/s: cant deficiency {deficiency} mm is")
