@@ -74,11 +74,33 @@ def band_pass(t: np.ndarray, signal: np.ndarray, f0: float) -> np.ndarray:
     return sosfiltfilt(sos, signal, axis=0)
 
 
+def curving_part(run: Run, signal: np.ndarray) -> np.ndarray:
+    """The part of `signal` (samples along axis 0, one column a wheelset) that follows the curve:
+    its least-squares fit, column by column, to the track's curvature and uncompensated
+    acceleration under that wheelset, which is what a linear vehicle's quasi-static response to
+    a slowly varying curve is made of (the steady state scales with both). No constant: where the
+    track is straight there is nothing quasi-static. Zero on straight track."""
+    if run.track is None or not np.any(run.wheelset_curvature):
+        return np.zeros_like(signal)
+    curvature = run.wheelset_curvature
+    acceleration = run.track.uncompensated_acceleration(run.wheelset_station, run.speeds[:, None])
+    flat = signal.reshape(len(signal), -1)
+    fitted = np.empty_like(flat)
+    for i in range(flat.shape[1]):
+        basis = np.column_stack([curvature[:, i], acceleration[:, i]])
+        coefficients = np.linalg.lstsq(basis, flat[:, i], rcond=None)[0]
+        fitted[:, i] = basis @ coefficients
+    return fitted.reshape(signal.shape)
+
+
 def hunting_rms(run: Run, guiding: np.ndarray | None = None) -> tuple[float, np.ndarray]:
     """EN 14363's f0 (Hz) and the band-passed sliding rms of each wheelset's Sigma Y (N,
     shape (n_samples, n_wheelsets), nan before the first full window). `guiding`: the
     run's guiding forces, if already computed."""
     guiding = run.guiding_forces() if guiding is None else guiding
+    # On a curve, of the forces about their quasi-static part: EN 14363's instability is the
+    # oscillation, and a low-pass (f0 <= 2 Hz) would keep the steady guiding force.
+    guiding = guiding - curving_part(run, guiding)
     f0 = dominant_frequency(run.t, guiding)
     return f0, sliding_rms(run.x, band_pass(run.t, guiding, f0), HUNTING_WINDOW)
 

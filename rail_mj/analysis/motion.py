@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from rail_mj.analysis.en14363 import hunting, hunting_assessable, wheel_safety
+from rail_mj.analysis.en14363 import curving_part, hunting, hunting_assessable, wheel_safety
 
 if TYPE_CHECKING:
     from rail_mj.simulation.run import Run
@@ -107,17 +107,19 @@ def summary(run: Run) -> dict:
     whole run, or, for a motion that decayed, of the motion while it lasted (not of the
     leftover drift of the bodies above, a thousandth of it)."""
     wheelsets = []
+    # On a curve the motion that grows, decays and has a frequency is about the curving offsets.
+    about = run.y - curving_part(run, run.y)
     for i in range(run.n_wheelsets):
-        y = run.y[:, i]
+        y = about[:, i]
         decayed = decayed_at(run.t, y)
         window = run.t <= (run.t[-1] if decayed is None else decayed)
         freq, sigma = oscillation(run.t[window], y[window])
         wheelsets.append(
             {
                 "wheelset": i + 1,
-                "max_abs_lateral_m": float(np.max(np.abs(y))),
+                "max_abs_lateral_m": float(np.max(np.abs(run.y[:, i]))),
                 "max_abs_yaw_rad": float(np.max(np.abs(run.psi[:, i]))),
-                "final_abs_lateral_m": float(np.max(np.abs(y[run.t >= 0.9 * run.t[-1]]))),
+                "final_abs_lateral_m": float(np.max(np.abs(run.y[run.t >= 0.9 * run.t[-1], i]))),
                 "decayed": decayed is not None,
                 "decayed_by_s": decayed,
                 "decayed_by_m": None if decayed is None else _distance_at(run, decayed),
@@ -126,6 +128,9 @@ def summary(run: Run) -> dict:
                 "wavelength_m": None if math.isnan(freq) else _mean_speed(run, window) / freq,
             }
         )
+    if run.track is not None:  # how large the motion about the curving offsets is
+        for w, column in zip(wheelsets, about.T, strict=True):
+            w["max_abs_lateral_about_curving_m"] = float(np.max(np.abs(column)))
     if run.profile is not None:  # on a speed profile, the speed the motion died at: the ramp's reading
         for w in wheelsets:
             at = w["decayed_by_s"]

@@ -288,11 +288,13 @@ def _print_summary(result: dict, err: bool = False) -> None:
             )
         say(line)
     if "track" in result:
-        # The motion figures and EN 14363's frequency are taken from the whole lateral motion, which
-        # on a curved track holds the quasi-static curving offsets as well as any oscillation.
+        # rail_mj.analysis.en14363.curving_part: the fit to the curvature and uncompensated
+        # acceleration under each wheelset that the motion figures are taken about.
+        largest = max(w["max_abs_lateral_about_curving_m"] for w in result["wheelsets"])
         say(
-            "on a curved track the wheelsets' figures above (and EN 14363's frequency) include their "
-            "curving offsets; each curve's steady values follow"
+            "on a curved track growth, frequency, wavelength, decay and EN 14363 are of the motion about the "
+            f"curving offsets (at most {largest * 1e3:.3f} mm); max|y| and end|y| include the offsets; "
+            "each curve's steady values follow"
         )
     for curve in result.get("curves", []):
         deficiency, a_nc = curve["cant_deficiency_mm"], curve["uncompensated_acceleration_m_per_s2"]
