@@ -159,12 +159,12 @@ def _pointer(typingctx, array):
 
 
 @numba.njit(cache=True)
-def tendon_shifts(data, k, speed, stations, lengths, rates):
+def tendon_shifts(data, k, speeds, stations, lengths, rates):
     """Add to recorded tendon `lengths` and `rates` (samples, ntendon) each sample's shifts
-    (`add_tendon_shifts`), the vehicle's origin at `stations` (samples,): the track part at `k`
-    of the native block `data` (the model's first numeric, as an array)."""
+    (`add_tendon_shifts`), the vehicle's origin at `stations` and its speed `speeds` (samples,):
+    the track part at `k` of the native block `data` (the model's first numeric, as an array)."""
     block = _pointer(data)
     scratch = np.empty(scratch_size(block, k))
     for i in range(stations.shape[0]):
-        e = curve_state(block, k, speed, stations[i], scratch)
+        e = curve_state(block, k, speeds[i], stations[i], scratch)
         add_tendon_shifts(block, k, e, scratch, lengths[i], rates[i])

@@ -105,13 +105,21 @@ class Sensors:
         lengths[:, self.tendons] = readings[:, self.tendon_length]
         rates[:, self.tendons] = readings[:, self.tendon_rate]
         if self.track_part is not None:  # the real deflections: plus each tendon's shift, per sample
-            from rail_mj.numerics import SPEED
+            from rail_mj.numerics import SPEED, SPEED_POINT, TRACK_HEADER
             from rail_mj.vehicle.poses import tendon_shifts
 
             start, k = self.track_part
             block = _block(self.model)
             stations = np.ascontiguousarray(readings[:, self.station], dtype=np.float64)
-            tendon_shifts(block, k, float(block[start + SPEED]), stations, lengths, rates)
+            # The speed at each sample: the block's, or on a speed profile the profile's at the
+            # station, which the odometer follows (rail_mj.simulation.curve.profiled_speed).
+            points = int(block[k + 7])
+            if points:
+                profile = block[k + TRACK_HEADER : k + TRACK_HEADER + SPEED_POINT * points].reshape(points, 2)
+                speeds = np.interp(stations, profile[:, 0], profile[:, 1])
+            else:
+                speeds = np.full(len(stations), float(block[start + SPEED]))
+            tendon_shifts(block, k, speeds, stations, lengths, rates)
         loads[..., 0], loads[..., 1] = self.axle_loads.evaluate(self.model, lengths, rates, self.prefix)
 
 
