@@ -126,3 +126,33 @@ def test_a_profile_runs_on_a_curved_track_as_on_a_straight_one():
     curved = simulate(layout, profile, 300.0, track=track)
     np.testing.assert_allclose(curved.station, straight.station, rtol=0, atol=1e-9)
     assert np.abs(curved.y).max() > 1e-3  # the curve moved the wheelsets: it was run
+
+
+def test_a_profiled_run_shows_its_speed_in_the_csv_the_recording_and_the_summary(tmp_path, capsys):
+    """The speed of every sample, as the odometer had it: the CSV's last column, the recording's
+    /vehicle/speed at the recorded samples, and in the JSON the profile and its speeds at the ends."""
+    import json
+
+    from rerun.chunk import RrdReader
+
+    from rail_mj.cli import main
+    from rail_mj.output.recording import SPEED_PATH
+
+    csv, rrd = tmp_path / "run.csv", tmp_path / "run.rrd"
+    argv = ["run", str(COACH), "--speed-profile", "0:50,200:40", "--distance", "300"]
+    assert main([*argv, "--out", str(csv), "--rrd", str(rrd), "--rrd-rate", "full", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["speed_profile"]["stations_m"] == [0.0, 200.0]
+    assert result["speed_profile"]["start_m_per_s"] == 50.0
+    assert result["speed_profile"]["end_m_per_s"] == pytest.approx(40.0, rel=1e-9)
+    assert "track" not in result and "curves" not in result  # straight track: no curve to report
+    header = csv.read_text().splitlines()[0].split(",")
+    values = np.loadtxt(csv, delimiter=",", skiprows=1)
+    assert header[-1] == "speed" and "curvature1" not in header
+    np.testing.assert_allclose(values[:, -1], SpeedProfile.parse("0:50,200:40").at(values[:, 1]), rtol=1e-8)
+    recorded = []
+    for chunk in RrdReader(str(rrd)).stream():
+        batch = chunk.to_record_batch()
+        if chunk.entity_path == SPEED_PATH and "Scalars:scalars" in batch.schema.names:
+            recorded += [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
+    np.testing.assert_allclose(recorded, values[:, -1], rtol=1e-9)
