@@ -163,6 +163,8 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, deceleration, as_json, 
     lay = layout_of(layout)
     check_speed_range(vmin, vmax)
     step = _check_step(step)
+    if deceleration is not None and method != "ramp":
+        raise Failure("--deceleration is for --method ramp", EXIT_BAD_INPUT)
     deceleration = _check_deceleration(deceleration)
     from rail_mj.simulation.runner import SimulationError
 

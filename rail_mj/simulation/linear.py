@@ -37,10 +37,12 @@ def state_matrix(
     forces: CreepForces | None = None,
     data: mujoco.MjData | None = None,
     qpos0: np.ndarray | None = None,
+    qvel0: np.ndarray | None = None,
 ) -> np.ndarray:
     """A (2nv x 2nv) of `model` with the creep forces acting, about qpos = qpos0 (default
-    the centred state, 0) and qvel = 0: `forces` (the Python callback), or by default the
-    native one at the speed the model carries (`rail_mj.simulation.native.set_speed`)."""
+    the centred state, 0) and qvel = qvel0 (default 0; a vehicle on a speed profile rolls at
+    its odometer's velocity): `forces` (the Python callback), or by default the native one at
+    the speed the model carries (`rail_mj.simulation.native.set_speed`)."""
     data = data or mujoco.MjData(model)
     nv = model.nv
     A = np.zeros((2 * nv, 2 * nv))
@@ -58,6 +60,8 @@ def state_matrix(
                 mujoco.mj_resetData(model, data)
                 if qpos0 is not None:
                     data.qpos[:] = qpos0
+                if qvel0 is not None:
+                    data.qvel[:] = qvel0
                 (data.qpos if j < nv else data.qvel)[j % nv] += sign * FD_STEP
                 mujoco.mj_forward(model, data)
                 acc.append(data.qacc.copy())

@@ -57,6 +57,8 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
             f"initial lateral {request.initial_lateral} m puts the wheels off the rails "
             f"(|y| must be below {DERAILMENT_LATERAL} m)"
         )
+    if request.state is not None and not (len(request.state) == 2 and all(np.ndim(v) == 1 for v in request.state)):
+        raise ValueError("state must be (qpos, qvel), a run's final_state")
     track, profile = request.track, request.profile
     if (track is not None or profile is not None) and python_callback:
         raise ValueError(
@@ -66,6 +68,14 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
         start = _start_station(request, None)
         track = Track.straight(start + distance + max(layout.wheelset_x) + 1.0, PROFILE_TRACK)
     vehicle = Vehicle(layout, track, profile)
+    if request.state is not None and (
+        len(request.state[0]) != vehicle.model.nq or len(request.state[1]) != vehicle.model.nv
+    ):
+        raise ValueError(
+            f"state has {len(request.state[0])} positions and {len(request.state[1])} velocities; this run's model "
+            f"has {vehicle.model.nq} and {vehicle.model.nv} (a state continues a run of the same layout, "
+            "track and speed profile, or lack of them)"
+        )
     duration = distance / speed
     if track is not None:
         start = _check_on_track(request, vehicle, track)
@@ -99,7 +109,8 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
 
 def _timestep(vehicle: Vehicle, python_callback: bool, speed: float, request: Request) -> float:
     """The run's timestep (rail_mj.simulation.timestep) at its speed, or on a speed profile the
-    smallest of those at its lowest and highest speeds; the vehicle's speed is left at `speed`."""
+    smallest of those at its lowest and highest speeds, each the timestep of the same vehicle at
+    that constant speed (on the same track, or none); the vehicle's speed is left at `speed`."""
     profile = request.profile
     if profile is None:
         set_speed(vehicle.model, speed)
@@ -107,10 +118,12 @@ def _timestep(vehicle: Vehicle, python_callback: bool, speed: float, request: Re
         return stable_timestep(vehicle, forces)
     start = speed_start = _start_station(request, vehicle)
     end = start + request.distance
+    track = vehicle.track
+    constant = Vehicle(request.layout, None if track is None or track.source == PROFILE_TRACK else track)
     steps = []
     for v in {profile.lowest(start, end), profile.highest(start, end)}:
-        set_speed(vehicle.model, v)
-        steps.append(stable_timestep(vehicle))
+        set_speed(constant.model, v)
+        steps.append(stable_timestep(constant))
     set_speed(vehicle.model, float(profile.at(speed_start)))
     return min(steps)
 

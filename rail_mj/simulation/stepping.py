@@ -202,7 +202,9 @@ class Pack:
                 self.state[1 + nq + place.odometer[1]] = run.prepared.request.speed
         else:
             self.state[1 + place.qpos], self.state[1 + nq + place.qvel] = run.state
-            if place.odometer is not None:  # continued at the request's speed, where it had come to
+            # Continued at the request's speed, where it had come to; on a speed profile the state's
+            # own (the profile's speed there, to its error), also when a run is repacked mid-way.
+            if place.odometer is not None and run.prepared.request.profile is None:
                 self.state[1 + nq + place.odometer[1]] = run.prepared.request.speed
 
     def state_of(self, m: int, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -526,6 +528,12 @@ def _derailed(p: Prepared, worst: int, j: int, t, derailment_lateral: float, for
         if r.layout.flange
         else "without [flange] contact nothing bounds the motion"
     )
+    speed, x = r.speed, r.speed * t[j]
+    if r.profile is not None and run is not None:  # where it left, at the speed it had there
+        x, speed = float(run.x[-1]), float(run.speeds[-1])
+        from rail_mj.vehicle.block import set_speed
+
+        set_speed(p.vehicle.model, speed)  # the run is over: its model is linearised at that speed
     if linearly_stable(p.vehicle, forces):
         start = (
             f"the start (shifted {r.initial_lateral:g} m, yawed {r.initial_yaw:g} rad)"
@@ -533,17 +541,17 @@ def _derailed(p: Prepared, worst: int, j: int, t, derailment_lateral: float, for
             else "the state it started from"
         )
         cause = (
-            f"At {r.speed:g} m/s the centred vehicle is stable (every linear mode decays), "
+            f"At {speed:.4g} m/s the centred vehicle is stable (every linear mode decays), "
             f"so {start} was too large a disturbance and {why}; start nearer the centre"
         )
     else:
         cause = (
-            f"{r.speed:g} m/s is above this vehicle's critical speed (a linear mode grows), "
+            f"{speed:.4g} m/s is above this vehicle's critical speed (a linear mode grows), "
             f"and {why}; lower --speed or shorten --distance"
         )
     return Derailed(
         f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
-        f"x = {r.speed * t[j]:.4g} m (t = {t[j]:.4g} s). {cause}",
+        f"x = {x:.4g} m (t = {t[j]:.4g} s). {cause}",
         run,
     )
 

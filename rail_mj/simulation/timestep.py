@@ -38,7 +38,8 @@ def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> floa
     need the smallest steps. `forces`: the Python callback, or None for the native one at
     the model's speed.
     """
-    rate = np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, forces))))
+    qvel0 = rolling(vehicle)
+    rate = np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, forces, qvel0=qvel0))))
     clearance = vehicle.layout.wheelset.flangeway_clearance
     # In flange contact the rail's stiffness and the steep radius rise add faster rates:
     # linearise there too, the whole vehicle pressed 2 mm into the flange springs; on
@@ -54,11 +55,27 @@ def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> floa
     if shift is not None:
         qpos0 = np.zeros(vehicle.model.nq)
         qpos0[vehicle.root_lateral_dofs] = shift
-        engaged = state_matrix(vehicle.model, forces, qpos0=qpos0)
+        engaged = state_matrix(vehicle.model, forces, qpos0=qpos0, qvel0=qvel0)
         rate = max(rate, np.max(np.abs(np.linalg.eigvals(engaged))))
     return min(MAX_TIMESTEP, STEP_FRACTION / rate) if rate > 0 else MAX_TIMESTEP
 
 
 def linearly_stable(vehicle: Vehicle, forces: CreepForces | None) -> bool:
     """Whether every mode of the vehicle linearised about the centred state decays."""
-    return bool(np.max(modal_roots(state_matrix(vehicle.model, forces)).real) < 0)
+    return bool(np.max(modal_roots(state_matrix(vehicle.model, forces, qvel0=rolling(vehicle))).real) < 0)
+
+
+def rolling(vehicle: Vehicle) -> np.ndarray | None:
+    """The velocities to linearise about: None (all zero) at a constant speed, which the
+    callback reads from the block; on a speed profile, whose speed is the odometer's velocity
+    (rail_mj.simulation.curve.profiled_speed), the odometer at the block's speed (set_speed)."""
+    if vehicle.profile is None:
+        return None
+    from rail_mj.numerics import SPEED
+    from rail_mj.vehicle.block import vehicle_starts
+    from rail_mj.vehicle.curve import ODOMETER
+
+    model = vehicle.model
+    qvel0 = np.zeros(model.nv)
+    qvel0[model.joint(ODOMETER).dofadr[0]] = model.numeric_data[vehicle_starts(model)[0] + SPEED]
+    return qvel0

@@ -336,8 +336,9 @@ def test_the_ramp_agrees_with_the_staircase_and_converges_as_it_slows(tmp_path):
     # frequency is that step's (zero crossings over 1 s against 1.5 s; 5.527 against 5.521 Hz measured, 1 % allowed).
     at = int(np.argmin(np.abs(np.array(branch.speeds) - stairs.critical_speed)))
     assert branch.frequencies[at] == pytest.approx(stairs.frequency, rel=0.01)
-    assert slow.frequency in branch.frequencies
-    assert branch.speeds[0] > slow.linear_critical_speed and not branch.alive[-1]
+    # It started on the flanges' limit cycle (past the clearance) and ended with the motion dead.
+    assert branch.amplitudes[0] > layout.wheelset.flangeway_clearance
+    assert branch.amplitudes[-1] < 0.05 * layout.wheelset.flangeway_clearance
 
 
 def test_cli_ramp_critical_speed(tmp_path, capsys):

@@ -138,6 +138,7 @@ HOSTILE = [
     ["critical-speed", WHEELSET, "--method", "ramp", "--deceleration", "nan"],
     ["critical-speed", WHEELSET, "--method", "ramp", "--deceleration", "50"],
     ["critical-speed", MODELS / "wagon" / "wagon.toml", "--method", "ramp"],
+    ["critical-speed", WHEELSET, "--deceleration", "0.1"],
     # speed profiles
     ["run", BOGIE, "--distance", "5"],
     ["run", BOGIE, "--speed", "30", "--speed-profile", "0:30", "--distance", "5"],

@@ -63,12 +63,20 @@ def test_bad_profiles_are_refused_in_one_line(text, says):
     assert "\n" not in str(caught.value)
 
 
-def test_a_profile_of_one_speed_is_the_constant_speed_run():
+@pytest.mark.parametrize(
+    "name, speed",
+    [("manchester-coach", 60.0), ("manchester-coach-s1002", 60.0), ("wheelset", 5.0)],
+)
+def test_a_profile_of_one_speed_is_the_constant_speed_run(name, speed):
     """One point: dV/ds = 0 everywhere, the odometer's force is zero and its velocity the run's
-    speed, so every operation is the constant run's: equal to the last bit."""
-    layout = load_layout(COACH)
-    constant = simulate(layout, 60.0, 150.0, initial_lateral=0.002)
-    profiled = simulate(layout, SpeedProfile((0.0,), (60.0,)), 150.0, initial_lateral=0.002)
+    speed, so every operation is the constant run's: equal to the last bit, the timestep too
+    (linearised with the odometer rolling at the speed: on profiles and at 5 m/s the contact,
+    not the 1 ms cap, sets it)."""
+    layout = load_layout(MODELS / name / f"{name}.toml")
+    constant = simulate(layout, speed, 150.0, initial_lateral=0.002)
+    profiled = simulate(layout, SpeedProfile((0.0,), (speed,)), 150.0, initial_lateral=0.002)
+    if name != "manchester-coach":
+        assert constant.timestep < 1e-3
     assert profiled.timestep == constant.timestep
     np.testing.assert_array_equal(profiled.y, constant.y)
     np.testing.assert_array_equal(profiled.psi, constant.psi)
@@ -156,3 +164,20 @@ def test_a_profiled_run_shows_its_speed_in_the_csv_the_recording_and_the_summary
         if chunk.entity_path == SPEED_PATH and "Scalars:scalars" in batch.schema.names:
             recorded += [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
     np.testing.assert_allclose(recorded, values[:, -1], rtol=1e-9)
+
+
+def test_profiled_runs_packed_together_are_each_the_run_alone():
+    """Runs on one speed profile share a model eight at a time; those that end early give their
+    places up and the rest are packed again, continuing with their odometers' own velocities
+    (not reset to the profile's start): each is the run alone, bit for bit."""
+    from rail_mj.simulation.batch import simulate_many
+    from rail_mj.simulation.run import Request
+
+    layout = load_layout(COACH)
+    profile = SpeedProfile.ramp(60.0, 45.0, 300.0)
+    requests = [Request(layout, 60.0, 40.0 + 25.0 * k, 0.0005 * (k % 4), profile=profile) for k in range(11)]
+    many = simulate_many(requests, threads=2)
+    for request, result in zip(requests, many):
+        alone = simulate(layout, profile, request.distance, request.initial_lateral)
+        np.testing.assert_array_equal(result.y, alone.y)
+        np.testing.assert_array_equal(result.station, alone.station)
