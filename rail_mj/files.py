@@ -27,6 +27,24 @@ _UMASK = os.umask(0o022)
 os.umask(_UMASK)
 
 
+# The largest input any command reads: a layout is a few kB, a measured profile or a track's
+# design geometry a few MB at most. Past it the file is not one of rail-mj's (/dev/zero, say).
+MAX_INPUT = 256 * 2**20  # bytes
+
+
+def read_input(path: str | os.PathLike) -> bytes:
+    """An input file's bytes: a regular file (a FIFO would block, a device need not end) of at
+    most MAX_INPUT bytes; OSError with a one-line strerror otherwise."""
+    info = os.stat(path)
+    if not stat.S_ISREG(info.st_mode):
+        raise OSError(errno.EINVAL, "not a regular file (a folder, a FIFO or a device)")
+    with open(path, "rb") as source:
+        data = source.read(MAX_INPUT + 1)
+    if len(data) > MAX_INPUT:
+        raise OSError(errno.EFBIG, f"larger than {MAX_INPUT >> 20} MB, more than any input of rail-mj's")
+    return data
+
+
 class OutputError(OSError):
     """An output that could not be written; the message names the user's path."""
 

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rail_mj.files import read_input
+
 E = 1500.0  # mm, distance between the contact points (standard gauge)
 R0 = 460.0  # mm, nominal rolling radius; neither changes λe (docs/conicity.md)
 DEFAULT_AMPLITUDES = tuple(0.5 * k for k in range(1, 21))  # mm: 0.5 to 10 in steps of 0.5
@@ -435,7 +437,7 @@ def read_delta_r_csv(path) -> tuple[list[float], list[float], list[int]]:
     """(y, Δr, line numbers) from a CSV with the header `y_mm,delta_r_mm`."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        text = read_input(path).decode("utf-8-sig")
     except (OSError, UnicodeDecodeError) as e:
         raise ConicityError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
     ys, drs, lines = [], [], []

@@ -47,6 +47,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rail_mj.files import read_input
+
 WHEEL = "wheel"
 RAIL = "rail"
 KINDS = (WHEEL, RAIL)
@@ -397,7 +399,7 @@ def read_profile(path, kind: str | None = None) -> Profile:
             f"expected .csv, .prw (SIMPACK wheel) or .prr (SIMPACK rail)"
         )
     try:
-        text = path.read_bytes().decode("utf-8-sig")
+        text = read_input(path).decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise ProfileError(f"{path}: not a text file (byte {e.start} is not UTF-8)") from None
     except OSError as e:

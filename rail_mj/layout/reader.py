@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import rail_mj.contact.derived as derive
 from rail_mj.contact.laws import FASTSIM, LAWS, LINEAR, POLACH, SHEN_HEDRICK_ELKINS  # noqa: F401  (re-exported)
 from rail_mj.contact.pair import STANDARD_PROFILES, Profiles, read_profiles
+from rail_mj.files import read_input
 from rail_mj.practice import RANGES
 from rail_mj.units import GRAVITY
 
@@ -682,7 +683,7 @@ def _creep(top: _Table, warnings: list[str]) -> tuple[GivenCreep, _Table]:
     f11, f22 = (t.positive("f11"), t.positive("f22")) if written else (None, None)
     f23, f33 = (t.non_negative("f23", 0.0), t.non_negative("f33", 0.0)) if written else (None, None)
     law = t.get("law", "linear")
-    if law not in LAWS:
+    if not isinstance(law, str) or law not in LAWS:
         t.fail("law", f"must be one of {', '.join(LAWS)}, got {law!r}")
     if law == "fastsim" and not (has_contact or profiled):
         # FASTSIM works on the contact ellipse itself, which f11..f33 do not give (docs/creep.md).
@@ -1557,7 +1558,7 @@ def load_layout(path: str | Path) -> Layout:
     """Read and check a layout file."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_input(path).decode("utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise LayoutError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
     try:

@@ -203,6 +203,9 @@ def recording_rate(run: Run) -> float:
 
 def _stride(fs: float, rate: float) -> int:
     """Keep one sample in this many for at least `rate` samples/s out of `fs`."""
+    # Capped at a billion samples: a rate so low (1e-308 /s) that one sample spans the run.
+    if rate <= fs * 1e-9:
+        return 10**9
     return max(1, math.floor(fs / rate * (1 + 1e-9)))  # 1e-9: 1000/(1000/3) is 3, not 2.99..
 
 

@@ -51,6 +51,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from rail_mj.files import read_input
 from rail_mj.practice import CANT_STEP, CURVATURE_STEP, RANGES
 from rail_mj.track.geometry import KINDS, Section, Track, TrackError
 
@@ -75,7 +76,7 @@ def load_track(path: str | Path) -> Track:
             f"{path}: a track file is .toml (sections) or .csv ({', '.join(CSV_COLUMNS)}), got {suffix or 'no suffix'}"
         )
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_input(path).decode("utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise TrackError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
     if suffix == ".csv":

@@ -642,3 +642,35 @@ def test_help_and_layout_errors_load_no_heavy_library(tmp_path):
     )
     result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert result.stdout.strip().splitlines()[-1] == "[0, 2] []"
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device"])
+def test_an_input_that_is_not_a_regular_file_is_refused_without_reading_it(kind, tmp_path, capsys):
+    """A FIFO would block the reader forever and /dev/zero never ends: both refused in one line,
+    unopened (the test would hang otherwise)."""
+    if kind == "fifo":
+        path = tmp_path / "layout.toml"
+        os.mkfifo(path)
+    else:
+        path = Path("/dev/zero")
+    status, _out, err = run(["run", path, "--speed", "30", "--distance", "5"], capsys)
+    assert status == 2 and "not a regular file" in one_line(err)
+    status, _out, err = run(["conicity", "--delta-r", path], capsys)
+    assert status == 2 and "not a regular file" in one_line(err)
+
+
+@pytest.mark.parametrize("law", ["[1]", "{a = 1}", "1"])
+def test_a_creep_law_that_is_not_a_name_is_refused_in_one_line(law, tmp_path, capsys):
+    text = WHEELSET.read_text().replace("f22 = 10.0e6\n", f"f22 = 10.0e6\nlaw = {law}\n")
+    path = tmp_path / "law.toml"
+    path.write_text(text)
+    status, _out, err = run(["run", path, "--speed", "30", "--distance", "5"], capsys)
+    assert status == 2 and "creep.law: must be one of linear" in one_line(err)
+
+
+def test_a_recording_rate_below_one_sample_a_run_keeps_the_ends(tmp_path, capsys):
+    rrd = tmp_path / "low.rrd"
+    status, _out, err = run(
+        ["run", WHEELSET, "--speed", "30", "--distance", "5", "--rrd", rrd, "--rrd-rate", "1e-308"], capsys
+    )
+    assert status == 0 and "Warning" not in err and rrd.stat().st_size > 0
