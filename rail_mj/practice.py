@@ -131,6 +131,27 @@ RANGES = {
     ),
     # Spin of a radian per millimetre rolled; not warned about within it.
     "contact.spin": Range((-1000.0, 1000.0), (-1000.0, 1000.0), "rad/m", "a radian per millimetre rolled", "any spin"),
+    # [contact]'s Young's modulus, wheel and rail alike. Steels are 200-215 GPa, cast iron and
+    # cast steel wheels down to about 170 GPa. Below 1 GPa (a soft polymer) a 60 kN wheel's
+    # Hertz ellipse grows past 35 mm, off the railhead; above 1000 GPa is stiffer than any
+    # metal (tungsten carbide is about 700 GPa).
+    "contact.young_modulus": Range(
+        (1e9, 1e12),
+        (150e9, 230e9),
+        "Pa",
+        "a polymer's to stiffer than any metal; beyond, the Hertz ellipse leaves the railhead",
+        "cast iron to steel",
+    ),
+    # The transverse radii of the rail head's crown and of the wheel's tread (rail_mj.contact.
+    # hertz). Rail heads are crowned at 80-600 mm (60E1's 300 mm, its corners 80 mm); a coned
+    # tread's radius is infinite, a worn one's a few hundred mm. Below a millimetre the contact
+    # is a knife edge, above 1000 km flat to any precision Hertz needs.
+    "contact.rail_transverse_radius": Range(
+        (1e-3, 1e6), (0.08, 1.0), "m", "a knife edge to flat", "rail heads crowned at 80-600 mm"
+    ),
+    "contact.wheel_transverse_radius": Range(
+        (1e-3, 1e6), (0.1, 1e6), "m", "a knife edge to flat", "worn treads of 100 mm and more, new ones flat"
+    ),
     # Kalker's coefficients are tabulated at nu = 0, 0.25 and 0.5 (an incompressible solid, the
     # largest an isotropic elastic solid has) and interpolated between: outside, extrapolated.
     # Steels are about 0.28-0.30; not warned about within the table.

@@ -590,7 +590,7 @@ def layout_from_dict(data: dict, source: str = "<layout>") -> Layout:
     designs = _bogie_designs(top, warnings, bogie, primary_spring, carbody, is_spatial, given_wheelset)
     wheel_load = _resolve_wheel_load(top, given_wheelset, given_creep, carbody, bogie, designs, derived)
     wheelset = given_wheelset.resolved(conicity, clearance, wheel_load)
-    contact = _contact(top, profiled=profiles is not None)
+    contact = _contact(top, warnings, profiled=profiles is not None)
     creep = _resolve_creep(top, given_creep, wheelset, contact, profiles, warnings, derived)
     creep_table.done()  # [creep]'s stray keys are reported after [contact]'s problems, as ever
     flange = _flange(top, creep.law, profiles is not None, wheelset.conicity)
@@ -785,7 +785,7 @@ def _carbody(top: _Table, warnings: list[str], bogie: Bogie | None, wheelset: Gi
     return carbody
 
 
-def _contact(top: _Table, profiled: bool) -> Contact | None:
+def _contact(top: _Table, warnings: list[str], profiled: bool) -> Contact | None:
     """[contact]: the bodies in contact (docs/contact.md). With [profiles] only the steel: the
     profiles give every point's curvatures."""
     if not _present(top, "contact"):
@@ -801,6 +801,13 @@ def _contact(top: _Table, profiled: bool) -> Contact | None:
         poisson_ratio=t.number("poisson_ratio", low=poisson[0], high=poisson[1]),
         rail_transverse_radius=None if profiled else t.positive("rail_transverse_radius"),
         wheel_transverse_radius=None if profiled else t.positive("wheel_transverse_radius", required=False),
+    )
+    _practice(
+        t,
+        warnings,
+        young_modulus=contact.young_modulus,
+        rail_transverse_radius=contact.rail_transverse_radius,
+        wheel_transverse_radius=contact.wheel_transverse_radius,
     )
     t.done()
     return contact

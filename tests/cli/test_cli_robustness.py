@@ -674,3 +674,23 @@ def test_a_recording_rate_below_one_sample_a_run_keeps_the_ends(tmp_path, capsys
         ["run", WHEELSET, "--speed", "30", "--distance", "5", "--rrd", rrd, "--rrd-rate", "1e-308"], capsys
     )
     assert status == 0 and "Warning" not in err and rrd.stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    "key, value, says",
+    [
+        ("young_modulus", "1e-300", "contact.young_modulus: must be between"),
+        ("young_modulus", "1e-3", "contact.young_modulus: must be between"),
+        ("rail_transverse_radius", "1e-300", "contact.rail_transverse_radius: must be between"),
+    ],
+)
+def test_a_contact_no_rail_has_is_refused_in_one_line(key, value, says, tmp_path, capsys):
+    """[contact] values that reached the unexpected-error handler (exit 3), or, at 1e-3 Pa, gave a
+    360 m Hertz ellipse without a word: refused by the table of practice."""
+    text = WHEELSET.read_text().replace("conicity = 0.1\n", "conicity = 0.1\nwheel_load = 60e3\n")
+    text = text.replace("f11 = 10.0e6\n", "").replace("f22 = 10.0e6\n", "")
+    contact = {"young_modulus": "210e9", "poisson_ratio": "0.28", "rail_transverse_radius": "0.3"} | {key: value}
+    path = tmp_path / "contact.toml"
+    path.write_text(text + "[contact]\n" + "".join(f"{k} = {v}\n" for k, v in contact.items()))
+    status, _out, err = run(["run", path, "--speed", "30", "--distance", "5"], capsys)
+    assert status == 2 and says in one_line(err)
