@@ -41,6 +41,7 @@ def generate_cmd(layout, out_dir):
 
     lay = layout_of(layout)
     check_outputs(layout, [("-o", out_dir)], folders=True)
+    _check_generated(layout, lay, out_dir)
     try:
         written = generate(lay, out_dir)
     except ValueError as e:
@@ -49,6 +50,18 @@ def generate_cmd(layout, out_dir):
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     for path in written:
         click.echo(str(path))
+
+
+def _check_generated(path: str, layout: Layout, out_dir: str) -> None:
+    """Refuse a folder in which `generate` would write over its own layout: DIR/<name>.xml,
+    DIR/scene.xml and anything under DIR/assets/."""
+    from pathlib import Path
+
+    folder = Path(out_dir).resolve()
+    source = Path(path).resolve()
+    written = {folder / f"{layout.name}.xml", folder / "scene.xml"}
+    if source in written or folder / "assets" in source.parents:
+        raise Failure(f"-o {out_dir}: would overwrite the layout file {path}", EXIT_BAD_INPUT)
 
 
 @click.command("run")

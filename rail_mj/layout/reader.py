@@ -1572,4 +1572,6 @@ def load_layout(path: str | Path) -> Layout:
         data = tomllib.loads(text)
     except ValueError as e:  # TOMLDecodeError, and integers too long to convert
         raise LayoutError(f"{path}: not valid TOML: {e}") from None
+    except RecursionError:  # arrays or tables nested hundreds deep: no layout is
+        raise LayoutError(f"{path}: not a layout: its arrays or tables are nested too deeply to read") from None
     return layout_from_dict(data, source=str(path))

@@ -115,7 +115,7 @@ def toml_value(text: str) -> Any:
     text as a string (`law=polach`)."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):
         return text
 
 

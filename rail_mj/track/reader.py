@@ -85,6 +85,8 @@ def load_track(path: str | Path) -> Track:
         data = tomllib.loads(text)
     except ValueError as e:  # TOMLDecodeError, and integers too long to convert
         raise TrackError(f"{path}: not valid TOML: {e}") from None
+    except RecursionError:  # arrays or tables nested hundreds deep: no track is
+        raise TrackError(f"{path}: not a track: its arrays or tables are nested too deeply to read") from None
     return track_from_dict(data, source=str(path))
 
 

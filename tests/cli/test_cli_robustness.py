@@ -694,3 +694,22 @@ def test_a_contact_no_rail_has_is_refused_in_one_line(key, value, says, tmp_path
     path.write_text(text + "[contact]\n" + "".join(f"{k} = {v}\n" for k, v in contact.items()))
     status, _out, err = run(["run", path, "--speed", "30", "--distance", "5"], capsys)
     assert status == 2 and says in one_line(err)
+
+
+def test_arrays_nested_a_thousand_deep_are_refused_in_one_line(tmp_path, capsys):
+    path = tmp_path / "deep.toml"
+    path.write_text('name = "w"\nx = ' + "[" * 1000 + "]" * 1000 + "\n")
+    status, _out, err = run(["run", path, "--speed", "30", "--distance", "5"], capsys)
+    assert status == 2 and "nested too deeply" in one_line(err)
+
+
+@pytest.mark.parametrize("name", ["wheelset.xml", "scene.xml", "assets/layout.toml"])
+def test_generate_never_writes_over_its_own_layout(name, tmp_path, capsys):
+    """A layout named as one of the files generate writes into -o DIR: refused, the layout intact."""
+    path = tmp_path / name
+    path.parent.mkdir(exist_ok=True)
+    text = WHEELSET.read_text()
+    path.write_text(text)
+    status, _out, err = run(["generate", path, "-o", tmp_path], capsys)
+    assert status == 2 and "would overwrite the layout file" in one_line(err)
+    assert path.read_text() == text
