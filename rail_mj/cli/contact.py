@@ -16,6 +16,7 @@ from rail_mj.cli.options import (
     check_finite,
     check_outputs,
     check_positive,
+    check_profile_outputs,
     layout_of,
     span_of,
     uses_stdout,
@@ -388,6 +389,7 @@ def contact_geometry_cmd(layout, out, png):
     angles, contact points, curvatures and two-point contacts."""
     check_outputs(layout, [("-o", out), ("--png", png)])
     lay = layout_of(layout)
+    check_profile_outputs(lay, [("-o", out), ("--png", png)])
     if lay.profiles is None:
         raise Failure(
             f"{layout}: profiles: no [profiles] table: contact geometry needs wheel and rail "

@@ -138,6 +138,19 @@ def check_outputs(
         raise Failure(f"cannot use the output path: {e}", EXIT_BAD_INPUT) from None
 
 
+def check_profile_outputs(layout, outputs: list[tuple[str, str | None]], folders: bool = False) -> None:
+    """`check_outputs` against the profile files a layout reads ([profiles] wheel and rail given
+    as files, not standard names): no output may be one of them."""
+    profiles = getattr(layout, "profiles", None)
+    if profiles is None:
+        return
+    from rail_mj.contact.pair import STANDARD_PROFILES
+
+    for kind, name in (("wheel", profiles.wheel), ("rail", profiles.rail)):
+        if name not in STANDARD_PROFILES[kind]:
+            check_outputs(name, outputs, folders, source=f"the {kind} profile file")
+
+
 def _check_output_paths(layout: str | None, outputs: list[tuple[str, str | None]], folders: bool, source: str) -> None:
     seen = {Path(layout).resolve(): source} if layout is not None else {}
     on_stdout = None

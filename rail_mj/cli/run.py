@@ -14,6 +14,7 @@ from rail_mj.cli.options import (
     EXIT_RUN_FAILED,
     Failure,
     check_outputs,
+    check_profile_outputs,
     check_speed,
     layout_of,
     track_of,
@@ -41,6 +42,7 @@ def generate_cmd(layout, out_dir):
 
     lay = layout_of(layout)
     check_outputs(layout, [("-o", out_dir)], folders=True)
+    check_profile_outputs(lay, [("-o", out_dir)], folders=True)
     _check_generated(layout, lay, out_dir)
     try:
         written = generate(lay, out_dir)
@@ -119,6 +121,7 @@ def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw
     _check_disturbance(lay, initial_lateral, initial_yaw)
     rate = _recording_rate(rrd_rate)
     check_outputs(layout, [("--out", out), ("--rrd", rrd)])
+    check_profile_outputs(lay, [("--out", out), ("--rrd", rrd)])
     if track is not None:
         check_outputs(track, [("--out", out), ("--rrd", rrd)], source="the track file")
     the_track = track_of(track)

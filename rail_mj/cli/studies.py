@@ -12,6 +12,7 @@ from rail_mj.cli.options import (
     EXIT_BAD_INPUT,
     Failure,
     check_outputs,
+    check_profile_outputs,
     csv_beside,
     layout_of,
     span_of,
@@ -76,12 +77,13 @@ from rail_mj.studies.span import GRID, SPEEDS, Span
 @click.option("--json", "as_json", is_flag=True, help="Print a summary as JSON.")
 def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, scheduler, rrd_dir, out, as_json):
     """Run LAYOUT over speeds and layout parameters: one row per case, in a table."""
-    layout_of(layout)
+    lay = layout_of(layout)
     speed_span = span_of("--speeds", speeds, SPEEDS)
     _check_executor(workers, scheduler)
     if Path(out).suffix not in (".csv", ".parquet"):
         raise Failure(f"-o {out}: the table must be .csv or .parquet", EXIT_BAD_INPUT)
     check_outputs(layout, [("-o", out)])
+    check_profile_outputs(lay, [("-o", out)])
     if track is not None:
         check_outputs(track, [("-o", out)], source="the track file")
         track_of(track)  # its warnings, once

@@ -713,3 +713,28 @@ def test_generate_never_writes_over_its_own_layout(name, tmp_path, capsys):
     status, _out, err = run(["generate", path, "-o", tmp_path], capsys)
     assert status == 2 and "would overwrite the layout file" in one_line(err)
     assert path.read_text() == text
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["contact-geometry", "{layout}", "-o", "{wheel}"],
+        ["run", "{layout}", "--speed", "30", "--distance", "5", "--out", "{wheel}"],
+        ["sweep", "{layout}", "--speeds", "30:40:2", "-o", "{wheel}"],
+    ],
+    ids=["contact-geometry", "run", "sweep"],
+)
+def test_no_output_is_a_profile_file_the_layout_reads(argv, tmp_path, capsys):
+    worn = MODELS / "manchester-coach-worn"
+    (tmp_path / "assets").mkdir()
+    wheel = tmp_path / "assets" / "s1002_worn.csv"
+    wheel.write_bytes((worn / "assets" / "s1002_worn.csv").read_bytes())
+    layout = tmp_path / "coach.toml"
+    layout.write_text((worn / "manchester-coach-worn.toml").read_text())
+    before = wheel.read_bytes()
+    argv = [a.format(layout=layout, wheel=wheel) for a in argv]
+    if argv[0] == "sweep":  # a sweep's table is .csv: the profile file is one
+        assert wheel.suffix == ".csv"
+    status, _out, err = run(argv, capsys)
+    assert status == 2 and "would overwrite the wheel profile file" in one_line(err)
+    assert wheel.read_bytes() == before
