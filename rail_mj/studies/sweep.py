@@ -185,8 +185,30 @@ class Case:
             what = [self.method, self.layout, self.params, self.curve, self.speed]
         else:  # a critical speed: its layout and the range searched
             what = [self.method, self.layout, self.params, self.speeds]
+        what.append(self._files_read())
         text = json.dumps(what, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def _files_read(self) -> dict[str, str]:
+        """The digest of each profile file the case's layout reads: the layout names the file,
+        and a resumed sweep must not mix results from its old and new contents."""
+        from rail_mj.contact.pair import STANDARD_PROFILES
+        from rail_mj.files import read_input
+
+        profiles = self.layout.get("profiles")
+        out: dict[str, str] = {}
+        if not isinstance(profiles, dict):
+            return out
+        base = Path(self.source).parent
+        for kind in ("wheel", "rail"):
+            name = profiles.get(kind)
+            if not isinstance(name, str) or name.lower() in STANDARD_PROFILES[kind]:
+                continue
+            try:
+                out[kind] = hashlib.sha256(read_input(base / name)).hexdigest()
+            except OSError as e:  # the case fails on it too, and says so
+                out[kind] = f"unreadable: {e}"
+        return out
 
 
 def plan(
