@@ -185,7 +185,9 @@ class Case:
             what = [self.method, self.layout, self.params, self.curve, self.speed]
         else:  # a critical speed: its layout and the range searched
             what = [self.method, self.layout, self.params, self.speeds]
-        what.append(self._files_read())
+        files = self._files_read()
+        if files:  # a layout without profile files keeps the key it had
+            what.append(files)
         text = json.dumps(what, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
