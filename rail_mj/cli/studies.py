@@ -19,6 +19,7 @@ from rail_mj.cli.options import (
     status_line,
     track_of,
     uses_stdout,
+    warn,
 )
 from rail_mj.files import staged
 from rail_mj.studies.span import GRID, SPEEDS, Span
@@ -111,6 +112,7 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
                 recordings=rrd_dir,
                 progress=progress,
                 track=track,
+                warn=warn,
             )
     except SweepError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None

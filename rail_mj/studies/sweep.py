@@ -545,6 +545,35 @@ def columns_of(cases: list[Case]) -> list[str]:
     return ["case", *params, "speed_m_per_s", *_results(method), *TAIL]
 
 
+def _kind(value) -> str | None:
+    """A JSON value's kind as a table column holds it (None: a missing value, any column's)."""
+    if value is None:
+        return None
+    if isinstance(value, bool):
+        return "bool"
+    if isinstance(value, int | float):
+        return "number"
+    if isinstance(value, str):
+        return "text"
+    if isinstance(value, list) and all(_kind(v) in (None, "number") for v in value):
+        return "numbers"
+    return "other"
+
+
+def _row_problem(row, kinds: dict[str, str]) -> str | None:
+    """Why a journal line is not a row (None: it is one, and `kinds` learns its columns' kinds)."""
+    if not isinstance(row, dict):
+        return f"is {type(row).__name__}, not a row"
+    if not isinstance(row.get("case_key"), str) or _kind(row.get("case")) != "number":
+        return "has no case and case key"
+    found = {column: _kind(value) for column, value in row.items()}
+    for column, kind in found.items():
+        if kind == "other" or (kind is not None and kinds.get(column, kind) != kind):
+            return f"has {column} of another kind than the other rows'"
+    kinds.update({c: k for c, k in found.items() if k is not None})
+    return None
+
+
 class Journal:
     """Rows as they finish, one JSON line each, flushed and synced: a sweep killed at any
     moment loses only the cases in flight. Beside the output: `<output>.journal`."""
@@ -552,20 +581,30 @@ class Journal:
     def __init__(self, output: Path):
         self.path = output.with_name(output.name + ".journal")
 
-    def read(self) -> list[dict]:
+    def read(self, set_aside: list[str] | None = None) -> list[dict]:
+        """The rows; a line that is not one (not JSON, not UTF-8, not an object with a case's key,
+        a value of another kind than the earlier rows' in its column) is left out, its case runs
+        again, and `set_aside` is told which line and why."""
         if not self.path.exists():
             return []
-        rows = []
-        lines = self.path.read_text(encoding="utf-8").split("\n")
-        for k, line in enumerate(lines):
-            if not line.strip():
+        rows: list[dict] = []
+        kinds: dict[str, str] = {}
+        lines = self.path.read_bytes().split(b"\n")
+        for k, raw in enumerate(lines):
+            if not raw.strip():
                 continue
             try:
-                rows.append(json.loads(line))
-            except json.JSONDecodeError:
+                row = json.loads(raw.decode("utf-8"))
+                problem = _row_problem(row, kinds)
+            except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
                 if k == len(lines) - 1:  # cut short by a kill mid-write: that case runs again
                     continue
-                raise SweepError(f"{self.path}: line {k + 1} is damaged; delete the journal to start again") from None
+                problem = "is not a JSON line"
+            if problem is not None:
+                if set_aside is not None:
+                    set_aside.append(f"{self.path}: line {k + 1} {problem}: set aside, its case runs again")
+                continue
+            rows.append(row)
         return rows
 
     def __enter__(self):
@@ -641,6 +680,7 @@ def sweep(
     recordings: str | Path | None = None,
     progress: Callable[[int, int, dict], None] | None = None,
     track: str | Path | None = None,
+    warn: Callable[[str], None] | None = None,
 ):
     """Run a sweep (see `plan`) and return its table (pyarrow), one row per case.
 
@@ -648,6 +688,7 @@ def sweep(
     `out` (.csv or .parquet) rows already there or in its journal are kept and not run
     again; the table is written there at the end. `progress(done, total, row)` is told
     each finished row. `track`: a track file every run follows (rail_mj.track; runs only).
+    `warn` is told each journal line set aside (not a row: its case runs again).
     """
     cases = plan(layout_path, speeds, sets, grids, method, distance, recordings, track)
     columns = columns_of(cases)
@@ -657,11 +698,15 @@ def sweep(
     if output is not None and (is_special(output) or output.is_dir()):
         raise SweepError(f"-o {output}: a sweep keeps its table in a regular file (it resumes from it)")
     kept: dict[str, dict] = {}
+    set_aside: list[str] = []  # journal lines that are no rows, for `warn`
     journal: Journal | None = None  # beside the output, if there is one
     if output is not None:
         journal = Journal(output)
         wanted = {c.key: c for c in cases}
-        for where, rows in ((output, read_table(output) if output.exists() else []), (journal.path, journal.read())):
+        for where, rows in (
+            (output, read_table(output) if output.exists() else []),
+            (journal.path, journal.read(set_aside)),
+        ):
             for row in rows:
                 if row.get("case_key") not in wanted:
                     raise SweepError(
@@ -670,6 +715,9 @@ def sweep(
                     )
                 if row.get("status") != "failed":  # a failure is a bug, perhaps mended since: again
                     kept[row["case_key"]] = {**row, "case": wanted[row["case_key"]].index}
+    for line in set_aside:
+        if warn is not None:
+            warn(line)
     todo = [c for c in cases if c.key not in kept]
     if recordings is not None and todo and method == "run":
         Path(recordings).mkdir(parents=True, exist_ok=True)

@@ -238,3 +238,23 @@ def test_a_case_key_changes_with_the_profile_file_it_reads(tmp_path):
     wheel.write_text("\n".join(lines[:-1]) + "\n")  # one point fewer: another wheel
     changed = [c.key for c in plan(layout, (30.0, 40.0, 2))]
     assert len(set(changed)) == 2 and not set(changed) & set(keys)
+
+
+@pytest.mark.parametrize(
+    "bad", [b"42", b"null", b"[]", b"\xff\xfe not utf-8", b'{"case": 0, "case_key": 7}', b"{not json"]
+)
+def test_a_journal_line_that_is_no_row_is_set_aside_and_the_rest_resumes(bad, tmp_path, capsys):
+    """A sweep's journal with one good row and then a bad line: the bad one is named by its line
+    number on stderr and its case runs again; the good row is kept as it was (its wall time too)."""
+    out = tmp_path / "sweep.csv"
+    sweep(WHEELSET, (30.0, 40.0, 2), distance=20.0, out=out)
+    first = sweep_module.read_table(out)[0]
+    out.unlink()
+    journal = Journal(out)
+    journal.path.write_bytes(json.dumps(first).encode() + b"\n" + bad + b"\n\n")
+    argv = ["sweep", str(WHEELSET), "--speeds", "30:40:2", "--distance", "20", "-o", str(out)]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert f"{journal.path}: line 2 " in err and "set aside, its case runs again" in err
+    rows = sweep_module.read_table(out)
+    assert len(rows) == 2 and rows[0] == first
