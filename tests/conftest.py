@@ -122,3 +122,15 @@ def standard():
     for column in table.columns.values():
         column.setflags(write=False)
     return table
+
+
+def worn_coach_copy(folder: Path) -> tuple[Path, Path]:
+    """The worn coach's layout and its wheel profile file copied into `folder`, as a user's own:
+    (layout, wheel profile file)."""
+    worn = MODELS / "manchester-coach-worn"
+    (folder / "assets").mkdir()
+    wheel = folder / "assets" / "s1002_worn.csv"
+    wheel.write_bytes((worn / "assets" / "s1002_worn.csv").read_bytes())
+    layout = folder / "coach.toml"
+    layout.write_text((worn / "manchester-coach-worn.toml").read_text())
+    return layout, wheel

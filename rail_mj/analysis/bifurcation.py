@@ -105,6 +105,34 @@ def follow(
     return branch
 
 
+def _bounded(layout: Layout):
+    """The layout's contact model, if it bounds hunting in a limit cycle (flange contact and a
+    saturating law); ValueError otherwise."""
+    contact = contact_model(layout)
+    if not contact.flanged or layout.creep.law == "linear":
+        raise ValueError(
+            f"{layout.source}: the nonlinear critical speed needs flange contact ([flange] or "
+            f"[profiles]) and a saturating creep law: without them hunting grows without bound"
+        )
+    return contact
+
+
+def _no_start(method: str, linear: CriticalSpeed, vmin: float, vmax: float, **more) -> CriticalSpeed:
+    """No nonlinear critical speed: no linear one to start from, and why."""
+    return CriticalSpeed(
+        method,
+        None,
+        None,
+        None,
+        vmin,
+        vmax,
+        f"no linear critical speed to start from: {linear.note}",
+        outcome=linear.outcome,
+        amplitude_mm=linear.amplitude_mm,
+        **more,
+    )
+
+
 def nonlinear_critical_speed(
     layout: Layout,
     vmin: float = 5.0,
@@ -123,25 +151,10 @@ def nonlinear_critical_speed(
     before the speed falls below the linear critical speed gives no nonlinear critical
     speed (the note says so): it is never reported above the linear one.
     """
-    contact = contact_model(layout)
-    if not contact.flanged or layout.creep.law == "linear":
-        raise ValueError(
-            f"{layout.source}: the nonlinear critical speed needs flange contact ([flange] or "
-            f"[profiles]) and a saturating creep law: without them hunting grows without bound"
-        )
+    contact = _bounded(layout)
     linear = Stability(layout, amplitude).critical_speed(vmin, vmax)
     if linear.critical_speed is None:
-        return CriticalSpeed(
-            "nonlinear",
-            None,
-            None,
-            None,
-            vmin,
-            vmax,
-            f"no linear critical speed to start from: {linear.note}",
-            outcome=linear.outcome,
-            amplitude_mm=linear.amplitude_mm,
-        ), None
+        return _no_start("nonlinear", linear, vmin, vmax), None
     vc = linear.critical_speed
     start = min(1.1 * linear.critical_speed, vmax)
     speeds = start * (1.0 - step) ** np.arange(int(math.log(vmin / start) / math.log(1.0 - step)) + 1)
@@ -295,28 +308,12 @@ def ramp_critical_speed(
     shrinking by more than SHRINKING from the first half of the piece to the second), and the
     frequency is the cycle's before its collapse began (RAMP_STEADY).
     """
-    contact = contact_model(layout)
-    if not contact.flanged or layout.creep.law == "linear":
-        raise ValueError(
-            f"{layout.source}: the nonlinear critical speed needs flange contact ([flange] or "
-            f"[profiles]) and a saturating creep law: without them hunting grows without bound"
-        )
+    contact = _bounded(layout)
     if not (math.isfinite(deceleration) and deceleration > 0):
         raise ValueError(f"the deceleration must be a positive number (m/s^2), got {deceleration}")
     linear = Stability(layout, amplitude).critical_speed(vmin, vmax)
     if linear.critical_speed is None:
-        return CriticalSpeed(
-            "ramp",
-            None,
-            None,
-            None,
-            vmin,
-            vmax,
-            f"no linear critical speed to start from: {linear.note}",
-            outcome=linear.outcome,
-            amplitude_mm=linear.amplitude_mm,
-            deceleration=deceleration,
-        ), None
+        return _no_start("ramp", linear, vmin, vmax, deceleration=deceleration), None
     vc = linear.critical_speed
     start = min(1.1 * vc, vmax)
     profile = deceleration_profile(start, vmin, deceleration)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import MODELS
+from conftest import MODELS, worn_coach_copy
 
 from rail_mj.cli import main
 from rail_mj.practice import RANGES, max_initial_yaw
@@ -725,12 +725,7 @@ def test_generate_never_writes_over_its_own_layout(name, tmp_path, capsys):
     ids=["contact-geometry", "run", "sweep"],
 )
 def test_no_output_is_a_profile_file_the_layout_reads(argv, tmp_path, capsys):
-    worn = MODELS / "manchester-coach-worn"
-    (tmp_path / "assets").mkdir()
-    wheel = tmp_path / "assets" / "s1002_worn.csv"
-    wheel.write_bytes((worn / "assets" / "s1002_worn.csv").read_bytes())
-    layout = tmp_path / "coach.toml"
-    layout.write_text((worn / "manchester-coach-worn.toml").read_text())
+    layout, wheel = worn_coach_copy(tmp_path)
     before = wheel.read_bytes()
     argv = [a.format(layout=layout, wheel=wheel) for a in argv]
     if argv[0] == "sweep":  # a sweep's table is .csv: the profile file is one

@@ -9,7 +9,7 @@ import sys
 import time
 
 import pytest
-from conftest import MODELS
+from conftest import MODELS, worn_coach_copy
 
 from rail_mj.analysis.stability import Stability
 from rail_mj.cli import main
@@ -226,12 +226,7 @@ def test_a_sweep_output_must_be_a_regular_file(tmp_path):
 def test_a_case_key_changes_with_the_profile_file_it_reads(tmp_path):
     """The layout names its wheel profile's file; a resumed sweep keys its cases by that file's
     contents too, so new contents under the old name are new cases, the same contents the same."""
-    worn = MODELS / "manchester-coach-worn"
-    (tmp_path / "assets").mkdir()
-    wheel = tmp_path / "assets" / "s1002_worn.csv"
-    wheel.write_bytes((worn / "assets" / "s1002_worn.csv").read_bytes())
-    layout = tmp_path / "coach.toml"
-    layout.write_text((worn / "manchester-coach-worn.toml").read_text())
+    layout, wheel = worn_coach_copy(tmp_path)
     keys = [c.key for c in plan(layout, (30.0, 40.0, 2))]
     assert [c.key for c in plan(layout, (30.0, 40.0, 2))] == keys
     lines = wheel.read_text().splitlines()
