@@ -6,7 +6,16 @@ import json
 
 import click
 
-from rail_mj.cli.options import EXIT_BAD_INPUT, EXIT_RUN_FAILED, Failure, check_speed, layout_of, span_of, warn
+from rail_mj.cli.options import (
+    EXIT_BAD_INPUT,
+    EXIT_RUN_FAILED,
+    Failure,
+    check_speed,
+    layout_of,
+    span_of,
+    warn,
+    warn_deficiency,
+)
 from rail_mj.practice import RANGES
 from rail_mj.studies.span import SPEEDS
 
@@ -47,9 +56,9 @@ def curving_cmd(layout, radius, radii, cant, speed, speeds, as_json):
             except ValueError as e:
                 raise Failure(str(e), EXIT_BAD_INPUT) from None
     for result in results:
-        warning = RANGES["track.cant_deficiency"].warning(round(result["cant_deficiency_mm"]))
-        if warning:
-            warn(f"{result['radius_m']:g} m curve at {result['speed_m_per_s']:g} m/s: cant deficiency {warning}")
+        warn_deficiency(
+            f"{result['radius_m']:g} m curve at {result['speed_m_per_s']:g} m/s", result["cant_deficiency_mm"]
+        )
     if as_json:
         click.echo(json.dumps(results, indent=2))
         return

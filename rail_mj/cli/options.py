@@ -63,6 +63,13 @@ def warn(text: str) -> None:
     click.echo(f"rail-mj: warning: {text}", err=True)
 
 
+def warn_deficiency(where: str, deficiency_mm: float) -> None:
+    """A warning for a cant deficiency (or excess) beyond practice (RANGES, track.cant_deficiency)."""
+    warning = RANGES["track.cant_deficiency"].warning(round(deficiency_mm))
+    if warning:
+        warn(f"{where}: cant deficiency {warning}")
+
+
 def check_speed(option: str, value: float) -> float:
     """A forward speed from the command line: positive, and not beyond any railway."""
     return check_positive(option, value, "speed")
@@ -141,7 +148,7 @@ def check_outputs(
 def check_profile_outputs(layout, outputs: list[tuple[str, str | None]], folders: bool = False) -> None:
     """`check_outputs` against the profile files a layout reads ([profiles] wheel and rail given
     as files, not standard names): no output may be one of them."""
-    profiles = getattr(layout, "profiles", None)
+    profiles = layout.profiles
     if profiles is None:
         return
     from rail_mj.contact.pair import STANDARD_PROFILES

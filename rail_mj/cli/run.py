@@ -19,11 +19,11 @@ from rail_mj.cli.options import (
     layout_of,
     track_of,
     uses_stdout,
-    warn,
+    warn_deficiency,
 )
 from rail_mj.files import staged
 from rail_mj.layout import Layout
-from rail_mj.practice import RANGES, max_initial_yaw
+from rail_mj.practice import max_initial_yaw
 
 
 @click.command("generate")
@@ -165,9 +165,7 @@ def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw
 def _warn_deficiency(result: dict) -> None:
     """A warning for each curve run through with a cant deficiency or excess beyond practice."""
     for curve in result.get("curves", []):
-        warning = RANGES["track.cant_deficiency"].warning(round(curve["cant_deficiency_mm"]))
-        if warning:
-            warn(f"curve {curve['section']} ({curve['radius_m']:g} m): cant deficiency {warning}")
+        warn_deficiency(f"curve {curve['section']} ({curve['radius_m']:g} m)", curve["cant_deficiency_mm"])
 
 
 def _profile_of(text: str):

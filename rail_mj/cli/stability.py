@@ -20,6 +20,7 @@ from rail_mj.cli.options import (
     span_of,
     status_line,
     uses_stdout,
+    warn,
 )
 from rail_mj.files import staged
 from rail_mj.layout import Layout
@@ -125,7 +126,7 @@ def _check_deceleration(deceleration: float | None) -> float:
         raise Failure(f"--deceleration {problem}", EXIT_BAD_INPUT)
     warning = limits.warning(deceleration)
     if warning is not None:
-        click.echo(f"warning: --deceleration {warning}", err=True)
+        warn(f"--deceleration {warning}")
     return deceleration
 
 

@@ -146,7 +146,7 @@ class Run:
     def psi(self) -> np.ndarray:
         return _yaw(self.body_quat[:, self.vehicle.wheelset_ids])
 
-    @property
+    @functools.cached_property
     def x(self) -> np.ndarray:
         """Distance travelled, m."""
         if self.profile is None:

@@ -118,8 +118,7 @@ def _timestep(vehicle: Vehicle, python_callback: bool, speed: float, request: Re
         return stable_timestep(vehicle, forces)
     start = speed_start = _start_station(request, vehicle)
     end = start + request.distance
-    track = vehicle.track
-    constant = Vehicle(request.layout, None if track is None or track.source == PROFILE_TRACK else track)
+    constant = Vehicle(request.layout, request.track)  # the request's own track: None if it gave none
     steps = []
     for v in {profile.lowest(start, end), profile.highest(start, end)}:
         set_speed(constant.model, v)

@@ -531,8 +531,6 @@ def _derailed(p: Prepared, worst: int, j: int, t, derailment_lateral: float, for
     speed, x = r.speed, r.speed * t[j]
     if r.profile is not None and run is not None:  # where it left, at the speed it had there
         x, speed = float(run.x[-1]), float(run.speeds[-1])
-        from rail_mj.vehicle.block import set_speed
-
         set_speed(p.vehicle.model, speed)  # the run is over: its model is linearised at that speed
     if linearly_stable(p.vehicle, forces):
         start = (

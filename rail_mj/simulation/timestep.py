@@ -38,8 +38,7 @@ def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> floa
     need the smallest steps. `forces`: the Python callback, or None for the native one at
     the model's speed.
     """
-    qvel0 = rolling(vehicle)
-    rate = np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, forces, qvel0=qvel0))))
+    rate = np.max(np.abs(np.linalg.eigvals(state_matrix(vehicle.model, forces))))
     clearance = vehicle.layout.wheelset.flangeway_clearance
     # In flange contact the rail's stiffness and the steep radius rise add faster rates:
     # linearise there too, the whole vehicle pressed 2 mm into the flange springs; on
@@ -55,7 +54,7 @@ def stable_timestep(vehicle: Vehicle, forces: CreepForces | None = None) -> floa
     if shift is not None:
         qpos0 = np.zeros(vehicle.model.nq)
         qpos0[vehicle.root_lateral_dofs] = shift
-        engaged = state_matrix(vehicle.model, forces, qpos0=qpos0, qvel0=qvel0)
+        engaged = state_matrix(vehicle.model, forces, qpos0=qpos0)
         rate = max(rate, np.max(np.abs(np.linalg.eigvals(engaged))))
     return min(MAX_TIMESTEP, STEP_FRACTION / rate) if rate > 0 else MAX_TIMESTEP
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import dataclasses
+import functools
 import hashlib
 import itertools
 import json
@@ -40,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from rail_mj.files import is_special, staged
+from rail_mj.files import is_special, read_input, staged
 from rail_mj.layout import LayoutError, layout_from_dict
 from rail_mj.studies.span import GRID, SEARCH, SWEEP, Span, SpanError
 from rail_mj.track import Track
@@ -173,9 +174,10 @@ class Case:
         assert self.speed is not None, f"case {self.index}: a {self.method} case has no speed"
         return self.speed
 
-    @property
+    @functools.cached_property
     def key(self) -> str:
-        """What determines the result: changes if the layout, method or case does."""
+        """What determines the result: changes if the layout, method or case does (worked out
+        once: it reads the profile files)."""
         what: list[object]
         if self.method == "run":  # a run: its layout, speed and distance (and track, if any)
             what = [self.method, self.layout, self.params, self.speed, self.distance]
@@ -195,7 +197,6 @@ class Case:
         """The digest of each profile file the case's layout reads: the layout names the file,
         and a resumed sweep must not mix results from its old and new contents."""
         from rail_mj.contact.pair import STANDARD_PROFILES
-        from rail_mj.files import read_input
 
         profiles = self.layout.get("profiles")
         out: dict[str, str] = {}
@@ -239,11 +240,13 @@ def plan(
         raise SweepError(f"distance must be a positive number, got {distance}")
     path = Path(layout_path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = tomllib.loads(read_input(path).decode("utf-8"))
     except (OSError, UnicodeDecodeError) as e:
         raise SweepError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise SweepError(f"{path}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise SweepError(f"{path}: not a layout: its arrays or tables are nested too deeply to read") from None
     curve: dict[str, float] = {}  # a curving sweep's curve keys given with --set
     for text in sets:
         key, value = parse_assignment(text, "--set")
@@ -325,7 +328,7 @@ def _track(path: str | Path | None, method: str) -> tuple[Track | None, str | No
         track = load_track(path)
     except TrackError as e:
         raise SweepError(str(e)) from None
-    return track, Path(path).read_text(encoding="utf-8")
+    return track, read_input(path).decode("utf-8")  # read and checked by load_track just before
 
 
 def _run_speeds(span: Span) -> list[float]:
