@@ -74,16 +74,19 @@ def band_pass(t: np.ndarray, signal: np.ndarray, f0: float) -> np.ndarray:
     return sosfiltfilt(sos, signal, axis=0)
 
 
-def curving_part(run: Run, signal: np.ndarray) -> np.ndarray:
+def curving_part(run: Run, signal: np.ndarray, stations: np.ndarray | None = None) -> np.ndarray:
     """The part of `signal` (samples along axis 0, one column a wheelset) that follows the curve:
     its least-squares fit, column by column, to the track's curvature and uncompensated
     acceleration under that wheelset, which is what a linear vehicle's quasi-static response to
     a slowly varying curve is made of (the steady state scales with both). No constant: where the
-    track is straight there is nothing quasi-static. Zero on straight track."""
+    track is straight there is nothing quasi-static. Zero on straight track. `stations`: the
+    distance along the track of each column's body, shaped like `signal` (None: the wheelsets')."""
     if run.track is None or not np.any(run.wheelset_curvature):
         return np.zeros_like(signal)
-    curvature = run.wheelset_curvature
-    acceleration = run.track.uncompensated_acceleration(run.wheelset_station, run.speeds[:, None])
+    if stations is None:
+        stations = run.wheelset_station
+    curvature = run.track.curvature(stations)
+    acceleration = run.track.uncompensated_acceleration(stations, run.speeds[:, None])
     flat = signal.reshape(len(signal), -1)
     fitted = np.empty_like(flat)
     for i in range(flat.shape[1]):

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from rail_mj.analysis.en14363 import curving_part, hunting, hunting_assessable, wheel_safety
+from rail_mj.layout.kinds import contact_model
 
 if TYPE_CHECKING:
     from rail_mj.simulation.run import Run
@@ -101,43 +102,169 @@ def decayed_at(t: np.ndarray, y: np.ndarray) -> float | None:
     return float(t[end])
 
 
+# A motion whose peaks over the second half of the run change by less than this fraction
+# neither grows nor decays to the eye: a limit cycle's.
+SUSTAINED_FRACTION = 0.05
+# A body coordinate that never moves more than this (m, or rad) is at rest: what it shows is
+# round-off (a symmetric start leaves a coach's car body unyawed to 1e-18 rad), not a motion.
+AT_REST = 1e-9
+# Of a body's lateral and yaw motion, one smaller than this fraction of the other (lateral metres
+# both) leaves the body's verdict to the other: a coach's car body, driven by its hunting bogies,
+# yaws by microradians, whose beating is no motion of its own.
+SIGNIFICANT = 0.1
+# What a body's motion is doing, from best to worst; a body's verdict is its worst coordinate's.
+MOTIONS = ("at rest", "decayed", "decaying", "not oscillating", "sustained", "growing")
+
+
+def _motion(run: Run, about: np.ndarray) -> dict:
+    """One coordinate's motion about its curving offsets: whether (and by when, and where) it
+    decayed; the growth rate, frequency and wavelength of the whole run or, for a motion that
+    decayed, of the motion while it lasted; and its verdict (`MOTIONS`), whose growing,
+    sustained or decaying is read from the peaks of the second half of the run, where a motion
+    that has reached its limit cycle has stopped growing."""
+    at_rest = np.max(np.abs(about)) <= AT_REST
+    decayed = float(run.t[0]) if at_rest else decayed_at(run.t, about)
+    window = run.t <= (run.t[-1] if decayed is None else decayed)
+    freq, sigma = oscillation(run.t[window], about[window])
+    if at_rest:
+        verdict = "at rest"
+    elif decayed is not None:
+        verdict = "decayed"
+    else:
+        late = _late(run)
+        late_sigma = oscillation(run.t[late], about[late])[1] if np.count_nonzero(late) > 2 else math.nan
+        change = math.exp(late_sigma * (run.t[-1] - run.t[late][0])) if not math.isnan(late_sigma) else math.nan
+        if math.isnan(change):
+            verdict = "not oscillating"
+        elif abs(change - 1.0) < SUSTAINED_FRACTION:
+            verdict = "sustained"
+        else:
+            verdict = "growing" if change > 1.0 else "decaying"
+    return {
+        "decayed": decayed is not None,
+        "decayed_by_s": decayed,
+        "decayed_by_m": None if decayed is None else _distance_at(run, decayed),
+        "growth_rate_per_s": None if math.isnan(sigma) else sigma,
+        "frequency_hz": None if math.isnan(freq) else freq,
+        "wavelength_m": None if math.isnan(freq) else _mean_speed(run, window) / freq,
+        "motion": verdict,
+    }
+
+
+def _late(run: Run) -> np.ndarray:
+    """The samples a motion's verdict is read from: the second half of the run, or on a track
+    the second half of the stretch over which the whole vehicle is on the section it ends on:
+    where the geometry under it still changes, the motion about the curving offsets holds the
+    transients of entering and leaving curves, which are no growth."""
+    start = 0.0
+    if run.track is not None:
+        last = run.track.section_at(float(run.wheelset_station[-1].max()))
+        on = np.all(run.wheelset_station >= last.start, axis=1)
+        start = float(run.t[np.argmax(on)]) if on.any() else float(run.t[-1])
+    return run.t >= (start + run.t[-1]) / 2
+
+
+def _frames(run: Run) -> list[dict]:
+    """Each bogie frame's and car body's largest lateral displacement and yaw and its motion: of
+    the worse of its lateral and yaw motions (lateral on a tie) among those that matter, so that a
+    car body yawing on its own reads as moving; a spatial body's largest roll too. A coordinate
+    matters when, over the second half of the run, it moves at least SIGNIFICANT of the other:
+    the yaw as the lateral motion it gives at the nearest wheelset (its lever, m)."""
+    names = run.frame_names
+    if not names:
+        return []
+    stations = run.frame_station
+    coordinates = {"lateral": run.frame_y, "yaw": run.frame_psi}
+    about = {c: v - curving_part(run, v, stations) for c, v in coordinates.items()}
+    offsets = stations[0] - run.station[0]
+    lever = np.min(np.abs(offsets[:, None] - np.asarray(run.layout.wheelset_x)[None, :]), axis=1)
+    late = _late(run)
+    reach = {
+        "lateral": np.max(np.abs(about["lateral"][late]), axis=0),
+        "yaw": lever * np.max(np.abs(about["yaw"][late]), axis=0),
+    }
+    roll = run.frame_roll if run.layout.spatial is not None else None
+    frames = []
+    for k, name in enumerate(names):
+        largest = max(r[k] for r in reach.values())
+        motions = {c: _motion(run, about[c][:, k]) for c in coordinates if reach[c][k] >= SIGNIFICANT * largest}
+        worst = max(motions, key=lambda c: MOTIONS.index(motions[c]["motion"]))
+        frame = {
+            "body": name,
+            "max_abs_lateral_m": float(np.max(np.abs(run.frame_y[:, k]))),
+            "max_abs_yaw_rad": float(np.max(np.abs(run.frame_psi[:, k]))),
+            "final_abs_lateral_m": float(np.max(np.abs(run.frame_y[run.t >= 0.9 * run.t[-1], k]))),
+        }
+        if roll is not None:
+            frame["max_abs_roll_rad"] = float(np.max(np.abs(roll[:, k])))
+        frame.update(motions[worst])
+        frame["coordinate"] = worst
+        if run.track is not None:
+            frame["max_abs_lateral_about_curving_m"] = float(np.max(np.abs(about["lateral"][:, k])))
+        frames.append(frame)
+    return frames
+
+
+def flange_contact(run: Run) -> dict | None:
+    """The run's flange contact: how many strikes (`flange_strikes`), per wheelset too; the
+    first (wheelset, rail, time and distance); and the largest lateral force of a flange on its
+    rail while in contact, where. None where the layout models no flange (cones without [flange])."""
+    if not contact_model(run.layout).flanged:
+        return None
+    strikes = flange_strikes(run)
+    per = [sum(s.wheelset == i for s in strikes) for i in range(run.n_wheelsets)]
+    result: dict = {"strikes": len(strikes), "strikes_per_wheelset": per, "first_strike": None}
+    result.update(largest_flange_force_n=None, largest_flange_force_at=None)
+    if not strikes:
+        return result
+
+    def where(wheelset: int, side: int, k: int) -> dict:
+        rail = "left" if side > 0 else "right"
+        return {"wheelset": wheelset + 1, "rail": rail, "t_s": float(run.t[k]), "x_m": float(run.x[k])}
+
+    first = min(strikes, key=lambda s: (s.start, s.wheelset))
+    result["first_strike"] = where(first.wheelset, first.side, first.start)
+    force = np.abs(run.contact_forces().flange_lateral)
+    # On profiles the flange entry also carries the tread's gravitational stiffness: only the
+    # samples in contact count.
+    best = max(strikes, key=lambda s: float(np.max(force[s.start : s.end, s.wheelset])))
+    k = best.start + int(np.argmax(force[best.start : best.end, best.wheelset]))
+    result["largest_flange_force_n"] = float(force[k, best.wheelset])
+    result["largest_flange_force_at"] = where(best.wheelset, best.side, k)
+    return result
+
+
 def summary(run: Run) -> dict:
     """Per wheelset: largest |y| and yaw, whether (and by when) the motion decayed, and
     the growth rate, dominant frequency and wavelength of the motion that matters: of the
     whole run, or, for a motion that decayed, of the motion while it lasted (not of the
-    leftover drift of the bodies above, a thousandth of it)."""
+    leftover drift of the bodies above, a thousandth of it). The same of each bogie frame and
+    car body (`frames`), the bodies whose motion grows or is sustained, and the flange contact."""
     wheelsets = []
     # On a curve the motion that grows, decays and has a frequency is about the curving offsets.
     about = run.y - curving_part(run, run.y)
     for i in range(run.n_wheelsets):
-        y = about[:, i]
-        decayed = decayed_at(run.t, y)
-        window = run.t <= (run.t[-1] if decayed is None else decayed)
-        freq, sigma = oscillation(run.t[window], y[window])
         wheelsets.append(
             {
                 "wheelset": i + 1,
                 "max_abs_lateral_m": float(np.max(np.abs(run.y[:, i]))),
                 "max_abs_yaw_rad": float(np.max(np.abs(run.psi[:, i]))),
                 "final_abs_lateral_m": float(np.max(np.abs(run.y[run.t >= 0.9 * run.t[-1], i]))),
-                "decayed": decayed is not None,
-                "decayed_by_s": decayed,
-                "decayed_by_m": None if decayed is None else _distance_at(run, decayed),
-                "growth_rate_per_s": None if math.isnan(sigma) else sigma,
-                "frequency_hz": None if math.isnan(freq) else freq,
-                "wavelength_m": None if math.isnan(freq) else _mean_speed(run, window) / freq,
+                **_motion(run, about[:, i]),
             }
         )
     if run.track is not None:  # how large the motion about the curving offsets is
         for w, column in zip(wheelsets, about.T, strict=True):
             w["max_abs_lateral_about_curving_m"] = float(np.max(np.abs(column)))
+    frames = _frames(run)
     if run.profile is not None:  # on a speed profile, the speed the motion died at: the ramp's reading
-        for w in wheelsets:
+        for w in wheelsets + frames:
             at = w["decayed_by_s"]
             w["decayed_at_speed_m_per_s"] = None if at is None else float(np.interp(at, run.t, run.speeds))
     safety = wheel_safety(run)
     for w, per in zip(wheelsets, safety["wheelsets"]):
         w.update(per)
+    bodies = [(f"wheelset{w['wheelset']}", w) for w in wheelsets] + [(f["body"], f) for f in frames]
     return {
         "layout": run.layout.name,
         "speed_m_per_s": run.speed,
@@ -145,6 +272,11 @@ def summary(run: Run) -> dict:
         "duration_s": float(run.t[-1]),
         "timestep_s": run.timestep,
         "wheelsets": wheelsets,
+        "frames": frames,
+        "decayed": all(b["decayed"] for _, b in bodies),
+        "growing": [name for name, b in bodies if b["motion"] == "growing"],
+        "sustained": [name for name, b in bodies if b["motion"] == "sustained"],
+        "flange_contact": flange_contact(run),
         "hunting": hunting(run),
         "hunting_note": hunting_assessable(run),
         **safety["run"],

@@ -271,11 +271,39 @@ def _print_summary(result: dict, err: bool = False) -> None:
             speed = "" if at is None else f", {at:.4g} m/s"
             line += f"  decayed by {w['decayed_by_s']:.3g} s ({w['decayed_by_m']:.4g} m{speed})"
         say(line)
-    if any(w["decayed"] for w in result["wheelsets"]):
-        say(
-            "decayed: |y| below 5 % of its largest value from then to the end; growth, frequency and "
-            "wavelength are those of the motion before"
+    if result["frames"]:
+        say("body      max|y| (mm)  end|y| (mm)  max|yaw| (mrad)  growth (1/s)  frequency (Hz)  motion")
+    for f in result["frames"]:
+        line = (
+            f"{f['body']:<8}  {f['max_abs_lateral_m'] * 1e3:>11.3f}  {f['final_abs_lateral_m'] * 1e3:>11.3f}  "
+            f"{f['max_abs_yaw_rad'] * 1e3:>15.4f}  {_fmt(f['growth_rate_per_s'], '>12.4f')}  "
+            f"{_fmt(f['frequency_hz'], '>14.4f')}  {f['motion']}"
         )
+        if f["decayed"] and f["motion"] != "at rest":
+            line += f" by {f['decayed_by_s']:.3g} s ({f['decayed_by_m']:.4g} m)"
+        elif f["coordinate"] == "yaw":
+            line += " (in yaw)"
+        say(line)
+    if any(b["decayed"] for b in result["wheelsets"] + result["frames"]):
+        say(
+            "decayed: |y| (a body's, or its yaw) below 5 % of its largest value from then to the end; growth, "
+            "frequency and wavelength are those of the motion before"
+        )
+    for verdict in ("growing", "sustained"):
+        if result[verdict]:
+            say(f"{verdict}: {', '.join(result[verdict])}")
+    flange = result["flange_contact"]
+    if flange is not None:
+        first, largest = flange["first_strike"], flange["largest_flange_force_at"]
+        if first is None:
+            say("flange contact: none")
+        else:
+            say(
+                f"flange contact: {flange['strikes']} strikes; first wheelset {first['wheelset']} on the "
+                f"{first['rail']} rail at x = {first['x_m']:.4g} m ({first['t_s']:.3g} s); largest flange force "
+                f"{flange['largest_flange_force_n'] / 1e3:.1f} kN, wheelset {largest['wheelset']} {largest['rail']} "
+                f"at x = {largest['x_m']:.4g} m"
+            )
     h = result.get("hunting")
     if h is not None:
         worst = max(h["max_rms_n"])

@@ -90,7 +90,7 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
         track_of(track)  # its warnings, once
     if rrd_dir:
         check_outputs(layout, [("--rrd-dir", rrd_dir)], folders=True)
-    from rail_mj.studies.sweep import SweepError, summarise, sweep
+    from rail_mj.studies.sweep import BRACKET_KEYS, SweepError, describe, summarise, sweep
 
     try:
         with status_line("sweep") as show:
@@ -126,10 +126,8 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
     counts = ", ".join(f"{k} {v}" for k, v in result["by_status"].items() if v)
     click.echo(f"{result['cases']} cases ({counts}), {result['wall_time_s']:.1f} s of computing: {out}")
     for bracket in result.get("brackets", []):
-        where = ", ".join(f"{k} = {v:g}" for k, v in bracket.items() if k != "critical_speed_bracket_m_per_s")
-        span = bracket["critical_speed_bracket_m_per_s"]
-        found = f"between {span[0]:g} and {span[1]:g} m/s" if span else "not within the speeds run"
-        click.echo(f"the motion stops decaying {found}" + (f" ({where})" if where else ""))
+        where = ", ".join(f"{k} = {v:g}" for k, v in bracket.items() if k not in BRACKET_KEYS)
+        click.echo(describe(bracket) + (f" ({where})" if where else ""))
 
 
 def _check_executor(workers: int | None, scheduler: str | None) -> None:

@@ -222,6 +222,12 @@ class Run:
         return self.body_pos[:, self._frame_ids, 1]
 
     @property
+    def frame_station(self) -> np.ndarray:
+        """(n_samples, n_frames): each of `frame_names`' distance along the track, m: the
+        vehicle's station and the body's own place along it, as `wheelset_station`."""
+        return self.station[:, None] + self.body_pos[0, self._frame_ids, 0][None, :]
+
+    @property
     def frame_psi(self) -> np.ndarray:
         """(n_samples, n_frames): yaw of each of `frame_names`, rad (absolute, like `psi`)."""
         quat = self.body_quat[:, self._frame_ids]

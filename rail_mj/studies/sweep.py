@@ -462,8 +462,7 @@ def _summarise_run(case: Case, layout, run) -> dict:
         raise run
     result = summary(run)
     wheelsets = result["wheelsets"]
-    # The motion that outlives the rest names the growth rate and frequency.
-    lasting = max(wheelsets, key=lambda w: w["final_abs_lateral_m"])
+    lasting = max(wheelsets + result["frames"], key=_lasting)
     hunting = result["hunting"]
     if case.recording is not None:
         from rail_mj.output.recording import write_recording
@@ -475,12 +474,22 @@ def _summarise_run(case: Case, layout, run) -> dict:
         "growth_rate_per_s": lasting["growth_rate_per_s"],
         "frequency_hz": lasting["frequency_hz"],
         "wavelength_m": lasting["wavelength_m"],
-        "decayed": all(w["decayed"] for w in wheelsets),
+        "decayed": result["decayed"],
         "flange_contact": bool(np.any(np.abs(run.y) > layout.wheelset.flangeway_clearance)),
         "hunting": None if hunting is None else hunting["hunting"],
         "hunting_rms_n": None if hunting is None else max(hunting["max_rms_n"]),
         "hunting_limit_n": None if hunting is None else hunting["limit_n"],
     }
+
+
+# Which body's motion names a run's growth rate and frequency: the one that outlives the rest,
+# among those that do not decay (growing or sustained) before those that do, wheelsets before
+# frames (a car body can grow alone, under wheelsets that settled: rail_mj.analysis.motion).
+_LASTING = {"growing": 2, "sustained": 2, "not oscillating": 1, "decaying": 1}
+
+
+def _lasting(body: dict) -> tuple:
+    return (_LASTING.get(body["motion"], 0), "wheelset" in body, body["final_abs_lateral_m"])
 
 
 def _curve_value(key: str, value: Any, method: str) -> float:
@@ -781,9 +790,13 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
 
 
 def summarise(table) -> dict:
-    """What a sweep found: cases by status, and for runs, per variant, the bracket of speeds
-    where the motion stops decaying (the last speed with negative growth and the first
-    with growth or a run that left the rails)."""
+    """What a sweep found: cases by status, and for runs, per variant, every range of speeds
+    where the motion does not decay (growth at the speed, or a run that left the rails; first
+    and last speed of each range, m/s) and the bracket where it first stops decaying (the last
+    stable speed below the lowest range and that range's first; None when the lowest speed run
+    is unstable already, or none is). Stability can come in windows: a freight wagon's car body
+    unstable at low speed, stable above, its bogies hunting higher still. Cases that failed or
+    were refused say nothing of stability and are left out."""
     rows = table.to_pylist()
     result = {
         "cases": len(rows),
@@ -798,18 +811,54 @@ def summarise(table) -> dict:
         ]
         groups: dict[tuple, list[dict]] = {}
         for r in rows:
-            groups.setdefault(tuple(r[p] for p in params), []).append(r)
+            if r["status"] in ("ok", "diverged"):
+                groups.setdefault(tuple(r[p] for p in params), []).append(r)
         brackets = []
         for key, group in groups.items():
             group.sort(key=lambda r: r["speed_m_per_s"])
-            unstable = [
-                (r["status"] == "diverged" or (r["status"] == "ok" and (r["growth_rate_per_s"] or 0) > 0))
-                for r in group
-            ]
+            speeds = [r["speed_m_per_s"] for r in group]
+            unstable = [r["status"] == "diverged" or (r["growth_rate_per_s"] or 0) > 0 for r in group]
+            ranges: list[list[float]] = []
+            for k, u in enumerate(unstable):
+                if u and (k == 0 or not unstable[k - 1]):
+                    ranges.append([speeds[k], speeds[k]])
+                elif u:
+                    ranges[-1][1] = speeds[k]
             first = next((k for k, u in enumerate(unstable) if u), None)
-            bracket = None
-            if first is not None and first > 0 and not unstable[first - 1]:
-                bracket = [group[first - 1]["speed_m_per_s"], group[first]["speed_m_per_s"]]
-            brackets.append({**dict(zip(params, key)), "critical_speed_bracket_m_per_s": bracket})
+            bracket = [speeds[first - 1], speeds[first]] if first else None
+            brackets.append(
+                {
+                    **dict(zip(params, key)),
+                    "critical_speed_bracket_m_per_s": bracket,
+                    "unstable_m_per_s": ranges,
+                    "speeds_m_per_s": [speeds[0], speeds[-1]],
+                }
+            )
         result["brackets"] = brackets
     return result
+
+
+# A bracket's own entries; the rest name its variant's parameters.
+BRACKET_KEYS = ("critical_speed_bracket_m_per_s", "unstable_m_per_s", "speeds_m_per_s")
+
+
+def describe(bracket: dict) -> str:
+    """One line of a `summarise` bracket: where the motion does not decay, and where it first stops."""
+    low, high = bracket["speeds_m_per_s"]
+    ranges = bracket["unstable_m_per_s"]
+    if not ranges:
+        return f"the motion decays at every speed run ({low:g} to {high:g} m/s)"
+
+    def span(a: float, b: float) -> str:
+        text = f"{a:g} m/s" if a == b else f"{a:g} to {b:g} m/s"
+        ends = [e for e, at in (("the lowest", a == low), ("the highest", b == high)) if at]
+        return text + (f" ({' and '.join(ends)} speed run)" if ends else "")
+
+    spans = [span(a, b) for a, b in ranges]
+    text = "the motion does not decay at " + ", ".join(spans[:-1]) + (" and " if len(spans) > 1 else "") + spans[-1]
+    first = bracket["critical_speed_bracket_m_per_s"]
+    if first is not None:
+        text += f"; it first stops decaying between {first[0]:g} and {first[1]:g} m/s"
+    if len(ranges) > 1:
+        text += "; stability comes in windows"
+    return text
