@@ -132,8 +132,14 @@ class SpatialModes:
         ends = self.half[body] ** 2 * m[0]
         if e[2] + e[4] > e[0] + e[1] + e[3]:
             return "bounce" if e[2] >= e[4] * ends / m[4] else "pitch"
+        # Roll carrying most of the lateral plane's energy is roll or a sway, whatever the round-off
+        # of the other two says (springs all at the centre of mass's height: roll alone, lateral and
+        # yaw at 1e-30, whose comparison would name it).
+        rolls = e[3] > e[0] + e[1]
         first = self._planar(body, energy)[0]
-        if first == YAW or e[3] < 0.05 * e[0]:
+        if rolls and e[0] < 0.05 * e[3]:
+            return ROLL
+        if not rolls and (first == YAW or e[3] < 0.05 * e[0]):
             return first
         if body not in self.cars:  # a frame's lateral and roll: no sway names (they are the body's)
             return "lateral/roll"

@@ -30,7 +30,7 @@ from rail_mj.analysis import late_motion, oscillation
 from rail_mj.layout import Layout
 from rail_mj.layout.kinds import Profiled, SpatialVehicle, TrainOfCars, contact_model, vehicle_kind
 from rail_mj.simulation.linear import RIGID_TOLERANCE, modal_roots, state_matrix
-from rail_mj.simulation.run import Derailed
+from rail_mj.simulation.run import Derailed, Run
 from rail_mj.simulation.runner import simulate
 from rail_mj.vehicle.block import set_speed
 from rail_mj.vehicle.joints import LATERAL, YAW
@@ -44,6 +44,16 @@ CRITICAL_XTOL = 1e-4  # relative; the issue asks for 0.1 % or better
 # Speeds (m/s) at which A(V) = A0 + D/V + G*V is sampled: spread by factors of 4, so that
 # the 3x3 fit is well conditioned and round-off stays that of the finite differences.
 SPEED_FIT = (10.0, 40.0, 160.0)
+# Round-off of a root, relative to its size |lambda|: the finite differences and the eigen solver
+# leave an undamped mode (a spatial vehicle without vertical dampers bounces freely) a real part
+# of up to 7e-15*|lambda| either side of zero, and split a double real root (two identical
+# vehicles) into a pair 4e-14 rad/s off the real axis (measured). A real or imaginary
+# part within NEUTRAL*|lambda| is zero: the mode neither grows nor decays (neutral), or does not
+# oscillate. It moves a critical speed by about 1e-9 of itself.
+NEUTRAL = 1e-10
+# A root this damped or more has a free decay whose first overshoot, exp(-pi*zeta/sqrt(1 - zeta^2)),
+# is under 1 % of its start (zeta = 0.826): no oscillation to see, and nothing to call hunting.
+APERIODIC_DAMPING = math.log(100.0) / math.hypot(math.pi, math.log(100.0))
 
 
 @dataclasses.dataclass
@@ -65,7 +75,18 @@ class Mode:
 
     @property
     def oscillatory(self) -> bool:
-        return self.eigenvalue.imag > 0
+        """Whether it oscillates: an imaginary part beyond round-off (NEUTRAL)."""
+        return self.eigenvalue.imag > NEUTRAL * abs(self.eigenvalue)
+
+    @property
+    def growing(self) -> bool:
+        """Whether it grows: a real part beyond round-off (NEUTRAL)."""
+        return self.eigenvalue.real > NEUTRAL * abs(self.eigenvalue)
+
+    @property
+    def neutral(self) -> bool:
+        """Undamped to round-off: it neither grows nor decays (NEUTRAL)."""
+        return abs(self.eigenvalue.real) <= NEUTRAL * abs(self.eigenvalue)
 
     def as_dict(self) -> dict:
         return {
@@ -224,14 +245,80 @@ class Stability:
 
     def modes(self, speed: float) -> list[Mode]:
         """Every mode at `speed`, least damped first (one of each complex pair)."""
+        return [mode for mode, _ in self._shapes(speed)]
+
+    def _shapes(self, speed: float) -> list[tuple[Mode, np.ndarray]]:
+        """`modes`, each with its eigenvector's displacements (nv, complex)."""
         A = self.state_matrix(speed)
         lam, vec = np.linalg.eig(A)
-        keep = (np.abs(lam) > RIGID_TOLERANCE * np.max(np.abs(lam))) & (lam.imag >= 0)
-        modes = [self._mode(root, vec[: self.model.nv, k]) for k, root in enumerate(lam) if keep[k]]
-        return sorted(modes, key=lambda m: -m.eigenvalue.real)
+        size = np.abs(lam)
+        # A pair within round-off of the real axis is two real roots (NEUTRAL): both kept, real.
+        real = np.abs(lam.imag) <= NEUTRAL * size
+        lam = np.where(real, lam.real + 0j, lam)
+        keep = (size > RIGID_TOLERANCE * np.max(size)) & ((lam.imag > 0) | real)
+        shapes = [
+            (self._mode(root, vec[: self.model.nv, k]), vec[: self.model.nv, k])
+            for k, root in enumerate(lam)
+            if keep[k]
+        ]
+        return sorted(shapes, key=lambda pair: -pair[0].eigenvalue.real)
+
+    def matching_mode(self, run: Run, frequency: float, speed: float) -> tuple[Mode, float] | None:
+        """The oscillatory mode at `speed` that the run's late motion is, and how well its shape
+        matches (the modal assurance criterion, 0 to 1: the late half of every body's lateral
+        displacement and yaw, taken at `frequency` (Hz, the motion's), each weighted by the
+        square root of its mass or yaw inertia, against the mode's absolute lateral and yaw of the
+        same bodies, weighted alike).
+
+        Of the modes in the lateral plane (lateral, yaw and roll carry most of their kinetic
+        energy: the motion is lateral) within MATCH_FREQUENCY of `frequency`, the least damped:
+        a train's bogies hunt in modes a thousandth apart that one run cannot tell apart, and the
+        one that stops decaying is the least damped. Without one, the mode whose shape matches
+        best. A spatial bogie frame's bounce can lie nearer the frequency than the lateral mode
+        does, and it is neither. None when no mode oscillates or nothing moves."""
+        names = [*run.vehicle.wheelset_names, *run.frame_names]
+        late = run.t >= run.t[-1] / 2
+        phasor = np.exp(-2j * np.pi * frequency * run.t[late])
+        signals = (np.hstack([run.y, run.frame_y])[late], np.hstack([run.psi, run.frame_psi])[late])
+        amplitudes = [(s - s.mean(axis=0)).T @ phasor for s in signals]
+        weights = np.sqrt(np.array([self._mass[n] for n in names]))  # (m, Iz) per body
+        measured = np.concatenate([weights[:, 0] * amplitudes[0], weights[:, 1] * amplitudes[1]])
+        rows = [np.array([self._absolute[n][c] for n in names]) for c in (0, 1)]
+        matches, near = [], []
+        for mode, q in self._shapes(speed):
+            if not mode.oscillatory:
+                continue
+            shape = np.concatenate([weights[:, 0] * (rows[0] @ q), weights[:, 1] * (rows[1] @ q)])
+            norm = np.vdot(measured, measured).real * np.vdot(shape, shape).real
+            mac = float(abs(np.vdot(shape, measured)) ** 2 / norm) if norm > 0 else 0.0
+            matches.append((mode, mac))
+            if abs(mode.frequency - frequency) <= MATCH_FREQUENCY * frequency and self._lateral_plane(q):
+                near.append((mode, mac))
+        if not matches:
+            return None
+        if near:
+            return max(near, key=lambda pair: pair[0].eigenvalue.real)
+        return max(matches, key=lambda pair: pair[1])
+
+    def _lateral_plane(self, q: np.ndarray) -> bool:
+        """Whether lateral, yaw and roll carry most of a mode's kinetic energy (always, planar)."""
+        if self._spatial_modes is None:
+            return True
+        energy = self._spatial_modes.energies(q)
+        lateral = sum(e[0] + e[1] + (e[3] if len(e) > 3 else 0.0) for e in energy.values())
+        return bool(lateral >= 0.5 * sum(e.sum() for e in energy.values()))
 
     def least_damped(self, speed: float) -> Mode:
         return self.modes(speed)[0]
+
+    def crossing_mode(self, speed: float) -> Mode:
+        """The mode that crosses into growth at the critical speed `speed`: the one that grows
+        most just above it (beyond the search's tolerance), taken at `speed` itself. Not simply
+        the least damped there: an undamped bounce (neutral) or a mode decaying at 1e-8 of its
+        size can lie nearer the axis than the crossing root within the search's tolerance."""
+        above = self.modes(speed * (1.0 + 2.0 * CRITICAL_XTOL))
+        crossing = max(above, key=lambda m: m.eigenvalue.real - NEUTRAL * abs(m.eigenvalue))
+        return min(self.modes(speed), key=lambda m: abs(m.eigenvalue - crossing.eigenvalue))
 
     # --- mode names ---------------------------------------------------------
 
@@ -245,11 +332,11 @@ class Stability:
             energy = self._spatial_modes.energies(q)
             total = sum(e.sum() for e in energy.values()) or 1.0
             share = {n: float(e.sum() / total) for n, e in energy.items()}
-            return Mode(complex(eigenvalue), self._spatial_modes.name(q, share, energy), share)
+            return _aperiodic(Mode(complex(eigenvalue), self._spatial_modes.name(q, share, energy), share))
         motion = {n: self._energies(n, jy @ q, jpsi @ q) for n, (jy, jpsi) in self._absolute.items()}
         total = sum(sum(e) for e in motion.values()) or 1.0
         share = {n: float(sum(e) / total) for n, e in motion.items()}
-        return Mode(complex(eigenvalue), self._name(q, share, motion), share)
+        return _aperiodic(Mode(complex(eigenvalue), self._name(q, share, motion), share))
 
     def _relative_energy(self, q: np.ndarray, wheelset: str) -> float:
         """Kinetic-energy measure of a wheelset's motion relative to its frame (the
@@ -325,24 +412,30 @@ class Stability:
         for k in range(len(speeds)):
             rising = growth[k] >= 0 and (k == 0 or growth[k - 1] < 0)
             if rising:
-                start = speeds[0] if k == 0 else _crossing(self.max_real_part, speeds[k - 1], speeds[k])
+                start = speeds[0] if k == 0 else _crossing(self.growth_margin, speeds[k - 1], speeds[k])
                 ranges.append([float(start), float(speeds[-1])])
             if k and growth[k] < 0 <= growth[k - 1]:
-                ranges[-1][1] = _crossing(self.max_real_part, speeds[k - 1], speeds[k])
+                ranges[-1][1] = _crossing(self.growth_margin, speeds[k - 1], speeds[k])
         return ranges
 
     def max_real_part(self, speed: float) -> float:
         return float(np.max(self.eigenvalues(speed).real))
+
+    def growth_margin(self, speed: float) -> float:
+        """The largest real part less its round-off, max(Re(lambda) - NEUTRAL*|lambda|): positive
+        where some mode grows, negative where every one decays or is neutral (undamped)."""
+        roots = self.eigenvalues(speed)
+        return float(np.max(roots.real - NEUTRAL * np.abs(roots)))
 
     def critical_speed(self, vmin: float = 5.0, vmax: float = 150.0, points: int = 60) -> CriticalSpeed:
         """Lowest speed in [vmin, vmax] where the least-damped root's real part crosses zero:
         a scan brackets it, Brent's method refines it to CRITICAL_XTOL."""
         _check_range(vmin, vmax)
         speeds = np.linspace(vmin, vmax, points)
-        growth = np.array([self.max_real_part(v) for v in speeds])
+        growth = np.array([self.growth_margin(v) for v in speeds])
         ranges = self._unstable_ranges(speeds, growth)
         if growth[0] >= 0:
-            mode = self.least_damped(vmin)
+            mode = max(self.modes(vmin), key=lambda m: m.eigenvalue.real - NEUTRAL * abs(m.eigenvalue))
             return CriticalSpeed(
                 "eigen",
                 None,
@@ -357,7 +450,7 @@ class Stability:
             )
         if ranges:
             vc = ranges[0][0]
-            mode = self.least_damped(vc)
+            mode = self.crossing_mode(vc)
             return CriticalSpeed(
                 "eigen",
                 vc,
@@ -383,6 +476,14 @@ class Stability:
         )
 
 
+def _aperiodic(mode: Mode) -> Mode:
+    """`mode`, a hunting name made '(aperiodic)' where the root does not oscillate or is damped
+    past APERIODIC_DAMPING: hunting is an oscillation."""
+    if mode.name.endswith(" hunting)") and (not mode.oscillatory or mode.damping_ratio >= APERIODIC_DAMPING):
+        return dataclasses.replace(mode, name=mode.name[: mode.name.rindex("(")] + "(aperiodic)")
+    return mode
+
+
 def _crossing(f, lo: float, hi: float) -> float:
     return float(brentq(f, lo, hi, xtol=CRITICAL_XTOL * lo, rtol=1e-12))
 
@@ -403,10 +504,12 @@ def _check_range(vmin: float, vmax: float) -> None:
 
 # --- critical speed in the time domain -------------------------------------
 
-MATCH_FREQUENCY = 0.03  # relative: a measured frequency this close names a linear mode
 TIME_DURATION = 20.0  # s simulated per speed: tens of hunting cycles at 1-10 Hz
 TIME_DISTURBANCE = (1e-4, 1e-5)  # initial lateral (m) and wheelset yaw (rad): small enough
 # that even a saturating law is linear to 1e-3 (u = F/(mu*N) ~ 0.02 for 0.1 mm)
+
+
+MATCH_FREQUENCY = 0.03  # relative: modes this near the measured frequency can be the motion's
 
 
 def late_growth(run) -> tuple[float, float]:
@@ -435,11 +538,14 @@ def time_critical_speed(
     _check_range(vmin, vmax)
     y0, psi0 = TIME_DISTURBANCE
     measured: dict[float, tuple[float, float]] = {}  # speed -> (growth 1/s, frequency Hz)
+    latest: dict[float, Run] = {}  # the last run, whose motion names the mode if it is at vc
 
     def measure(speed: float) -> tuple[float, float]:
         if speed not in measured:
             try:
                 run = simulate(layout, speed, speed * duration, y0, psi0)
+                latest.clear()
+                latest[speed] = run
                 sigma, freq = late_growth(run)
                 if not math.isfinite(sigma):
                     sigma = -1.0  # not a single cycle left in the second half: decayed
@@ -480,20 +586,19 @@ def time_critical_speed(
                 return CriticalSpeed(
                     "time", vc, None, None, vmin, vmax, "the disturbed motion stops decaying; no frequency measured"
                 )
-            modes = [m for m in Stability(layout).modes(vc) if m.oscillatory]
-            # Of the modes at the measured frequency (a train's bogies hunt at frequencies a
-            # thousandth apart), the least damped: the one that stops decaying at vc.
-            near = [m for m in modes if abs(m.frequency - freq) <= MATCH_FREQUENCY * freq]
-            name = (
-                max(near, key=lambda m: m.eigenvalue.real).name
-                if near
-                else min(modes, key=lambda m: abs(m.frequency - freq)).name
-                if modes
-                else None
-            )
-            return CriticalSpeed(
-                "time", vc, freq, name, vmin, vmax, "the disturbed motion stops decaying; mode matched by frequency"
-            )
+            # The mode is the one whose shape the growing motion has (rail_mj.analysis.stability.matching_mode).
+            run = latest.get(vc)
+            if run is None:
+                try:
+                    run = simulate(layout, vc, vc * duration, y0, psi0)
+                except Derailed as e:  # what it ran before it left the rails
+                    run = e.run
+            match = None if run is None or len(run.t) < 3 else Stability(layout).matching_mode(run, freq, vc)
+            name, note = None, "the disturbed motion stops decaying"
+            if match is not None:
+                name = match[0].name
+                note += f"; mode matched by shape (modal assurance {match[1]:.2f})"
+            return CriticalSpeed("time", vc, freq, name, vmin, vmax, note)
     return CriticalSpeed(
         "time",
         None,

@@ -74,7 +74,8 @@ def eigen_cmd(layout, speed, as_json, amplitude):
             json.dumps(
                 {
                     "speed_m_per_s": speed,
-                    "stable": all(m.eigenvalue.real < 0 for m in modes),
+                    "stable": not any(m.growing for m in modes),
+                    "neutral": [m.name for m in modes if m.neutral],
                     "modes": [m.as_dict() for m in oscillatory],
                     "aperiodic_roots": aperiodic,
                     "amplitude_mm": stability.amplitude,
@@ -96,7 +97,10 @@ def eigen_cmd(layout, speed, as_json, amplitude):
         )
     if aperiodic:
         click.echo(f"aperiodic roots (1/s): {', '.join(f'{r:.4g}' for r in sorted(aperiodic, reverse=True))}")
-    unstable = [m.name for m in modes if m.eigenvalue.real >= 0]
+    neutral = [m.name for m in modes if m.neutral]
+    if neutral:  # rail_mj.analysis.stability.NEUTRAL
+        click.echo(f"neutral (undamped, to round-off): {', '.join(neutral)}")
+    unstable = [m.name for m in modes if m.growing]
     click.echo(f"unstable at {speed:g} m/s: {', '.join(unstable)}" if unstable else f"stable at {speed:g} m/s")
 
 
