@@ -29,6 +29,7 @@ from rail_mj.analysis import late_motion, oscillation
 from rail_mj.analysis.stability import CriticalSpeed, Stability
 from rail_mj.layout import Layout
 from rail_mj.layout.kinds import Profiled, contact_model
+from rail_mj.practice import RANGES
 from rail_mj.simulation.runner import simulate
 from rail_mj.track import SpeedProfile, Track
 from rail_mj.track.speed import PROFILE_TRACK
@@ -117,6 +118,33 @@ def _bounded(layout: Layout):
     return contact
 
 
+# m/s: the top of the linear critical speed's search when no vmax is given: the table of practice's
+# limit on speeds (twice the wheel-on-rail record). A vehicle whose nonlinear critical speed lies
+# far below its linear one (an EMU's 94 m/s under 154) starts from its linear one wherever it is.
+SEARCH_LIMIT = RANGES["speed"].refuse[1]
+
+
+def _linear_start(
+    layout: Layout, amplitude: float | None, vmin: float, vmax: float | None
+) -> tuple[CriticalSpeed, float]:
+    """The linear critical speed a limit cycle is started above, searched from `vmin` to `vmax`
+    (None: to SEARCH_LIMIT), and the top speed the start is held to. Where a given `vmax` is
+    too low for it, the note says which vmax is needed."""
+    top = SEARCH_LIMIT if vmax is None else vmax
+    stability = Stability(layout, amplitude)
+    linear = stability.critical_speed(vmin, top)
+    if linear.critical_speed is None and linear.outcome == "stable" and top < SEARCH_LIMIT:
+        beyond = stability.critical_speed(top, SEARCH_LIMIT)
+        if beyond.critical_speed is not None:
+            needed = 1.1 * beyond.critical_speed
+            note = (
+                f"{linear.note}; the linear critical speed is {beyond.critical_speed:.1f} m/s: a vmax "
+                f"of {math.ceil(needed):g} m/s (1.1 times it, where the limit cycle starts) or none finds it"
+            )
+            linear = dataclasses.replace(linear, note=note)
+    return linear, top
+
+
 def _no_start(method: str, linear: CriticalSpeed, vmin: float, vmax: float, **more) -> CriticalSpeed:
     """No nonlinear critical speed: no linear one to start from, and why."""
     return CriticalSpeed(
@@ -136,7 +164,7 @@ def _no_start(method: str, linear: CriticalSpeed, vmin: float, vmax: float, **mo
 def nonlinear_critical_speed(
     layout: Layout,
     vmin: float = 5.0,
-    vmax: float = 150.0,
+    vmax: float | None = None,
     step: float = STEP,
     dwell: float = DWELL,
     progress: Callable[[str], None] | None = None,
@@ -152,7 +180,7 @@ def nonlinear_critical_speed(
     speed (the note says so): it is never reported above the linear one.
     """
     contact = _bounded(layout)
-    linear = Stability(layout, amplitude).critical_speed(vmin, vmax)
+    linear, vmax = _linear_start(layout, amplitude, vmin, vmax)
     if linear.critical_speed is None:
         return _no_start("nonlinear", linear, vmin, vmax), None
     vc = linear.critical_speed
@@ -232,7 +260,7 @@ def nonlinear_critical_speed(
 def bifurcation(
     layout: Layout,
     vmin: float = 5.0,
-    vmax: float = 150.0,
+    vmax: float | None = None,
     step: float = STEP,
     dwell: float = DWELL,
     progress: Callable[[str], None] | None = None,
@@ -291,7 +319,7 @@ def deceleration_profile(start: float, end: float, deceleration: float, settle: 
 def ramp_critical_speed(
     layout: Layout,
     vmin: float = 5.0,
-    vmax: float = 150.0,
+    vmax: float | None = None,
     deceleration: float = RAMP_DECELERATION,
     progress: Callable[[str], None] | None = None,
     amplitude: float | None = None,
@@ -311,7 +339,7 @@ def ramp_critical_speed(
     contact = _bounded(layout)
     if not (math.isfinite(deceleration) and deceleration > 0):
         raise ValueError(f"the deceleration must be a positive number (m/s^2), got {deceleration}")
-    linear = Stability(layout, amplitude).critical_speed(vmin, vmax)
+    linear, vmax = _linear_start(layout, amplitude, vmin, vmax)
     if linear.critical_speed is None:
         return _no_start("ramp", linear, vmin, vmax, deceleration=deceleration), None
     vc = linear.critical_speed

@@ -56,6 +56,21 @@ def _linearised(stability) -> str:
     return f" ({text})" if text else ""
 
 
+# m/s: the eigen and time searches' top speed when no --vmax is given.
+DEFAULT_VMAX = 150.0
+
+
+def _warn_record(result) -> None:
+    """A warning when a nonlinear search started above the table of practice's usual speeds."""
+    linear = result.linear_critical_speed
+    usual = RANGES["speed"].usual[1]
+    if linear is not None and 1.1 * linear > usual:
+        warn(
+            f"the limit cycle was started at {1.1 * linear:.1f} m/s, 1.1 times the linear critical speed, beyond "
+            f"{RANGES['speed'].practice} ({usual:g} m/s; docs/practice.md)"
+        )
+
+
 @click.command("eigen")
 @click.argument("layout", type=click.Path(dir_okay=False))
 @click.option("--speed", type=float, required=True, help="Forward speed, m/s.")
@@ -147,7 +162,12 @@ def _check_deceleration(deceleration: float | None) -> float:
     "[profiles] and a saturating creep law).",
 )
 @click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed searched, m/s.")
-@click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed searched, m/s.")
+@click.option(
+    "--vmax",
+    type=float,
+    help="Highest speed searched, m/s  [default: 150; nonlinear and ramp: the linear critical speed they "
+    "start above is searched up to 320, the table of practice's limit]",
+)
 @click.option(
     "--step",
     type=float,
@@ -166,7 +186,9 @@ def _check_deceleration(deceleration: float | None) -> float:
 def critical_speed_cmd(layout, method, vmin, vmax, step, deceleration, as_json, amplitude):
     """The lowest speed at which LAYOUT stops being stable, and the mode that sets it."""
     lay = layout_of(layout)
-    check_speed_range(vmin, vmax)
+    if vmax is None and method in ("eigen", "time"):
+        vmax = DEFAULT_VMAX
+    check_speed_range(vmin, DEFAULT_VMAX if vmax is None else vmax)
     step = _check_step(step)
     if deceleration is not None and method != "ramp":
         raise Failure("--deceleration is for --method ramp", EXIT_BAD_INPUT)
@@ -194,6 +216,7 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, deceleration, as_json, 
         raise Failure(str(e), EXIT_RUN_FAILED) from None
     except ValueError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
+    _warn_record(result)
     if as_json:
         click.echo(json.dumps(result.as_dict(), indent=2))
     elif result.critical_speed is None:
@@ -208,7 +231,7 @@ def critical_speed_cmd(layout, method, vmin, vmax, step, deceleration, as_json, 
         )
         if result.linear_critical_speed is not None:
             click.echo(f"linear critical speed: {result.linear_critical_speed:.2f} m/s; {result.note}")
-        if len(result.unstable_ranges) > 1 or (result.unstable_ranges and result.unstable_ranges[0][1] < vmax):
+        if len(result.unstable_ranges) > 1 or (result.unstable_ranges and result.unstable_ranges[0][1] < result.vmax):
             spans = "; ".join(f"{a:.1f}-{b:.1f}" for a, b in result.unstable_ranges)
             click.echo(f"unstable ranges (m/s): {spans}")
 
@@ -256,7 +279,12 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
     "--csv", "csv_path", type=click.Path(dir_okay=False), help="The data as CSV [default: the plot's name with .csv]."
 )
 @click.option("--vmin", type=float, default=5.0, show_default=True, help="Lowest speed, m/s.")
-@click.option("--vmax", type=float, default=150.0, show_default=True, help="Highest speed, m/s.")
+@click.option(
+    "--vmax",
+    type=float,
+    help="Highest speed, m/s  [default: none, the linear critical speed the branches start above is "
+    "searched up to 320, the table of practice's limit]",
+)
 @click.option(
     "--step",
     type=float,
@@ -268,7 +296,7 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
 def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
     """Limit-cycle amplitude of LAYOUT against speed: both branches, both critical speeds."""
     lay = layout_of(layout)
-    check_speed_range(vmin, vmax)
+    check_speed_range(vmin, DEFAULT_VMAX if vmax is None else vmax)
     step = _check_step(step)
     csv_path = csv_beside(out, csv_path, "the plot and the data")
     check_outputs(layout, [("-o", out), ("--csv", csv_path)])
@@ -286,6 +314,7 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
         raise Failure(str(e), EXIT_RUN_FAILED) from None
     if down is None:
         raise Failure(f"{layout}: {critical.note}", EXIT_RUN_FAILED)
+    _warn_record(critical)
     try:
         with staged([csv_path, out]) as (csv_tmp, png_tmp):
             csv_tmp.write_bytes(bifurcation_csv([down, up]))

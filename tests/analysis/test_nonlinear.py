@@ -351,3 +351,31 @@ def test_cli_ramp_critical_speed(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert out.startswith("critical speed (ramp): ") and "braked at 0.8 m/s^2" in out
     assert "warning: --deceleration 0.8 m/s^2 is outside railway practice" in err
+
+
+def test_the_nonlinear_search_is_not_bounded_by_a_default_vmax(capsys):
+    """Without a vmax the linear critical speed it starts above is searched up to the table of
+    practice's limit; a vmax too low for it is named with the vmax that would do."""
+    from rail_mj.analysis.bifurcation import nonlinear_critical_speed
+    from rail_mj.cli import main
+
+    layout = load_layout(MODELS / "bogie" / "bogie.toml")
+    free, _ = nonlinear_critical_speed(layout, 40.0)
+    bounded, _ = nonlinear_critical_speed(layout, 40.0, 150.0)
+    assert free.critical_speed == pytest.approx(bounded.critical_speed, rel=1e-3)
+    low, branch = nonlinear_critical_speed(layout, 40.0, 70.0)
+    assert branch is None and low.critical_speed is None
+    needed = math.ceil(1.1 * bounded.linear_critical_speed)
+    assert f"a vmax of {needed:g} m/s" in low.note
+    assert main(["critical-speed", str(MODELS / "bogie" / "bogie.toml"), "--method", "nonlinear", "--vmax", "70"]) == 0
+    assert f"a vmax of {needed:g} m/s" in capsys.readouterr().out
+
+
+def test_a_limit_cycle_started_past_the_speed_record_is_warned_about(capsys):
+    from rail_mj.analysis.stability import CriticalSpeed
+    from rail_mj.cli.stability import _warn_record
+
+    _warn_record(CriticalSpeed("nonlinear", 140.0, 3.0, "m", 5.0, 320.0, "", linear_critical_speed=154.0))
+    assert "169.4 m/s" in capsys.readouterr().err
+    _warn_record(CriticalSpeed("nonlinear", 80.0, 3.0, "m", 5.0, 320.0, "", linear_critical_speed=140.0))
+    assert capsys.readouterr().err == ""
