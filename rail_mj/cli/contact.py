@@ -250,6 +250,10 @@ def profile_cmd(profile, out, png, kind):
     click.echo(f"points: {out}" + (f"\nplot: {png}" if png else ""), err=err)
 
 
+# mm: a centre or dead-band end closer to 0 than this (a nanometre) is printed as 0.
+CENTRE_ROUND_OFF = 1e-6
+
+
 @click.command("conicity")
 @click.argument("layout", required=False, type=click.Path(dir_okay=False))
 @click.option(
@@ -339,7 +343,8 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
     if as_json:
         click.echo(json.dumps({"amplitude_mm": [float(a) for a in wanted], "equivalent_conicity": finite}), err=err)
         return
-    a, b = delta_r.centre
+    # The centre is found by bisection to round-off: 2.8e-76 mm is a centre at 0.
+    a, b = (0.0 if abs(v) < CENTRE_ROUND_OFF else v for v in delta_r.centre)
     centre = f"centre y = {a:.4g} mm" if a == b else f"dead band y from {a:.4g} to {b:.4g} mm"
     click.echo(f"equivalent conicity of {source} (EN 15302, integration of the Klingel equation); {centre}", err=err)
     click.echo(f"{'amplitude_mm':>12}  equivalent_conicity", err=err)

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
+from pathlib import Path
 
 import click
 
@@ -238,6 +240,19 @@ def _simulate_with_progress(lay, speed, distance, initial_lateral, initial_yaw, 
         return simulate(lay, speed, distance, initial_lateral, initial_yaw, progress=progress, track=track)
 
 
+def _rerun() -> str:
+    """How to start Rerun's viewer from here: `rerun` where the shell finds this one (an active
+    environment), else its path beside this Python (a venv not activated: `.venv/bin/rerun`)."""
+    import shutil
+
+    beside = Path(sys.executable).parent / "rerun"
+    found = shutil.which("rerun")
+    if beside.exists() and (found is None or Path(found).resolve() != beside.resolve()):
+        relative = os.path.relpath(beside)
+        return str(beside) if relative.startswith("..") else relative
+    return "rerun"
+
+
 def _fmt(value, spec: str) -> str:
     """`value` formatted by `spec`, or a dash as wide for a value there is not."""
     if value is None:
@@ -357,4 +372,4 @@ def _print_summary(result: dict, err: bool = False) -> None:
     if "rrd" in result:
         rate = result.get("rrd_rate_per_s")
         at = f", {rate:.4g} samples/s" if rate else ""
-        say(f"recording: {result['rrd']}{at}  (open it with: rerun {result['rrd']})")
+        say(f"recording: {result['rrd']}{at}  (open it with: {_rerun()} {result['rrd']})")

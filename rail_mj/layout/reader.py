@@ -29,6 +29,7 @@ the file, the key and what is wrong.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import re
 import tomllib
@@ -425,7 +426,12 @@ class _Table:
         if key in self.data:
             return self.data[key]
         if default is ... and required:
-            self.fail(key, "missing (required)")
+            # A misspelt key is both missing and unknown: name the look-alike given in its place
+            # (0.8 of difflib's ratio: 'mas' for 'mass', not 'yaw_stiffness' for 'lateral_stiffness').
+            unread = [k for k in self.data if k not in self.used and isinstance(k, str)]
+            alike = difflib.get_close_matches(key, unread, n=1, cutoff=0.8)
+            hint = f"; {alike[0]!r} is given here, which is no key: a misspelling of it?" if alike else ""
+            self.fail(key, f"missing (required){hint}")
         return None if default is ... else default
 
     def number(self, key, default=..., *, low=None, low_open=False, high=None, required=True):
