@@ -189,11 +189,12 @@ def _frames(run: Run) -> list[dict]:
         largest = max(r[k] for r in reach.values())
         motions = {c: _motion(run, about[c][:, k]) for c in coordinates if reach[c][k] >= SIGNIFICANT * largest}
         worst = max(motions, key=lambda c: MOTIONS.index(motions[c]["motion"]))
+        lateral, yaw = coordinates["lateral"][:, k], coordinates["yaw"][:, k]
         frame = {
             "body": name,
-            "max_abs_lateral_m": float(np.max(np.abs(run.frame_y[:, k]))),
-            "max_abs_yaw_rad": float(np.max(np.abs(run.frame_psi[:, k]))),
-            "final_abs_lateral_m": float(np.max(np.abs(run.frame_y[run.t >= 0.9 * run.t[-1], k]))),
+            "max_abs_lateral_m": float(np.max(np.abs(lateral))),
+            "max_abs_yaw_rad": float(np.max(np.abs(yaw))),
+            "final_abs_lateral_m": float(np.max(np.abs(lateral[run.t >= 0.9 * run.t[-1]]))),
         }
         if roll is not None:
             frame["max_abs_roll_rad"] = float(np.max(np.abs(roll[:, k])))
