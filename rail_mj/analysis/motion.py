@@ -116,12 +116,12 @@ SIGNIFICANT = 0.1
 MOTIONS = ("at rest", "decayed", "decaying", "not oscillating", "sustained", "growing")
 
 
-def _motion(run: Run, about: np.ndarray) -> dict:
+def _motion(run: Run, about: np.ndarray, late: np.ndarray) -> dict:
     """One coordinate's motion about its curving offsets: whether (and by when, and where) it
     decayed; the growth rate, frequency and wavelength of the whole run or, for a motion that
     decayed, of the motion while it lasted; and its verdict (`MOTIONS`), whose growing,
     sustained or decaying is read from the peaks of the second half of the run, where a motion
-    that has reached its limit cycle has stopped growing."""
+    that has reached its limit cycle has stopped growing (`late`: those samples, `_late`)."""
     at_rest = np.max(np.abs(about)) <= AT_REST
     decayed = float(run.t[0]) if at_rest else decayed_at(run.t, about)
     window = run.t <= (run.t[-1] if decayed is None else decayed)
@@ -131,7 +131,6 @@ def _motion(run: Run, about: np.ndarray) -> dict:
     elif decayed is not None:
         verdict = "decayed"
     else:
-        late = _late(run)
         late_sigma = oscillation(run.t[late], about[late])[1] if np.count_nonzero(late) > 2 else math.nan
         change = math.exp(late_sigma * (run.t[-1] - run.t[late][0])) if not math.isnan(late_sigma) else math.nan
         if math.isnan(change):
@@ -164,7 +163,7 @@ def _late(run: Run) -> np.ndarray:
     return run.t >= (start + run.t[-1]) / 2
 
 
-def _frames(run: Run) -> list[dict]:
+def _frames(run: Run, late: np.ndarray) -> list[dict]:
     """Each bogie frame's and car body's largest lateral displacement and yaw and its motion: of
     the worse of its lateral and yaw motions (lateral on a tie) among those that matter, so that a
     car body yawing on its own reads as moving; a spatial body's largest roll too. A coordinate
@@ -178,7 +177,6 @@ def _frames(run: Run) -> list[dict]:
     about = {c: v - curving_part(run, v, stations) for c, v in coordinates.items()}
     offsets = stations[0] - run.station[0]
     lever = np.min(np.abs(offsets[:, None] - np.asarray(run.layout.wheelset_x)[None, :]), axis=1)
-    late = _late(run)
     reach = {
         "lateral": np.max(np.abs(about["lateral"][late]), axis=0),
         "yaw": lever * np.max(np.abs(about["yaw"][late]), axis=0),
@@ -187,7 +185,7 @@ def _frames(run: Run) -> list[dict]:
     frames = []
     for k, name in enumerate(names):
         largest = max(r[k] for r in reach.values())
-        motions = {c: _motion(run, about[c][:, k]) for c in coordinates if reach[c][k] >= SIGNIFICANT * largest}
+        motions = {c: _motion(run, about[c][:, k], late) for c in coordinates if reach[c][k] >= SIGNIFICANT * largest}
         worst = max(motions, key=lambda c: MOTIONS.index(motions[c]["motion"]))
         lateral, yaw = coordinates["lateral"][:, k], coordinates["yaw"][:, k]
         frame = {
@@ -244,6 +242,7 @@ def summary(run: Run) -> dict:
     wheelsets = []
     # On a curve the motion that grows, decays and has a frequency is about the curving offsets.
     about = run.y - curving_part(run, run.y)
+    late = _late(run)
     for i in range(run.n_wheelsets):
         wheelsets.append(
             {
@@ -251,13 +250,13 @@ def summary(run: Run) -> dict:
                 "max_abs_lateral_m": float(np.max(np.abs(run.y[:, i]))),
                 "max_abs_yaw_rad": float(np.max(np.abs(run.psi[:, i]))),
                 "final_abs_lateral_m": float(np.max(np.abs(run.y[run.t >= 0.9 * run.t[-1], i]))),
-                **_motion(run, about[:, i]),
+                **_motion(run, about[:, i], late),
             }
         )
     if run.track is not None:  # how large the motion about the curving offsets is
         for w, column in zip(wheelsets, about.T, strict=True):
             w["max_abs_lateral_about_curving_m"] = float(np.max(np.abs(column)))
-    frames = _frames(run)
+    frames = _frames(run, late)
     if run.profile is not None:  # on a speed profile, the speed the motion died at: the ramp's reading
         for w in wheelsets + frames:
             at = w["decayed_by_s"]
