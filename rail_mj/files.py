@@ -15,9 +15,11 @@ import contextlib
 import errno
 import os
 import shutil
+import signal
 import stat
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 STDOUT = "-"
@@ -46,7 +48,19 @@ def read_input(path: str | os.PathLike) -> bytes:
 
 
 class OutputError(OSError):
-    """An output that could not be written; the message names the user's path."""
+    """An output that could not be written; the message names the user's path, `errno`
+    is the cause's (ENOSPC for a full disk), None where no system call failed."""
+
+    def __init__(self, message: str, cause: int | None = None) -> None:
+        super().__init__(message)
+        self.errno = cause
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+# Failures of the machine, not of the request: no room left where the output goes.
+NO_ROOM = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 
 
 def is_special(path) -> bool:
@@ -75,13 +89,43 @@ def _destination(path: Path) -> Path:
         raise OutputError(f"cannot write {path}: a symbolic link that does not resolve ({e})") from None
 
 
+def _alive(pid: int) -> bool:
+    """Whether a process `pid` exists (one of another user's counts: it may be writing)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
+
+
+def remove_stale(final: Path) -> None:
+    """Remove the temporary files of `final` left by writers that were killed (SIGKILL, a
+    crash): `.NAME.PID.XXXX.tmp` beside it whose process is gone. A live process's are
+    kept, whoever it is: a second writer of the same output may be at work."""
+    head = f".{final.name}."
+    try:
+        names = os.listdir(final.parent)
+    except OSError:
+        return
+    for name in names:
+        pid = name[len(head) :].partition(".")[0]
+        if name.startswith(head) and name.endswith(".tmp") and pid.isdigit() and not _alive(int(pid)):
+            with contextlib.suppress(OSError):
+                if stat.S_ISREG(os.lstat(final.parent / name).st_mode):
+                    os.unlink(final.parent / name)
+
+
 def _stage(final: Path, special: bool) -> Path:
     """A new, empty temporary file: beside the destination, so that renaming it into place
-    is atomic, or for a special file in the system's temporary folder."""
+    is atomic, or for a special file in the system's temporary folder. Its name carries the
+    writer's process id, so that the next writer can tell a killed one's from a live one's."""
     if not special:
         final.parent.mkdir(parents=True, exist_ok=True)
+        remove_stale(final)
     where = None if special else final.parent
-    fd, tmp = tempfile.mkstemp(dir=where, prefix=f".{final.name}.", suffix=".tmp")
+    fd, tmp = tempfile.mkstemp(dir=where, prefix=f".{final.name}.{os.getpid()}.", suffix=".tmp")
     os.fchmod(fd, 0o666 & ~_UMASK)  # mkstemp makes owner-only files
     os.close(fd)
     return Path(tmp)
@@ -107,6 +151,28 @@ def _write_through(tmp: Path, final: str) -> None:
             shutil.copyfileobj(source, sink)
 
 
+# The signals a user sends to stop a command: held back while a set of outputs is renamed
+# into place (microseconds), so that Ctrl-C or a kill leaves the old set or the new one.
+_HELD = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+@contextlib.contextmanager
+def _uninterrupted():
+    """Defer the signals of _HELD to the end of the block, then act on them as before."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # only the main thread may set handlers; it is the one they interrupt
+        return
+    arrived: list[int] = []
+    before = {n: signal.signal(n, lambda number, frame: arrived.append(number)) for n in _HELD}
+    try:
+        yield
+    finally:
+        for held, handler in before.items():
+            signal.signal(held, handler)
+        for number in arrived:
+            signal.raise_signal(number)
+
+
 @contextlib.contextmanager
 def staged(paths):
     """Yield a temporary path for each of `paths`; when the block succeeds, put every
@@ -121,7 +187,7 @@ def staged(paths):
             try:
                 temps.append(_stage(dest, spec))
             except OSError as e:
-                raise OutputError(f"cannot write {final}: {e.strerror or e}") from None
+                raise OutputError(f"cannot write {final}: {e.strerror or e}", e.errno) from None
         yield temps
         for tmp, final, spec in zip(temps, finals, special):
             if spec:
@@ -132,16 +198,19 @@ def staged(paths):
                 except OutputError:
                     raise
                 except OSError as e:
-                    raise OutputError(f"cannot write {final}: {e.strerror or e}") from None
-        for tmp, final, dest, spec in zip(temps, finals, destinations, special):
-            if spec:
-                continue
-            with open(tmp, "rb+") as f:
-                os.fsync(f.fileno())  # the data is on disk before the name points at it
-            try:
-                os.replace(tmp, dest)
-            except OSError as e:
-                raise OutputError(f"cannot write {final}: {e.strerror or e}") from None
+                    raise OutputError(f"cannot write {final}: {e.strerror or e}", e.errno) from None
+        for tmp, spec in zip(temps, special):
+            if not spec:
+                with open(tmp, "rb+") as f:
+                    os.fsync(f.fileno())  # the data is on disk before the name points at it
+        with _uninterrupted():
+            for tmp, final, dest, spec in zip(temps, finals, destinations, special):
+                if spec:
+                    continue
+                try:
+                    os.replace(tmp, dest)
+                except OSError as e:
+                    raise OutputError(f"cannot write {final}: {e.strerror or e}", e.errno) from None
         for tmp, spec in zip(temps, special):
             if spec:
                 tmp.unlink(missing_ok=True)
@@ -149,9 +218,11 @@ def staged(paths):
         for tmp in temps:
             tmp.unlink(missing_ok=True)
         if isinstance(error, OSError) and not isinstance(error, (OutputError, BrokenPipeError)):
+            # A write's error names no file: with one output it is that one.
             names = {str(t): f for t, f in zip(temps, finals)}
-            where = names.get(str(error.filename), error.filename or "output")
-            raise OutputError(f"cannot write {where}: {error.strerror or error}") from None
+            unnamed = finals[0] if len(finals) == 1 else " or ".join(finals)
+            where = names.get(str(error.filename), error.filename or unnamed)
+            raise OutputError(f"cannot write {where}: {error.strerror or error}", error.errno) from None
         raise
 
 

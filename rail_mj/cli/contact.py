@@ -21,8 +21,9 @@ from rail_mj.cli.options import (
     span_of,
     uses_stdout,
     warn,
+    written,
 )
-from rail_mj.files import STDOUT, staged
+from rail_mj.files import STDOUT
 from rail_mj.layout import LAWS, MAX_MAGNITUDE, Layout
 from rail_mj.practice import RANGES
 from rail_mj.studies.span import AMPLITUDES
@@ -232,15 +233,12 @@ def profile_cmd(profile, out, png, kind):
     if kind is not None and shape.kind != kind:
         raise Failure(f"{profile}: --kind {kind}, but it is a {shape.kind} profile", EXIT_BAD_INPUT)
     outputs = [p for p in (out, png) if p]
-    try:
-        with staged(outputs) as temps:  # both or neither
-            temps[0].write_bytes(profiles.write_csv(shape))
-            if png:
-                from rail_mj.output.plots import profile_png
+    with written(outputs) as temps:  # both or neither
+        temps[0].write_bytes(profiles.write_csv(shape))
+        if png:
+            from rail_mj.output.plots import profile_png
 
-                temps[1].write_bytes(profile_png(shape))
-    except OSError as e:
-        raise Failure(str(e), EXIT_BAD_INPUT) from None
+            temps[1].write_bytes(profile_png(shape))
     err = uses_stdout(out, png)
     click.echo(
         f"{shape.name}: {shape.kind}, {len(shape.y)} points, y from {shape.y[0] * 1e3:.3f} to "
@@ -333,11 +331,8 @@ def conicity_cmd(layout, delta_r_csv, amplitudes, as_json, png):
     except ConicityError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     if png:
-        try:
-            with staged([png]) as (tmp,):
-                tmp.write_bytes(picture)
-        except OSError as e:
-            raise Failure(str(e), EXIT_BAD_INPUT) from None
+        with written([png]) as (tmp,):
+            tmp.write_bytes(picture)
     err = uses_stdout(png)
     finite = [float(v) if math.isfinite(v) else None for v in values]
     if as_json:
@@ -403,16 +398,13 @@ def contact_geometry_cmd(layout, out, png):
         )
     table = _contact_table(lay)
     outputs = [p for p in (out, png) if p]
-    try:
-        with staged(outputs) as temps:  # both or neither
-            temps[0].write_bytes(table.to_csv())
-            if png:
-                from rail_mj.output.plots import contact_geometry_png
+    with written(outputs) as temps:  # both or neither
+        temps[0].write_bytes(table.to_csv())
+        if png:
+            from rail_mj.output.plots import contact_geometry_png
 
-                cone = None if lay.wheelset.conicity is None else lay.wheelset.conicity
-                temps[1].write_bytes(contact_geometry_png(table, lay.name, cone))
-    except OSError as e:
-        raise Failure(str(e), EXIT_BAD_INPUT) from None
+            cone = None if lay.wheelset.conicity is None else lay.wheelset.conicity
+            temps[1].write_bytes(contact_geometry_png(table, lay.name, cone))
     err = uses_stdout(out, png)
 
     from rail_mj.contact.geometry import flange_contact_shift

@@ -1,8 +1,10 @@
 """The `rail-mj` command: a thin layer over the Python API.
 
-Exit status: 0 success; 2 bad input (layout, arguments, output path); 3 a run that
-cannot be done or that diverged. Every failure is one line on stderr, and so is every
-warning (a legal value far outside railway practice: rail_mj.layout.practice).
+Exit status: 0 success; 1 the reader of standard output went away (`| head`: nothing
+printed, as Unix tools end); 2 bad input (layout, arguments, output path); 3 a run that
+cannot be done or that diverged, or a full disk; 130 Ctrl-C, 143 SIGTERM, 129 SIGHUP.
+Every failure is one line on stderr, and so is every warning (a legal value far outside
+railway practice: rail_mj.layout.practice).
 
 MuJoCo, numba and scipy take seconds to load: each command imports what it uses, so
 `--help` and a bad layout answer at once.
@@ -17,13 +19,19 @@ contact.py     contact, creep, profile, conicity, contact-geometry
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
+import threading
 
 import click
 
 from rail_mj.cli import contact, curving, run, stability, studies
 from rail_mj.cli.options import EXIT_BAD_INPUT, EXIT_RUN_FAILED, Failure
+
+# What click itself returns when standard output's reader has gone: the output was cut short.
+EXIT_PIPE_CLOSED = 1
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -53,9 +61,43 @@ for command in COMMANDS:
     cli.add_command(command)
 
 
+class Stopped(BaseException):
+    """A SIGTERM or SIGHUP: unwinds like Ctrl-C, so that no temporary output is left behind."""
+
+    def __init__(self, number: int) -> None:
+        super().__init__(number)
+        self.number = number
+
+
+def _stop(number: int, frame: object) -> None:
+    raise Stopped(number)
+
+
+@contextlib.contextmanager
+def _stoppable():
+    """SIGTERM and SIGHUP raise Stopped for the length of the command (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = {n: signal.signal(n, _stop) for n in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for number, handler in before.items():
+            signal.signal(number, handler)
+
+
 def main(argv: list[str] | None = None) -> int:
+    with _stoppable():
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     try:
         cli.main(args=argv, prog_name="rail-mj", standalone_mode=False)
+    except Stopped as e:
+        click.echo(f"rail-mj: stopped by {signal.Signals(e.number).name}", err=True)
+        return 128 + e.number
     except Failure as e:
         click.echo(f"rail-mj: error: {e}", err=True)
         return e.status
@@ -70,7 +112,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     except BrokenPipeError:  # the reader of standard output went away (`| head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
+        return EXIT_PIPE_CLOSED
+    except SystemExit as e:  # click's own end of a broken pipe, its stdout made quiet
+        return e.code if isinstance(e.code, int) else EXIT_PIPE_CLOSED
     except MemoryError:
         click.echo("rail-mj: error: out of memory: shorten --distance or use fewer speeds", err=True)
         return EXIT_RUN_FAILED

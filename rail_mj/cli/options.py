@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from rail_mj.files import STDOUT, is_special
+from rail_mj.files import NO_ROOM, STDOUT, is_special, staged
 from rail_mj.layout import Layout, LayoutError, load_layout
 from rail_mj.practice import RANGES
 from rail_mj.studies.span import Rules, Span, SpanError
@@ -31,6 +31,26 @@ class Failure(Exception):
     def __init__(self, message: str, status: int):
         super().__init__(message)
         self.status = status
+
+
+@contextlib.contextmanager
+def written(paths):
+    """`rail_mj.files.staged` for a command: the outputs appear all together or not at all,
+    and a failure is one line, exit 3 when the disk is full (the machine's fault, not the
+    request's), else 2. A reader of standard output gone away (`| head`) is left to `main`,
+    which ends quietly, as Unix tools do."""
+    try:
+        with staged(paths) as temps:
+            yield temps
+    except BrokenPipeError:
+        raise
+    except OSError as e:
+        raise output_failure(e, str(e)) from None
+
+
+def output_failure(error: OSError, message: str) -> Failure:
+    """The Failure of an output that could not be written: exit 3 when the disk is full."""
+    return Failure(message, EXIT_RUN_FAILED if error.errno in NO_ROOM else EXIT_BAD_INPUT)
 
 
 def layout_of(path: str) -> Layout:

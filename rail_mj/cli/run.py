@@ -22,8 +22,8 @@ from rail_mj.cli.options import (
     track_of,
     uses_stdout,
     warn_deficiency,
+    written,
 )
-from rail_mj.files import staged
 from rail_mj.layout import Layout
 from rail_mj.practice import max_initial_yaw
 
@@ -140,19 +140,16 @@ def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw
     result = summary(run)
     _warn_deficiency(result)
     outputs = [p for p in (out, rrd) if p]
-    try:
-        with staged(outputs) as temps:  # both or neither
-            for tmp, path in zip(temps, outputs):
-                if path == out:
-                    tmp.write_bytes(csv_bytes(run))
-                else:
-                    from rail_mj.output.recording import recorded_samples, sample_rate, save_recording
+    with written(outputs) as temps:  # both or neither
+        for tmp, path in zip(temps, outputs):
+            if path == out:
+                tmp.write_bytes(csv_bytes(run))
+            else:
+                from rail_mj.output.recording import recorded_samples, sample_rate, save_recording
 
-                    save_recording(run, tmp, rate)
-                    keep = recorded_samples(run, rate)
-                    result["rrd_rate_per_s"] = sample_rate(run) / (keep[1] - keep[0]) if len(keep) > 1 else None
-    except OSError as e:
-        raise Failure(str(e), EXIT_BAD_INPUT) from None
+                save_recording(run, tmp, rate)
+                keep = recorded_samples(run, rate)
+                result["rrd_rate_per_s"] = sample_rate(run) / (keep[1] - keep[0]) if len(keep) > 1 else None
     if out:
         result["csv"] = out
     if rrd:

@@ -21,8 +21,8 @@ from rail_mj.cli.options import (
     status_line,
     uses_stdout,
     warn,
+    written,
 )
-from rail_mj.files import staged
 from rail_mj.layout import Layout
 from rail_mj.practice import RANGES
 from rail_mj.studies.span import LOCUS
@@ -256,12 +256,9 @@ def root_locus_cmd(layout, speeds, out, csv_path, amplitude):
     with status_line("root locus") as progress:
         rows = root_locus(stability, vs, progress)
         critical = stability.critical_speed(vs[0], vs[-1])
-    try:
-        with staged([csv_path, out]) as (csv_tmp, png_tmp):
-            csv_tmp.write_bytes(locus_csv(rows))
-            png_tmp.write_bytes(root_locus_png(rows, critical, lay.name))
-    except OSError as e:
-        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    with written([csv_path, out]) as (csv_tmp, png_tmp):
+        csv_tmp.write_bytes(locus_csv(rows))
+        png_tmp.write_bytes(root_locus_png(rows, critical, lay.name))
     err = uses_stdout(out, csv_path)
     click.echo(f"plot: {out}\ndata: {csv_path}", err=err)
     if critical.critical_speed is not None:
@@ -315,12 +312,9 @@ def bifurcation_cmd(layout, out, csv_path, vmin, vmax, step, amplitude):
     if down is None:
         raise Failure(f"{layout}: {critical.note}", EXIT_RUN_FAILED)
     _warn_record(critical)
-    try:
-        with staged([csv_path, out]) as (csv_tmp, png_tmp):
-            csv_tmp.write_bytes(bifurcation_csv([down, up]))
-            png_tmp.write_bytes(bifurcation_png(critical, down, up, lay.wheelset.flangeway_clearance, lay.name))
-    except OSError as e:
-        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    with written([csv_path, out]) as (csv_tmp, png_tmp):
+        csv_tmp.write_bytes(bifurcation_csv([down, up]))
+        png_tmp.write_bytes(bifurcation_png(critical, down, up, lay.wheelset.flangeway_clearance, lay.name))
     err = uses_stdout(out, csv_path)
     click.echo(f"plot: {out}\ndata: {csv_path}", err=err)
     nonlinear = (

@@ -15,13 +15,14 @@ from rail_mj.cli.options import (
     check_profile_outputs,
     csv_beside,
     layout_of,
+    output_failure,
     span_of,
     status_line,
     track_of,
     uses_stdout,
     warn,
+    written,
 )
-from rail_mj.files import staged
 from rail_mj.studies.span import GRID, SPEEDS, Span
 
 
@@ -116,8 +117,10 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
             )
     except SweepError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
+    except BrokenPipeError:
+        raise
     except OSError as e:
-        raise Failure(f"-o {out}: {e.strerror or e}", EXIT_BAD_INPUT) from None
+        raise output_failure(e, f"-o {out}: {e.strerror or e}") from None
     result = summarise(table)
     result["table"] = out
     if as_json:
@@ -196,14 +199,11 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
 
     import pyarrow.csv as pacsv
 
-    try:
-        with staged([csv_path, out]) as (csv_tmp, png_tmp):
-            buffer = io.BytesIO()
-            pacsv.write_csv(table, buffer)
-            csv_tmp.write_bytes(buffer.getvalue())
-            png_tmp.write_bytes(stability_map_png(table, keys[0], keys[1], x_log, y_log, method, lay.name))
-    except OSError as e:
-        raise Failure(str(e), EXIT_BAD_INPUT) from None
+    with written([csv_path, out]) as (csv_tmp, png_tmp):
+        buffer = io.BytesIO()
+        pacsv.write_csv(table, buffer)
+        csv_tmp.write_bytes(buffer.getvalue())
+        png_tmp.write_bytes(stability_map_png(table, keys[0], keys[1], x_log, y_log, method, lay.name))
     err = uses_stdout(out, csv_path)
     rows = table.to_pylist()
     found = [r["critical_speed_m_per_s"] for r in rows if r["critical_speed_m_per_s"] is not None]

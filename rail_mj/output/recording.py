@@ -733,10 +733,15 @@ def save_recording(run: Run, path: str | Path, rate: float | None = None) -> Non
     # One id per recording: Rerun merges recordings that share one when opened together
     # (the runs of a sweep share a layout name and perhaps a speed).
     rec = rr.RecordingStream(APP_ID, recording_id=str(uuid.uuid4()))
-    rec.save(str(path), default_blueprint=blueprint(run, shown))
+    # Encoded in memory and written here, not by Rerun's file sink: a sink that cannot write
+    # (a full disk) logs ERROR lines and its flush never returns, where this write raises
+    # one OSError. One read at the end: the reader of 0.41 takes one stream per file.
+    stream = rr.binary_stream(rec)
+    rec.send_blueprint(blueprint(run, shown), make_active=False, make_default=True)
     _log_samples(rec, run, keep, shown)
-    rec.flush()
+    data = stream.read()
     rec.disconnect()
+    Path(path).write_bytes(data or b"")
 
 
 def write_recording(run: Run, path: str | Path, rate: float | None = None) -> Path:
