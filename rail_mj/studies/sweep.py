@@ -34,7 +34,7 @@ import queue
 import threading
 import time
 import tomllib
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
@@ -223,9 +223,12 @@ def plan(
     distance: float = DEFAULT_DISTANCE,
     recordings: str | Path | None = None,
     track: str | Path | None = None,
+    held_together: bool = True,
 ) -> list[Case]:
     """Every case of a sweep, in order: grid points (first key slowest), then speeds. `track`: a
-    track file (rail_mj.track) every run follows from its start."""
+    track file (rail_mj.track) every run follows from its start. A plan of more than MAX_CASES
+    cases is refused, and so, when its runs are `held_together` in this process (no cluster),
+    is one whose runs' records need more than this machine's memory."""
     if method not in METHODS:
         raise SweepError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     the_track, track_text = _track(track, method)
@@ -281,10 +284,14 @@ def plan(
         except LayoutError as e:
             if "unknown key" in str(e) or "must be a table" in str(e):
                 raise SweepError(f"--grid {key}: {e}") from None
-    points = [dict(zip([k for k, _ in axes], combo)) for combo in itertools.product(*[v for _, v in axes])]
     if method == "curving" and "track.radius" not in curve and "track.radius" not in (k for k, _ in axes):
         raise SweepError("--method curving needs the curve's radius: --set track.radius=R or --grid track.radius=A:B:N")
     run_speeds = _run_speeds(span) if method in ("run", "curving") else [None]
+    n_points = math.prod(len(v) for _, v in axes)
+    _check_size(n_points, run_speeds)
+    if method == "run" and held_together:
+        _check_memory(n_points, run_speeds, distance, layout_from_dict(data, source=str(path)).n_wheelsets)
+    points = [dict(zip([k for k, _ in axes], combo)) for combo in itertools.product(*[v for _, v in axes])]
     cases: list[Case] = []
     for point in points:
         variant = data
@@ -329,6 +336,52 @@ def _track(path: str | Path | None, method: str) -> tuple[Track | None, str | No
     except TrackError as e:
         raise SweepError(str(e)) from None
     return track, read_input(path).decode("utf-8")  # read and checked by load_track just before
+
+
+# A sweep of a million cases is a day of one core's work at 0.1 s a case, and its plan alone
+# about 1 GB (a layout's variant per grid point): more is a mistake in a span, not a study.
+MAX_CASES = 1_000_000
+
+
+def _check_size(n_points: int, run_speeds: Sequence[float | None]) -> None:
+    n_cases = n_points * len(run_speeds)
+    if n_cases > MAX_CASES:
+        raise SweepError(
+            f"{n_cases:.3g} cases ({n_points:.3g} grid points x {len(run_speeds)} speed"
+            f"{'s' * (len(run_speeds) != 1)}) is more than the {MAX_CASES:,} a sweep may have: "
+            f"use fewer values in the grid or the speeds"
+        )
+
+
+def memory_bytes() -> int:
+    """This machine's physical memory, bytes."""
+    return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+
+
+def records_floor(n_wheelsets: int, distance: float, speed: float) -> float:
+    """A lower bound on the bytes of a run's record: a sample a step, at least
+    distance/speed/MAX_TIMESTEP of them, each of t, every body's position and quaternion and
+    each wheelset's two rates and two loads, with at least a body per wheelset and the world
+    (rail_mj.simulation.stepping._records)."""
+    from rail_mj.simulation.timestep import MAX_TIMESTEP
+
+    floats_per_sample = 1 + 7 * (n_wheelsets + 1) + 4 * n_wheelsets
+    return 8.0 * floats_per_sample * distance / speed / MAX_TIMESTEP
+
+
+def _check_memory(n_points: int, run_speeds: Sequence[float | None], distance: float, n_wheelsets: int) -> None:
+    """Refuse runs whose records cannot all be held: simulate_many keeps each until the sweep
+    ends, so a sweep run here needs at least the sum of records_floor."""
+    from rail_mj.simulation.timestep import MAX_TIMESTEP
+
+    need = n_points * sum(records_floor(n_wheelsets, distance, float(v)) for v in run_speeds if v is not None)
+    have = memory_bytes()
+    if need > have:
+        raise SweepError(
+            f"the runs' records need at least {need / 2**30:.3g} GB ({n_points * len(run_speeds):,} runs of "
+            f"{distance:g} m, a sample every {MAX_TIMESTEP * 1e3:g} ms or more often), more than this machine's "
+            f"{have / 2**30:.3g} GB: shorten --distance, run fewer cases, or use --scheduler"
+        )
 
 
 def _run_speeds(span: Span) -> list[float]:
@@ -702,7 +755,7 @@ def sweep(
     each finished row. `track`: a track file every run follows (rail_mj.track; runs only).
     `warn` is told each journal line set aside (not a row: its case runs again).
     """
-    cases = plan(layout_path, speeds, sets, grids, method, distance, recordings, track)
+    cases = plan(layout_path, speeds, sets, grids, method, distance, recordings, track, held_together=scheduler is None)
     columns = columns_of(cases)
     output = Path(out) if out is not None else None
     if output is not None and output.suffix not in (".csv", ".parquet"):

@@ -253,3 +253,56 @@ def test_a_journal_line_that_is_no_row_is_set_aside_and_the_rest_resumes(bad, tm
     assert f"{journal.path}: line 2 " in err and "set aside, its case runs again" in err
     rows = sweep_module.read_table(out)
     assert len(rows) == 2 and rows[0] == first
+
+
+def test_a_grid_past_the_largest_sweep_is_refused_before_it_is_planned(monkeypatch, tmp_path, capsys):
+    """Three grids of 1e5 values each are 1e15 cases: one line at once (the grid points are never
+    listed: itertools.product is not reached), from the API and the command line alike."""
+
+    def never(*_):
+        raise AssertionError("the grid points were listed")
+
+    monkeypatch.setattr(sweep_module.itertools, "product", never)
+    grids = [f"{key}=1e5:1e7:100000" for key in ("primary.yaw_stiffness", "primary.lateral_stiffness")]
+    grids.append("secondary.yaw_damping=1e4:1e6:100000")
+    with pytest.raises(SweepError, match=r"^1e\+15 cases \(1e\+15 grid points x 1 speed\) is more than the 1,000,000"):
+        plan(BOGIE, (30.0, 30.0, 1), grids=grids)
+    argv = ["sweep", str(BOGIE), "--speeds", "30:30:1", "-o", str(tmp_path / "s.csv")]
+    argv += [a for g in grids for a in ("--grid", g)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is more than the 1,000,000 a sweep may have" in err[0]
+
+
+def test_the_records_floor_is_a_lower_bound_of_a_runs_record_and_within_two_of_it():
+    """`records_floor` is what a sweep run here refuses by: it must never exceed what a run
+    really keeps (the arrays of Run that grow with its samples), and is within a factor of two
+    of it for a single wheelset and a coach (a body per wheelset is the floor)."""
+    import numpy as np
+
+    from rail_mj.simulation.runner import simulate
+
+    for path in (WHEELSET, MODELS / "manchester-coach" / "manchester-coach.toml"):
+        layout = load_layout(path)
+        run = simulate(layout, 40.0, 20.0, 0.002)
+        n = len(run.t)
+        kept = sum(v.nbytes for v in vars(run).values() if isinstance(v, np.ndarray) and v.shape[:1] == (n,))
+        floor = sweep_module.records_floor(layout.n_wheelsets, 20.0, 40.0)
+        assert floor <= kept <= 2 * floor, (path.name, floor, kept)
+
+
+def test_runs_whose_records_exceed_the_memory_are_refused_in_one_line_unless_on_a_cluster(
+    monkeypatch, tmp_path, capsys
+):
+    """64 runs of 10 km on a machine given 1 GB: refused naming the memory needed and had; the
+    same plan for a cluster (its runs held a pack at a time on its workers) is made."""
+    monkeypatch.setattr(sweep_module, "memory_bytes", lambda: 2**30)
+    with pytest.raises(SweepError, match=r"^the runs' records need at least [0-9.]+ GB \(64 runs of 10000 m"):
+        plan(BOGIE, (5.0, 150.0, 64), distance=10_000.0)
+    assert len(plan(BOGIE, (5.0, 150.0, 64), distance=10_000.0, held_together=False)) == 64
+    assert len(plan(BOGIE, (5.0, 150.0, 64), distance=10.0)) == 64  # a short one fits
+    out = tmp_path / "s.csv"
+    assert main(["sweep", str(BOGIE), "--speeds", "5:150:64", "--distance", "10000", "-o", str(out)]) == 2
+    assert not list(tmp_path.iterdir())
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "more than this machine's 1 GB" in err[0]
