@@ -10,6 +10,7 @@ import click
 
 from rail_mj.cli.options import (
     EXIT_BAD_INPUT,
+    EXIT_RUN_FAILED,
     Failure,
     check_outputs,
     check_profile_outputs,
@@ -91,7 +92,7 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
         track_of(track)  # its warnings, once
     if rrd_dir:
         check_outputs(layout, [("--rrd-dir", rrd_dir)], folders=True)
-    from rail_mj.studies.sweep import BRACKET_KEYS, SweepError, describe, summarise, sweep
+    from rail_mj.studies.sweep import BRACKET_KEYS, ClusterError, SweepError, describe, summarise, sweep
 
     try:
         with status_line("sweep") as show:
@@ -115,6 +116,8 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
                 track=track,
                 warn=warn,
             )
+    except ClusterError as e:
+        raise Failure(str(e), EXIT_RUN_FAILED) from None
     except SweepError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     except BrokenPipeError:
@@ -169,7 +172,7 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
     _check_executor(workers, scheduler)
     check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.output.plots import stability_map_png
-    from rail_mj.studies.sweep import SweepError, parse_assignment, sweep
+    from rail_mj.studies.sweep import ClusterError, SweepError, parse_assignment, sweep
 
     axes = (("--x", x_axis), ("--y", y_axis))
     try:
@@ -192,6 +195,8 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
                 scheduler=scheduler,
                 progress=progress,
             )
+    except ClusterError as e:
+        raise Failure(str(e), EXIT_RUN_FAILED) from None
     except SweepError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     x_log, y_log = (Span.parse(parse_assignment(text, option)[1], GRID, option).log for option, text in axes)

@@ -28,6 +28,7 @@ import functools
 import hashlib
 import itertools
 import json
+import logging
 import math
 import os
 import queue
@@ -35,7 +36,7 @@ import threading
 import time
 import tomllib
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import ThreadPoolExecutor, as_completed
+from concurrent.futures import CancelledError, ThreadPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -811,21 +812,7 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
     if not cases:
         return
     if scheduler is not None:
-        try:
-            from distributed import Client
-            from distributed import as_completed as dask_completed
-        except ImportError:
-            raise SweepError("--scheduler needs Dask: pip install 'rail-mj[cluster]'") from None
-        try:
-            client = Client(scheduler, timeout=10)
-        except (OSError, TimeoutError, ValueError) as e:
-            raise SweepError(f"--scheduler {scheduler!r}: cannot reach it ({' '.join(str(e).split())})") from None
-        try:
-            futures = client.map(run_task, tasks(cases), pure=False)  # a pack a task, a task a thread
-            for future in dask_completed(futures):
-                yield from future.result()
-        finally:
-            client.close()
+        yield from _on_cluster(cases, scheduler)
         return
     threads = workers or os.cpu_count() or 1
     # Runs: all at once, packs on every thread, a row as each run ends; critical speeds: a
@@ -840,6 +827,112 @@ def _execute(cases: list[Case], workers: int | None, scheduler: str | None):
             yield done.result()
     finally:  # interrupted (Ctrl-C): the queued cases are dropped, not waited for
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+# How long a cluster may keep a sweep waiting before it is given up, with the journal kept:
+# to answer the first call (a Dask scheduler answers in milliseconds; a service that is not
+# one, or a host that swallows the connection, never does), and to have no worker at all (an
+# adaptive cluster starts its first workers within this).
+CONNECT_TIMEOUT = 10.0  # s
+WORKERLESS_TIMEOUT = 60.0  # s
+POLL = 1.0  # s between looks at the cluster while no case finishes
+
+
+def _connect(scheduler: str):
+    """A Dask client of `scheduler`, or SweepError within CONNECT_TIMEOUT. The client is made
+    on a thread of its own: its `timeout` bounds the TCP connection, not the handshake, which
+    a silent server or one that speaks another protocol holds forever."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise SweepError("--scheduler needs Dask: pip install 'rail-mj[cluster]'") from None
+    made: dict[str, Any] = {}
+
+    def connect() -> None:
+        try:
+            made["client"] = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except BaseException as e:  # MemoryError too: a foreign protocol read as a frame length
+            made["error"] = e
+
+    thread = threading.Thread(target=connect, name="rail-mj-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT + 1.0)
+    where = f"--scheduler {scheduler!r}"
+    if thread.is_alive():
+        raise SweepError(f"{where}: nothing there answered as a Dask scheduler within {CONNECT_TIMEOUT:g} s")
+    if "error" in made:
+        e = made["error"]
+        if isinstance(e, MemoryError):
+            raise SweepError(f"{where}: it answered, but not as a Dask scheduler") from None
+        if isinstance(e, (OSError, TimeoutError, ValueError)):
+            raise SweepError(f"{where}: cannot reach it ({' '.join(str(e).split())})") from None
+        raise SweepError(f"{where}: not a Dask scheduler ({type(e).__name__}: {' '.join(str(e).split())})") from None
+    return made["client"]
+
+
+class ClusterError(SweepError):
+    """A cluster that failed the sweep (not the user's input): the rows so far are journalled."""
+
+
+@contextlib.contextmanager
+def _quiet_dask():
+    """Dask's own ERROR lines and tracebacks (a lost scheduler, a reconnection) held back:
+    what stops the sweep is said once, in its one line."""
+    names = [n for n in list(logging.root.manager.loggerDict) if n.split(".")[0] in ("distributed", "tornado")]
+    loggers = [logging.getLogger(name) for name in ["distributed", "tornado", *names]]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels):
+            logger.setLevel(level)
+
+
+def _on_cluster(cases: list[Case], scheduler: str) -> Iterator[dict]:
+    """Rows as a Dask cluster finishes its tasks. A cluster that fails ends the sweep in one
+    ClusterError, the rows so far journalled: no worker for WORKERLESS_TIMEOUT, the scheduler
+    lost, a worker that died under the same task as often as Dask allows (out of memory, say)."""
+    from distributed import KilledWorker, wait
+
+    where = f"--scheduler {scheduler!r}"
+    with _quiet_dask():
+        client = _connect(scheduler)
+        try:
+            pending = set(client.map(run_task, tasks(cases), pure=False))  # a pack a task, a task a thread
+            workerless_since: float | None = None
+            while pending:
+                with contextlib.suppress(TimeoutError):  # Dask's wait raises when nothing finished
+                    wait(pending, timeout=POLL, return_when="FIRST_COMPLETED")
+                done = {f for f in pending if f.done()}
+                pending -= done
+                for future in done:
+                    yield from future.result()
+                if done:
+                    workerless_since = None
+                    continue
+                if client.status != "running":
+                    raise ClusterError(f"{where}: the scheduler went away (the client is {client.status})")
+                now = time.monotonic()
+                if client.scheduler_info().get("workers"):
+                    workerless_since = None
+                elif workerless_since is None:
+                    workerless_since = now
+                elif now - workerless_since > WORKERLESS_TIMEOUT:
+                    raise ClusterError(f"{where}: the cluster has had no worker for {WORKERLESS_TIMEOUT:g} s")
+        except CancelledError:
+            raise ClusterError(f"{where}: the scheduler went away (it cancelled the sweep's tasks)") from None
+        except KilledWorker as e:
+            raise ClusterError(
+                f"{where}: workers died running one task as often as Dask allows, out of memory perhaps "
+                f"({' '.join(str(e).split())[:200]})"
+            ) from None
+        except (OSError, TimeoutError) as e:  # the scheduler unreachable in scheduler_info
+            raise ClusterError(f"{where}: the scheduler went away ({' '.join(str(e).split())[:200]})") from None
+        finally:
+            with contextlib.suppress(Exception):
+                client.close(timeout=CONNECT_TIMEOUT)
 
 
 def summarise(table) -> dict:

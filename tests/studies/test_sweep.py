@@ -306,3 +306,95 @@ def test_runs_whose_records_exceed_the_memory_are_refused_in_one_line_unless_on_
     assert not list(tmp_path.iterdir())
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "more than this machine's 1 GB" in err[0]
+
+
+# --- a cluster that fails ends the sweep in one line, in a stated time -----------------------
+
+
+def _server(reply: bytes):
+    """A TCP server on a free local port that takes connections and sends `reply` (nothing:
+    it swallows them), never speaking Dask; closed at the end of the test by its socket."""
+    import socket
+    import threading
+
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen()
+    held = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = listener.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if reply:
+                conn.sendall(reply)
+
+    threading.Thread(target=serve, daemon=True).start()
+    return listener, held, f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+
+
+@pytest.mark.parametrize(
+    "reply", [b"", b"HTTP/1.0 200 OK\r\nContent-Type: text/html\r\n\r\n<html>not dask</html>" * 50]
+)
+def test_a_server_that_is_no_dask_scheduler_is_named_within_the_connect_timeout(reply, monkeypatch):
+    monkeypatch.setattr(sweep_module, "CONNECT_TIMEOUT", 1.0)
+    listener, held, address = _server(reply)
+    started = time.monotonic()
+    try:
+        with pytest.raises(SweepError, match=r"answered"):
+            sweep(WHEELSET, (30.0, 40.0, 2), distance=20.0, scheduler=address)
+    finally:
+        for conn in [listener, *held]:
+            conn.close()
+    assert time.monotonic() - started < 1.0 + 1.0 + 5.0  # the timeout, the join's margin, the import
+
+
+def test_a_cluster_without_workers_ends_the_sweep_after_the_stated_time(monkeypatch, tmp_path):
+    import distributed
+
+    monkeypatch.setattr(sweep_module, "WORKERLESS_TIMEOUT", 2.0)
+    out = tmp_path / "s.csv"
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster:
+        started = time.monotonic()
+        with pytest.raises(sweep_module.ClusterError, match=r"has had no worker for 2 s"):
+            sweep(WHEELSET, (30.0, 40.0, 2), distance=20.0, scheduler=cluster.scheduler_address, out=out)
+        assert time.monotonic() - started < 2.0 + 3 * sweep_module.POLL + 5.0
+    assert not out.exists()
+
+
+def test_a_scheduler_killed_mid_sweep_ends_it_in_one_line_exit_3(tmp_path, capsys):
+    """A `dask scheduler` with no workers, killed two seconds into the sweep: the sweep ends
+    at once with one line (not "unexpected FutureCancelledError"), exit 3."""
+    import socket
+    import threading
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    scheduler = subprocess.Popen(
+        [sys.executable, "-m", "distributed.cli.dask_scheduler", "--port", str(port), "--no-dashboard"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        address = f"tcp://127.0.0.1:{port}"
+        for _ in range(100):  # until it listens
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            time.sleep(0.1)
+        threading.Timer(2.0, scheduler.kill).start()
+        started = time.monotonic()
+        argv = ["sweep", str(WHEELSET), "--speeds", "30:40:2", "--distance", "20"]
+        status = main([*argv, "--scheduler", address, "-o", str(tmp_path / "s.csv")])
+        elapsed = time.monotonic() - started
+    finally:
+        scheduler.kill()
+        scheduler.wait()
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert status == 3
+    assert len(lines) == 1 and "the scheduler went away" in lines[0], lines
+    assert elapsed < 2.0 + 10.0
