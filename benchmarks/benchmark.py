@@ -55,7 +55,7 @@ from rail_mj.simulation.batch import PACK, simulate_many
 from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.simulation.run import Request
 from rail_mj.simulation.runner import prepare, simulate
-from rail_mj.studies.sweep import sweep
+from rail_mj.studies.sweep import sweep_table
 from rail_mj.vehicle.spec import Vehicle
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -95,14 +95,14 @@ def batches(layout, turns: int = 5) -> dict[str, tuple[float, float]]:
     """{name: (wall s, CPU s) per vehicle-km} of the batches, taken in turn `turns` times."""
     speeds = np.linspace(*SPEEDS)
     runs = {
-        "sweep": lambda: sweep(COACH, SPEEDS),
+        "sweep": lambda: sweep_table(COACH, SPEEDS),
         "runs": lambda: simulate_many(
             [Request(layout, v, 1000.0, 0.002) for v in speeds], threads=peer_numba.threads()
         ),
         "peer": lambda: peer_numba.time_batch(repeats=1),
         "balanced": lambda: peer_numba.time_batch(repeats=1, balanced=True),
     }
-    sweep(COACH, (20.0, 100.0, 4), distance=50.0)  # compiled and warm
+    sweep_table(COACH, (20.0, 100.0, 4), distance=50.0)  # compiled and warm
     peer_numba.time_batch(repeats=1, distance=10.0)
     times: dict[str, list[tuple[float, float]]] = {name: [] for name in runs}
     for _ in range(turns):
@@ -364,7 +364,7 @@ def main() -> None:
     batch = batches(layout)
     sweep_time = batch["sweep"][0] * VEHICLE_KM
     map_time = best(
-        lambda: sweep(
+        lambda: sweep_table(
             COACH,
             (5.0, 150.0, 60),
             method="eigen",

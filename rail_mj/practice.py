@@ -28,6 +28,11 @@ __all__ = ["CANT_STEP", "CURVATURE_STEP", "DERAILMENT_LATERAL", "FLANGE_HEIGHT",
 # A wheel further off-centre than the width of a UIC60 (60E1) rail head, 72 mm
 # (EN 13674-1), has left the rail: the runner calls that a derailment.
 DERAILMENT_LATERAL = 0.072  # m
+
+# The disturbance a run starts from unless told otherwise (`rail-mj run`, `simulate`, sweeps):
+# the whole vehicle shifted 2 mm, about a quarter of a usual flangeway clearance: small enough
+# for the linear behaviour, large enough to read the motion far above round-off.
+INITIAL_LATERAL = 0.002  # m
 # How far an S1002 flange stands above the tread at the taping line (EN 13715): the
 # flange's front edge is sqrt((r0 + h)^2 - r0^2) ahead of the axle at rail-top level.
 FLANGE_HEIGHT = 0.028  # m

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from rail_mj.files import atomic_write
 from rail_mj.output.plots import stability_map_png
-from rail_mj.studies.sweep import sweep
+from rail_mj.studies.sweep import sweep_table
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
 MAPS = [
@@ -45,7 +45,7 @@ def main() -> None:
     args = parser.parse_args()
     for name, layout, x, y in MAPS:
         started = time.perf_counter()
-        table = sweep(layout, (5.0, 300.0, 60), grids=[x, y], method="eigen")
+        table = sweep_table(layout, (5.0, 300.0, 60), grids=[x, y], method="eigen")
         took = time.perf_counter() - started
         keys = [x.split("=")[0], y.split("=")[0]]
         atomic_write(

@@ -146,13 +146,8 @@ WHEELS = ("left", "right")
 
 
 def derailment_quotients(run: Run) -> np.ndarray:
-    """(n_samples, n_wheelsets, 2): Y/Q of each wheel (EN 14363), Y the force the wheel puts
-    on its rail towards the outside of the track (positive: the flange-climbing direction:
-    the left wheel pushing its rail to the left). NaN where a wheel is off its rail (Q = 0)."""
-    outward = run.wheel_lateral_forces() * np.array([-1.0, 1.0])
-    q = run.wheel_loads()
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(q > 0.0, outward / np.where(q > 0.0, q, 1.0), np.nan)
+    """(n_samples, n_wheelsets, 2): Y/Q of each wheel, `Run.derailment_quotients`."""
+    return run.derailment_quotients()
 
 
 def sliding_mean(values: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:

@@ -25,7 +25,7 @@ from rail_mj.cli.options import (
     written,
 )
 from rail_mj.layout import Layout
-from rail_mj.practice import max_initial_yaw
+from rail_mj.practice import INITIAL_LATERAL, max_initial_yaw
 
 
 @click.command("generate")
@@ -80,7 +80,7 @@ def _check_generated(path: str, layout: Layout, out_dir: str) -> None:
 @click.option(
     "--initial-lateral",
     type=float,
-    default=0.002,
+    default=INITIAL_LATERAL,
     show_default=True,
     help="Start with the whole vehicle shifted left by this much, m.",
 )
@@ -103,9 +103,20 @@ def _check_generated(path: str, layout: Layout, out_dir: str) -> None:
     show_default=True,
     help="Samples per second in the recording: auto (chosen from the motion), a number, or full (every sample).",
 )
+@click.option(
+    "--exaggerate",
+    default="auto",
+    show_default=True,
+    metavar="auto|FACTOR",
+    help="The recording's 3D view draws every body's lateral motion and yaw this many times their size: "
+    "auto (the largest motion as up to a quarter of the gauge, a factor of 1, 2 or 5 times a power of ten "
+    "up to 100), or a factor from 1 (true size) to 1000. The plots show true values.",
+)
 @click.option("--out", type=click.Path(dir_okay=False), help="Write the samples as CSV here.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw, track, rrd, rrd_rate, out, as_json):
+def run_cmd(
+    layout, speed, speed_profile, distance, initial_lateral, initial_yaw, track, rrd, rrd_rate, exaggerate, out, as_json
+):
     """Run LAYOUT at constant speed (or along --speed-profile) on straight track (or along
     --track) and summarise each wheelset's motion (and its steady curving in each curve).
 
@@ -122,6 +133,7 @@ def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw
         raise Failure(f"--distance must be a positive number, got {distance}", EXIT_BAD_INPUT)
     _check_disturbance(lay, initial_lateral, initial_yaw)
     rate = _recording_rate(rrd_rate)
+    factor = _exaggeration(exaggerate)
     check_outputs(layout, [("--out", out), ("--rrd", rrd)])
     check_profile_outputs(lay, [("--out", out), ("--rrd", rrd)])
     if track is not None:
@@ -145,11 +157,12 @@ def run_cmd(layout, speed, speed_profile, distance, initial_lateral, initial_yaw
             if path == out:
                 tmp.write_bytes(csv_bytes(run))
             else:
-                from rail_mj.output.recording import recorded_samples, sample_rate, save_recording
+                from rail_mj.output.recording import exaggeration, recorded_samples, sample_rate, save_recording
 
-                save_recording(run, tmp, rate)
+                save_recording(run, tmp, rate, factor)
                 keep = recorded_samples(run, rate)
                 result["rrd_rate_per_s"] = sample_rate(run) / (keep[1] - keep[0]) if len(keep) > 1 else None
+                result["rrd_exaggeration"] = exaggeration(run) if factor is None else factor
     if out:
         result["csv"] = out
     if rrd:
@@ -192,6 +205,24 @@ def _recording_rate(text: str) -> float | None:
             f"--rrd-rate must be auto, full or a positive number of samples per second, got {text!r}", EXIT_BAD_INPUT
         )
     return rate
+
+
+def _exaggeration(text: str) -> float | None:
+    """--exaggerate: None (auto) or a factor from 1 to 1000 (rail_mj.output.recording.EXAGGERATION_LIMITS)."""
+    from rail_mj.output.recording import EXAGGERATION_LIMITS
+
+    if text == "auto":
+        return None
+    try:
+        factor = float(text)
+    except ValueError:
+        factor = math.nan
+    low, high = EXAGGERATION_LIMITS
+    if not low <= factor <= high:  # also NaN
+        raise Failure(
+            f"--exaggerate must be auto or a factor from {low:g} (true size) to {high:g}, got {text!r}", EXIT_BAD_INPUT
+        )
+    return factor
 
 
 def _check_disturbance(layout: Layout, lateral: float, yaw: float) -> None:
@@ -369,4 +400,6 @@ def _print_summary(result: dict, err: bool = False) -> None:
     if "rrd" in result:
         rate = result.get("rrd_rate_per_s")
         at = f", {rate:.4g} samples/s" if rate else ""
-        say(f"recording: {result['rrd']}{at}  (open it with: {_rerun()} {result['rrd']})")
+        factor = result.get("rrd_exaggeration", 1.0)
+        scale = f", 3D view lateral motion and yaw x{factor:g}" if factor != 1.0 else ""
+        say(f"recording: {result['rrd']}{at}{scale}  (open it with: {_rerun()} {result['rrd']})")

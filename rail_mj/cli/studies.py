@@ -92,7 +92,7 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
         track_of(track)  # its warnings, once
     if rrd_dir:
         check_outputs(layout, [("--rrd-dir", rrd_dir)], folders=True)
-    from rail_mj.studies.sweep import BRACKET_KEYS, ClusterError, SweepError, describe, summarise, sweep
+    from rail_mj.studies.sweep import BRACKET_KEYS, ClusterError, SweepError, describe, summarise, sweep_table
 
     try:
         with status_line("sweep") as show:
@@ -101,7 +101,7 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
                 if show is not None:
                     show(f"{done}/{total}, last: case {row['case']} {row['status']}")
 
-            table = sweep(
+            table = sweep_table(
                 layout,
                 (speed_span.a, speed_span.b, speed_span.n),
                 sets=sets,
@@ -172,7 +172,7 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
     _check_executor(workers, scheduler)
     check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     from rail_mj.output.plots import stability_map_png
-    from rail_mj.studies.sweep import ClusterError, SweepError, parse_assignment, sweep
+    from rail_mj.studies.sweep import ClusterError, SweepError, parse_assignment, sweep_table
 
     axes = (("--x", x_axis), ("--y", y_axis))
     try:
@@ -185,7 +185,7 @@ def map_cmd(layout, x_axis, y_axis, method, speeds, sets, workers, scheduler, ou
                 if show is not None:
                     show(f"{done}/{total} cells")
 
-            table = sweep(
+            table = sweep_table(
                 layout,
                 (speed_span.a, speed_span.b, speed_span.n),
                 sets=sets,

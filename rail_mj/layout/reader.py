@@ -300,6 +300,11 @@ class CarBody:
     inertia: tuple[float, float, float] | None
     bogie_positions: tuple[float, ...] | None
     wheelset_positions: tuple[float, ...] | None
+    # The body as drawn (rail_mj.vehicle.looks; no effect on the dynamics), m: over its ends,
+    # across, and from its underside to its top. None: a coach's (docs/review.md).
+    length: float | None = None
+    width: float | None = None
+    height: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -782,13 +787,34 @@ def _carbody(top: _Table, warnings: list[str], bogie: Bogie | None, wheelset: Gi
         if "bogie_positions" in t.data:
             t.fail("bogie_positions", "given without a [bogie] table")
         carbody = CarBody(fixed, mass, inertia, None, t.positions("wheelset_positions", wheel_diameter, "wheelset"))
+    xs = carbody.bogie_positions or carbody.wheelset_positions or ()
+    length, width, height = _drawn_size(t, xs)
+    carbody = dataclasses.replace(carbody, length=length, width=width, height=height)
     t.done()
     _practice(t, warnings, mass=carbody.mass)
     # Ends overhang the outermost wheels by a few metres; about 2 m to the side and roof.
-    xs = carbody.bogie_positions or carbody.wheelset_positions or ()
     reach = max(abs(x) for x in xs) + (max(abs(x) for x in bogie.wheelset_positions) if bogie else 0.0)
     _inertia_fits(t, mass, inertia, math.hypot(reach + wheelset.rolling_radius + 3.0, 2.0), "car body")
     return carbody
+
+
+# The drawn car body's size ([carbody] length, width, height): no railway vehicle is wider than
+# 6 m (loading gauges are at most about 3.6 m wide) or taller than MAX_HEIGHT; a body is no
+# longer than the 2 * MAX_POSITION its supports may span.
+MAX_BODY_WIDTH = 6.0
+
+
+def _drawn_size(t: _Table, supports: tuple[float, ...]) -> tuple[float | None, float | None, float | None]:
+    """[carbody] length, width and height (optional, m): the body as drawn, over the bogie
+    centres or wheelsets it rests on (`supports`, x)."""
+    length = t.number("length", low=0.0, low_open=True, high=2 * MAX_POSITION, required=False)
+    span = max(supports) - min(supports) if supports else 0.0
+    if length is not None and length < span:
+        what = "bogie centres" if "bogie_positions" in t.data else "wheelsets"
+        t.fail("length", f"must reach over the {what} it rests on, {span:g} m apart, got {length:g} m")
+    width = t.number("width", low=0.0, low_open=True, high=MAX_BODY_WIDTH, required=False)
+    height = t.number("height", low=0.0, low_open=True, high=MAX_HEIGHT, required=False)
+    return length, width, height
 
 
 def _contact(top: _Table, warnings: list[str], profiled: bool) -> Contact | None:

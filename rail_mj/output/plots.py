@@ -199,7 +199,9 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
             modes.setdefault(r["mode"] or "?", []).append((r[x_key], r[y_key]))
     fig, ax = plt.subplots(figsize=(9.5, 7), layout="constrained")
     if np.any(np.isfinite(speed)):
-        mesh = ax.pcolormesh(xs, ys, np.ma.masked_invalid(speed), shading="nearest", cmap="viridis")
+        mesh = ax.pcolormesh(
+            cell_edges(xs, x_log), cell_edges(ys, y_log), np.ma.masked_invalid(speed), shading="flat", cmap="viridis"
+        )
         fig.colorbar(mesh, ax=ax, label=f"{'linear' if method == 'eigen' else 'nonlinear'} critical speed (m/s)")
         if len(xs) > 1 and len(ys) > 1:
             lines = ax.contour(xs, ys, np.ma.masked_invalid(speed), colors="white", linewidths=0.8)
@@ -226,7 +228,7 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
     if failed:
         px, py = zip(*failed)
         ax.scatter(px, py, s=40, marker="x", color="red", label="not computed (see the table)")
-    ax.set(xlabel=x_key, ylabel=y_key, title=f"Critical speed of {title}")
+    ax.set(xlabel=key_label(x_key), ylabel=key_label(y_key), title=f"Critical speed of {title}")
     if x_log:
         ax.set_xscale("log")
     if y_log:
@@ -236,6 +238,79 @@ def stability_map_png(table, x_key: str, y_key: str, x_log: bool, y_log: bool, m
     fig.savefig(png, format="png", dpi=110)
     plt.close(fig)
     return png.getvalue()
+
+
+def cell_edges(centres, log: bool) -> np.ndarray:
+    """The edges of the cells around a grid's `centres` (increasing): midway between neighbours,
+    in log space on a log axis (the geometric mean: 2e6 and 8e6 meet at 4e6, not 5e6), and the
+    outer edges half a cell beyond the outer centres in the same space, so that a log axis's
+    bottom cell around 2e6 starts at 1e6 from a next value of 4e6 (matplotlib's "nearest" shading
+    takes arithmetic midpoints, which put it at 1e6 - 1e6 = 0 and below). A lone centre's cell
+    spans a factor sqrt(10) (a log axis: half a decade) or +-5 % of it (+-0.5 at 0) either way."""
+    values = np.asarray(centres, dtype=float)
+    if log:
+        return (
+            np.exp(cell_edges(np.log(values), False))
+            if len(values) > 1
+            else values[[0, 0]] * 10.0 ** np.array([-0.25, 0.25])
+        )
+    if len(values) == 1:
+        half = 0.05 * abs(values[0]) or 0.5
+        return values[[0, 0]] + np.array([-half, half])
+    middle = (values[1:] + values[:-1]) / 2
+    return np.concatenate(
+        [[values[0] - (values[1] - values[0]) / 2], middle, [values[-1] + (values[-1] - values[-2]) / 2]]
+    )
+
+
+# The unit of each layout key a sweep or map varies, by its last name (`primary.yaw_stiffness`:
+# yaw_stiffness): rail-mj's layouts are SI throughout (rail_mj.layout), "-" where dimensionless.
+KEY_UNITS = {
+    **dict.fromkeys(
+        (
+            "rolling_radius",
+            "contact_half_spacing",
+            "flangeway_clearance",
+            "wheelset_positions",
+            "bogie_positions",
+            "position",
+            "length",
+            "width",
+            "height",
+            "spacing",
+            "carbody_height",
+            "bogie_height",
+            "free_play",
+            "deflection",
+            "rail_transverse_radius",
+            "wheel_transverse_radius",
+            "track_gauge",
+            "flange_back_spacing",
+        ),
+        "m",
+    ),
+    **dict.fromkeys(("conicity", "friction", "poisson_ratio", "rail_inclination", "falling_friction_ratio"), "-"),
+    **dict.fromkeys(("lateral_stiffness", "kx", "ky", "kz", "stiffness"), "N/m"),
+    **dict.fromkeys(("lateral_damping", "cx", "cy", "cz", "c", "damping"), "N·s/m"),
+    **dict.fromkeys(("yaw_stiffness", "anti_roll_bar"), "N·m/rad"),
+    "yaw_damping": "N·m·s/rad",
+    "mass": "kg",
+    "inertia": "kg·m²",
+    **dict.fromkeys(("wheel_load", "force", "f11", "f22"), "N"),
+    "f23": "N·m",
+    "f33": "N·m²",
+    "young_modulus": "Pa",
+    "angle": "rad",
+    "falling_friction_rate": "s/m",
+}
+
+
+def key_label(key: str) -> str:
+    """An axis label for a layout key: the key and its unit, "primary.yaw_stiffness (N·m/rad)";
+    the key alone where its unit is not known. Indices (bogies.2.mass, ...inertia.1) are skipped."""
+    names = [part for part in key.split(".") if not part.isdigit()]
+    unit = KEY_UNITS.get(names[-1]) if names else None
+    return f"{key} ({unit})" if unit else key
 
 
 def profile_png(profile: Profile) -> bytes:

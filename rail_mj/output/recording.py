@@ -16,11 +16,15 @@ Entity paths (stable; later tools read them back), in review units: mm, mrad, kN
     /yaw/<frame>           and its yaw, mrad; then carbody, unless it is fixed
     /events/flange         (with [flange] or profiles) a log line for each flange strike
     /layout                the layout file and the run's settings, logged once
+    /exaggeration          what the 3D view exaggerates, and by how much (a text, logged once)
     /world/rails           the track, logged once, and /world/sleepers, one every 0.6 m
     /world/vehicle/<body>  each body's pose (carbody, bogieK, wheelsetN) moving along the
                            track (x = V*t + the body's place, m), its MJCF geoms (boxes, axle,
                            wheel meshes) under it; /world/vehicle/<root>/extent marks the
-                           vehicle's extent (invisible) for the 3D view's camera to follow
+                           vehicle's extent (invisible) for the 3D view's camera to follow.
+                           Its lateral displacement and yaw relative to the track are drawn
+                           `exaggeration` times their size (`exaggeration(run)`); the plots
+                           show true values
 
 each on two timelines, TIME (seconds) and DISTANCE (millimetres travelled: Rerun
 timelines are integer sequences or times, so distance is a sequence in mm).
@@ -29,8 +33,10 @@ The run samples every millisecond; the recording keeps one sample in every n, at
 rate chosen from the run's motion (`recording_rate`), or as asked: `rate` in samples
 per second, `math.inf` for every sample. Flange strikes are found in the full run.
 
-The blueprint opens on a grid of plots over the whole run (wheelsets above, the bogies
-and car body below; lateral, yaw, forces) and a 3D view whose camera follows the vehicle.
+The blueprint opens on a grid of plots (wheelsets above, the bogies and car body below;
+lateral, yaw, forces), each showing a window of a few seconds around the run's first flange
+strike or its largest motion (`review_window`), on either timeline, each legend in a corner
+the data leave free or hidden; and a 3D view whose camera follows the vehicle.
 
 Example:
 
@@ -54,8 +60,11 @@ import mujoco
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
+from rerun.blueprint.components import AbsoluteTimeRange
+from rerun.encodings import TimeInt
 
 from rail_mj.analysis import flange_strikes
+from rail_mj.analysis.en14363 import dominant_frequency
 from rail_mj.files import staged
 from rail_mj.layout.kinds import Coned, Profiled, contact_model
 from rail_mj.layout.reader import Flange
@@ -118,6 +127,60 @@ PALETTE = [
     (190, 140, 100),
 ]
 CARBODY_COLOUR = (235, 235, 235)
+# The palette's colours by name, for the key the recording's notes give (a hidden legend's).
+COLOUR_NAMES = (
+    "blue",
+    "red",
+    "green",
+    "yellow",
+    "violet",
+    "cyan",
+    "pink",
+    "lime",
+    "orange",
+    "indigo",
+    "grey",
+    "brown",
+)
+
+# The 3D view's exaggeration of lateral motion and yaw. Hunting of 13 mm under a 25 m coach,
+# seen from the camera's 30 m in a view some 600 pixels across, moves the wheels by a quarter
+# of a pixel: invisible. Each body's lateral displacement y and yaw psi relative to the track are drawn
+# times a factor, the same for both (a body's lateral motion and the yaw that steers it keep
+# their proportion) and for every body (the suspension's deflections scale with them). The
+# factor shows the run's largest |y| as up to EXAGGERATED_REACH of b (half of b: a quarter of
+# the gauge, 0.375 m on standard gauge), rounded down to 1, 2 or 5 times a power of ten so that
+# it reads as a plain number; at least 1 (a run already as large draws true), at most
+# MAX_EXAGGERATION (a run at rest, or round-off, is not blown up to fill the view).
+EXAGGERATED_REACH = 0.5  # of wheelset.contact_half_spacing
+MAX_EXAGGERATION = 100.0
+EXAGGERATION_LIMITS = (1.0, 1000.0)  # what `exaggeration=` may ask for: beyond, bodies leave the scene
+
+# The window the plots open on: WINDOW_CYCLES cycles of the motion's frequency (the highest
+# peak of the wheelsets' lateral velocity's spectrum), kept within WINDOW_SPAN (s), its moment
+# (the first flange strike, or the largest lateral motion) WINDOW_LEAD of the way in, so that
+# the growth before it shows and more of the motion after it. 4 s hold 20 cycles of hunting at
+# 5 Hz, each some 20 pixels wide in a plot of the grid: the shape of each cycle shows, where the
+# whole of a 23 s run draws a solid band. Slower motions get longer windows, up to 10 s.
+WINDOW_CYCLES = 10
+WINDOW_SPAN = (4.0, 10.0)  # s
+WINDOW_LEAD = 0.25
+
+# A legend's box, as fractions of its plot (a grid plot of about 450 x 250 pixels; egui draws a
+# legend row about 20 pixels high, a label of 20 characters about 130 pixels wide). A legend goes
+# in the first corner (right top, left top, right bottom, left bottom) in which no sample of the
+# window the plot opens on falls; in none, it is hidden (the series are named on hover, and the
+# notes give the colours' key).
+LEGEND_WIDTH = 0.35
+LEGEND_ROW = 0.08
+LEGEND_MARGIN = 0.06
+LEGEND_CORNERS = (
+    (rrb.Corner2D.RightTop, "right", "top"),
+    (rrb.Corner2D.LeftTop, "left", "top"),
+    (rrb.Corner2D.RightBottom, "right", "bottom"),
+    (rrb.Corner2D.LeftBottom, "left", "bottom"),
+)
+EXAGGERATION_PATH = "/exaggeration"
 
 
 def flange_path(i: int) -> str:
@@ -223,6 +286,127 @@ def recorded_samples(run: Run, rate: float | None = None) -> np.ndarray:
     if keep[-1] != len(run.t) - 1:
         keep = np.append(keep, len(run.t) - 1)
     return keep
+
+
+def exaggeration(run: Run) -> float:
+    """The 3D view's automatic exaggeration of lateral motion and yaw: the run's largest |y| (of
+    any wheelset, bogie frame or car body, relative to the track) drawn as up to
+    EXAGGERATED_REACH of b, the factor 1, 2 or 5 times a power of ten, from 1 to
+    MAX_EXAGGERATION (see the comment above EXAGGERATED_REACH)."""
+    largest = float(np.max(np.abs(run.y), initial=0.0))
+    if run.frame_names:
+        largest = max(largest, float(np.max(np.abs(run.frame_y), initial=0.0)))
+    if not largest > 0.0:  # at rest (or not a number): nothing to enlarge
+        return 1.0
+    wanted = min(EXAGGERATED_REACH * run.layout.wheelset.contact_half_spacing / largest, MAX_EXAGGERATION)
+    if wanted <= 1.0:
+        return 1.0
+    decade = 10.0 ** math.floor(math.log10(wanted))
+    return max(m * decade for m in (1.0, 2.0, 5.0) if m * decade <= wanted * (1 + 1e-9))
+
+
+def _factor(run: Run, factor: float | None) -> float:
+    """`factor` checked (EXAGGERATION_LIMITS), or the automatic one for None."""
+    if factor is None:
+        return exaggeration(run)
+    lo, hi = EXAGGERATION_LIMITS
+    if not lo <= factor <= hi:  # also NaN
+        raise ValueError(f"the exaggeration must be a number from {lo:g} (true size) to {hi:g}, got {factor}")
+    return float(factor)
+
+
+def exaggerated_poses(run: Run, keep: np.ndarray, factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """Every body's pose at the samples `keep` in the moving (track-following) frame, positions
+    (m) and MuJoCo (w, x, y, z) quaternions, its lateral displacement y and yaw psi `factor` times
+    their size. The yaw: a turn by (factor - 1) psi about z before the body's own rotation
+    R = Rz(psi) Rx(phi) Ry(theta) (rail_mj.vehicle.joints) makes it Rz(factor psi) Rx(phi) Ry(theta):
+    a spatial body's roll and pitch stay true. The odometer (a curved track's) is no body drawn."""
+    pos, quat = run.body_pos[keep].copy(), run.body_quat[keep].copy()
+    if factor == 1.0:
+        return pos, quat
+    model = run.vehicle.model
+    bodies = [b for b in range(1, model.nbody) if model.body(b).name != ODOMETER]
+    pos[:, bodies, 1] *= factor
+    w, x, y, z = (quat[:, bodies, k] for k in range(4))
+    psi = np.arctan2(-2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z))  # as Run.frame_psi reads it
+    c, s = np.cos(0.5 * (factor - 1.0) * psi), np.sin(0.5 * (factor - 1.0) * psi)
+    # (c, 0, 0, s) * (w, x, y, z), the turn about z first in the product: applied after R.
+    quat[:, bodies] = np.stack([c * w - s * z, c * x - s * y, c * y + s * x, c * z + s * w], axis=-1)
+    return pos, quat
+
+
+class Window(NamedTuple):
+    """The samples the plots open on, `start` to `end` (inclusive), around the sample `moment`."""
+
+    start: int
+    end: int
+    moment: int
+    reason: str  # what happens at `moment`, for the notes
+
+
+def review_window(run: Run) -> Window | None:
+    """The few seconds the plots open on (see WINDOW_CYCLES): around the first flange strike
+    when the run has flange contact and strikes, else around the largest lateral motion of a
+    wheelset (the start, for a disturbance that dies away; the end, for one that grows); None
+    when the run is no longer than the window (the plots then show the whole of it)."""
+    t = run.t
+    if len(t) < 2:
+        return None
+    strikes = flange_strikes(run) if _flanges(run) else []
+    if strikes:
+        first = min(strikes, key=lambda s: s.start)
+        moment, reason = first.start, f"the first flange strike (wheelset {first.wheelset + 1})"
+    else:
+        moment, reason = int(np.argmax(np.max(np.abs(run.y), axis=1))), "the largest lateral motion of a wheelset"
+    frequency = dominant_frequency(t, run.wheelset_rates[..., 0])
+    low, high = WINDOW_SPAN
+    span = min(max(WINDOW_CYCLES / frequency, low), high) if frequency > 0 else low
+    if t[-1] - t[0] <= span:
+        return None
+    begin = min(max(t[moment] - WINDOW_LEAD * span, t[0]), t[-1] - span)
+    start = int(np.searchsorted(t, begin - 1e-9))
+    end = int(np.searchsorted(t, t[start] + span + 1e-9)) - 1
+    return Window(start, end, moment, reason)
+
+
+def _visible_ranges(run: Run, window: Window | None) -> list[rrb.VisibleTimeRange] | None:
+    """The window on both timelines, time (s) and distance (mm); None: the whole run."""
+    if window is None:
+        return None
+    start, end = window.start, window.end
+    millimetres = np.round(run.x[[start, end]] * MM_PER_M).astype(np.int64)
+    return [
+        rrb.VisibleTimeRange(
+            TIME,
+            start=rr.TimeRangeBoundary.absolute(seconds=float(run.t[start])),
+            end=rr.TimeRangeBoundary.absolute(seconds=float(run.t[end])),
+        ),
+        rrb.VisibleTimeRange(
+            DISTANCE,
+            start=rr.TimeRangeBoundary.absolute(seq=int(millimetres[0])),
+            end=rr.TimeRangeBoundary.absolute(seq=int(millimetres[1])),
+        ),
+    ]
+
+
+def legend_corner(plot: Plot, run: Run, window: Window | None) -> rrb.Corner2D | None:
+    """Where `plot`'s legend covers no data: the first of LEGEND_CORNERS whose box (LEGEND_WIDTH
+    wide, LEGEND_MARGIN plus LEGEND_ROW a series high) no sample of `window` (the whole run for
+    None) falls in, on the plot's y range (`axis_range`); None: every corner holds data."""
+    height = LEGEND_MARGIN + LEGEND_ROW * len(plot.series)
+    if height >= 1.0 or not plot.series:
+        return None
+    samples = slice(window.start, window.end + 1) if window is not None else slice(None)
+    t = run.t[samples]
+    across = (t - t[0]) / (t[-1] - t[0]) if len(t) > 1 else np.zeros(len(t))
+    low, high = axis_range([s.values for s in plot.series], plot.floor, plot.positive)
+    level = (np.stack([s.values[samples] for s in plot.series]) - low) / (high - low)  # NaN: no sample
+    for corner, side, end in LEGEND_CORNERS:
+        columns = across >= 1.0 - LEGEND_WIDTH if side == "right" else across <= LEGEND_WIDTH
+        rows = level >= 1.0 - height if end == "top" else level <= height
+        if not np.any(rows[:, columns]):
+            return corner
+    return None
 
 
 class Series(NamedTuple):
@@ -399,23 +583,30 @@ def axis_range(values, floor: float = 0.0, positive: bool = False) -> list[float
     return [0.0, edge] if positive else [-edge, edge]
 
 
-def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
-    """The default layout: the plots (`plots(run)`, or `shown`) in a grid on the left;
-    on the right the 3D view, its camera following the vehicle, above the layout and
-    the flange strikes."""
+def blueprint(run: Run, shown: list[Plot] | None = None, factor: float | None = None) -> rrb.Blueprint:
+    """The default layout: the plots (`plots(run)`, or `shown`) in a grid on the left, each
+    opening on `review_window(run)` on both timelines, its legend where it covers no data
+    (`legend_corner`); on the right the 3D view, its camera following the vehicle, lateral
+    motion and yaw exaggerated `factor` times (None: `exaggeration(run)`) as its name says,
+    above the layout and the flange strikes. The time panel marks the window."""
     shown = plots(run) if shown is None else shown
-    whole_run = rr.TimeRange(start=rr.TimeRangeBoundary.infinite(), end=rr.TimeRangeBoundary.infinite())
-    views = [
-        rrb.TimeSeriesView(
-            origin="/",
-            contents=[s.path for s in p.series],
-            name=p.title,
-            plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),
-            axis_x=rrb.TimeAxis(view_range=whole_run),
-            axis_y=rrb.ScalarAxis(range=axis_range([s.values for s in p.series], p.floor, p.positive)),
+    factor = _factor(run, factor)
+    window = review_window(run)
+    ranges = _visible_ranges(run, window)
+    views = []
+    for p in shown:
+        corner = legend_corner(p, run, window)
+        views.append(
+            rrb.TimeSeriesView(
+                origin="/",
+                contents=[s.path for s in p.series],
+                name=p.title,
+                plot_legend=rrb.PlotLegend(corner=corner or rrb.Corner2D.RightTop, visible=corner is not None),
+                axis_y=rrb.ScalarAxis(range=axis_range([s.values for s in p.series], p.floor, p.positive)),
+                # The x axis is left to Rerun, which fits it to the data the visible range holds.
+                time_ranges=ranges,
+            )
         )
-        for p in shown
-    ]
     notes: list[rrb.View] = [rrb.TextDocumentView(origin="/layout", name="Layout and run")]
     if _flanges(run):
         notes.append(rrb.TextLogView(origin=FLANGE_EVENTS, name="Flange strikes"))
@@ -432,23 +623,46 @@ def blueprint(run: Run, shown: list[Plot] | None = None) -> rrb.Blueprint:
         eye_up=[0.0, 0.0, 1.0],
         tracking_entity=_extent_path(run),
     )
+    time_panel = rrb.TimePanel(
+        state="collapsed",
+        timeline=TIME,
+        time_selection=None
+        if window is None
+        else AbsoluteTimeRange(TimeInt(seconds=float(run.t[window.start])), TimeInt(seconds=float(run.t[window.end]))),
+    )
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Grid(*views, grid_columns=3 if len(views) > 4 else 2),
             rrb.Vertical(
-                rrb.Spatial3DView(
-                    origin="/world", name="Vehicle on the track (the camera follows it)", eye_controls=eye
-                ),
+                rrb.Spatial3DView(origin="/world", name=view_name(factor), eye_controls=eye),
                 rrb.Tabs(*notes),
                 row_shares=[3, 2],
             ),
             column_shares=[2, 1],
         ),
+        time_panel,
         collapse_panels=True,
     )
 
 
-def _layout_text(run: Run, keep: np.ndarray) -> str:
+def view_name(factor: float) -> str:
+    """The 3D view's name, which states its exaggeration."""
+    if factor == 1.0:
+        return "Vehicle on the track, true size (the camera follows it)"
+    return f"Vehicle on the track, lateral motion and yaw ×{factor:g} (the camera follows it)"
+
+
+def exaggeration_text(factor: float) -> str:
+    """What the 3D view exaggerates (logged at EXAGGERATION_PATH and in the notes)."""
+    if factor == 1.0:
+        return "The 3D view draws every body's motion at its true size."
+    return (
+        f"The 3D view draws every body's lateral displacement and yaw relative to the track "
+        f"{factor:g} times their size (`--exaggerate`); the plots show true values."
+    )
+
+
+def _layout_text(run: Run, keep: np.ndarray, factor: float, shown: list[Plot]) -> str:
     try:
         source = Path(run.layout.source).read_text(encoding="utf-8")
     except OSError:
@@ -460,7 +674,37 @@ def _layout_text(run: Run, keep: np.ndarray) -> str:
         f"speed {_speed_text(run)}, distance {run.x[-1]:g} m, timestep {run.timestep:.4g} s\n\n"
         f"recorded at {rate:.4g} samples/s, one in {every} of the run's samples (the CSV of "
         f"`rail-mj run --out` has them all)\n\n"
+        f"{exaggeration_text(factor)}\n\n"
+        f"{_window_text(run, review_window(run))}\n\n"
+        f"{_key_text(shown)}\n\n"
         f"```toml\n{source}\n```\n"
+    )
+
+
+def _window_text(run: Run, window: Window | None) -> str:
+    if window is None:
+        return "The plots show the whole run."
+    start, end, moment = window.start, window.end, window.moment
+    return (
+        f"The plots open on t = {run.t[start]:.2f} to {run.t[end]:.2f} s (x = {run.x[start]:.0f} to "
+        f"{run.x[end]:.0f} m), around {window.reason} at t = {run.t[moment]:.2f} s, x = {run.x[moment]:.1f} m; "
+        f"the time panel marks the window. For the whole run, set a plot's visible time range to its "
+        f"default (selection panel)."
+    )
+
+
+def _key_text(shown: list[Plot]) -> str:
+    """The colours' key: the wheelsets' (and bogies'), which a plot whose legend is hidden keeps."""
+    names = {**dict(zip(PALETTE, COLOUR_NAMES)), CARBODY_COLOUR: "white"}
+    seen: dict[str, str] = {}
+    for s in (s for p in shown for s in p.series):
+        label = s.label.split(" (")[0]  # "wheelset 1 (mm)": "wheelset 1"; a wheel's ends "left" or "right"
+        if label.startswith(("wheelset", "bogie", "car body")) and not label.endswith(("left", "right")):
+            seen.setdefault(label, names[s.colour])
+    parts = [f"{label} {colour}" for label, colour in seen.items()]
+    return (
+        f"Colours, the same in every plot: {', '.join(parts)}; a right wheel a darker shade of its "
+        f"wheelset's. Plots without a legend (none of their corners free of data) name each line on hover."
     )
 
 
@@ -471,14 +715,17 @@ def _speed_text(run: Run) -> str:
     return f"{run.speeds[0]:.4g} to {run.speeds[-1]:.4g} m/s along the profile {points}"
 
 
-def log_run(rec: rr.RecordingStream, run: Run, rate: float | None = None) -> None:
-    """Log a run into an open recording, at `rate` (see `recorded_samples`): static data
-    once, the series in column batches."""
-    _log_samples(rec, run, recorded_samples(run, rate), plots(run))
+def log_run(rec: rr.RecordingStream, run: Run, rate: float | None = None, exaggeration: float | None = None) -> None:
+    """Log a run into an open recording, at `rate` (see `recorded_samples`), the 3D view's
+    lateral motion and yaw `exaggeration` times their size (None: `exaggeration(run)`): static
+    data once, the series in column batches."""
+    _log_samples(rec, run, recorded_samples(run, rate), plots(run), _factor(run, exaggeration))
 
 
-def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: list[Plot]) -> None:
-    rec.log("/layout", rr.TextDocument(_layout_text(run, keep), media_type=rr.MediaType.MARKDOWN), static=True)
+def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: list[Plot], factor: float) -> None:
+    text = _layout_text(run, keep, factor, shown)
+    rec.log("/layout", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True)
+    rec.log(EXAGGERATION_PATH, rr.TextDocument(exaggeration_text(factor)), static=True)
     indexes = [
         rr.TimeColumn(TIME, duration=run.t[keep]),
         rr.TimeColumn(DISTANCE, sequence=np.round(run.x[keep] * 1000.0).astype(np.int64)),
@@ -497,7 +744,7 @@ def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: lis
         rec.send_columns(series.path, indexes=indexes, columns=rr.Scalars.columns(scalars=series.values[keep]))
     if _flanges(run):
         log_flange_strikes(rec, run)
-    log_vehicle(rec, run, keep, indexes)
+    log_vehicle(rec, run, keep, indexes, factor)
 
 
 def _flanges(run: Run) -> bool:
@@ -577,8 +824,9 @@ def _extent(run: Run) -> np.ndarray:
     return np.array([every.min(axis=0), every.max(axis=0)])
 
 
-def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes) -> None:
-    """The vehicle's bodies moving along the track in 3D: geometry once, poses in columns.
+def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes, factor: float = 1.0) -> None:
+    """The vehicle's bodies moving along the track in 3D: geometry once, poses in columns, each
+    body's lateral displacement and yaw `factor` times their size (`exaggerated_poses`).
 
     The model travels with the vehicle, so each pose gets the distance x = V*t added.
     The 3D view's camera tracks the vehicle's extent, two invisible points fixed to the
@@ -603,12 +851,12 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes) ->
     rec.log(
         _extent_path(run), rr.Points3D(_extent(run) - data.xpos[root], radii=0.0, colors=[(0, 0, 0, 0)]), static=True
     )
+    pos, wxyz = exaggerated_poses(run, keep, factor)
     if run.track is None:
-        pos = run.body_pos[keep].copy()
         pos[:, :, 0] += run.x[keep, None]
-        quat = _xyzw(run.body_quat[keep])
+        quat = _xyzw(wxyz)
     else:
-        pos, quat = _on_track(run, keep)
+        pos, quat = _on_track(run, keep, pos, wxyz)
     for b in range(1, model.nbody):
         rec.send_columns(
             f"/world/vehicle/{model.body(b).name}",
@@ -631,10 +879,10 @@ def _track_frames(track: Track, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate([xy, np.zeros((*s.shape, 1))], axis=-1), rz @ rx
 
 
-def _on_track(run: Run, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _on_track(run: Run, keep: np.ndarray, local: np.ndarray, wxyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Every body's pose on the curved track (positions and xyzw quaternions, samples `keep`):
-    its pose in the track-following frame (docs/track.md) carried by the track's frame at its
-    own station."""
+    its pose in the track-following frame (docs/track.md; `local` and `wxyz`, as
+    `exaggerated_poses` gives them) carried by the track's frame at its own station."""
     assert run.track is not None
     model = run.vehicle.model
     x0 = mujoco.MjData(model)
@@ -644,11 +892,11 @@ def _on_track(run: Run, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     along = np.where(np.arange(model.nbody) == model.body(ODOMETER).id, 0.0, x0.xpos[:, 0])
     stations = run.station[keep, None] + along[None, :]
     origin, rotation = _track_frames(run.track, stations)
-    local = run.body_pos[keep].copy()
+    local = local.copy()
     local[:, :, 0] -= along[None, :]
     local[:, model.body(ODOMETER).id] = 0.0  # drawn nowhere: it has no shape
     pos = origin + np.einsum("...ij,...j->...i", rotation, local)
-    body = np.array([_matrix(q) for q in run.body_quat[keep].reshape(-1, 4)]).reshape(*rotation.shape)
+    body = np.array([_matrix(q) for q in wxyz.reshape(-1, 4)]).reshape(*rotation.shape)
     quat = np.empty((*stations.shape, 4))
     mujoco_quat = np.empty(4)
     for index in np.ndindex(stations.shape):
@@ -725,10 +973,13 @@ def _log_curved_track(rec: rr.RecordingStream, run: Run, track: Track) -> None:
     )
 
 
-def save_recording(run: Run, path: str | Path, rate: float | None = None) -> None:
+def save_recording(run: Run, path: str | Path, rate: float | None = None, exaggeration: float | None = None) -> None:
     """Write `run` to an .rrd file at `path` (use `write_recording` for a safe write), at
-    `rate` samples/s: None for `recording_rate(run)`, math.inf for every sample."""
-    keep = recorded_samples(run, rate)  # refuse a bad rate before the file is opened
+    `rate` samples/s: None for `recording_rate(run)`, math.inf for every sample; the 3D view's
+    lateral motion and yaw `exaggeration` times their size: None for `exaggeration(run)`, 1 for
+    true size (at most 1000)."""
+    keep = recorded_samples(run, rate)  # refuse a bad rate or factor before the file is opened
+    factor = _factor(run, exaggeration)
     shown = plots(run)
     # One id per recording: Rerun merges recordings that share one when opened together
     # (the runs of a sweep share a layout name and perhaps a speed).
@@ -737,16 +988,16 @@ def save_recording(run: Run, path: str | Path, rate: float | None = None) -> Non
     # (a full disk) logs ERROR lines and its flush never returns, where this write raises
     # one OSError. One read at the end: the reader of 0.41 takes one stream per file.
     stream = rr.binary_stream(rec)
-    rec.send_blueprint(blueprint(run, shown), make_active=False, make_default=True)
-    _log_samples(rec, run, keep, shown)
+    rec.send_blueprint(blueprint(run, shown, factor), make_active=False, make_default=True)
+    _log_samples(rec, run, keep, shown, factor)
     data = stream.read()
     rec.disconnect()
     Path(path).write_bytes(data or b"")
 
 
-def write_recording(run: Run, path: str | Path, rate: float | None = None) -> Path:
-    """Write `run` to an .rrd file; the file appears only once it is complete. `rate` as
-    for `save_recording`."""
+def write_recording(run: Run, path: str | Path, rate: float | None = None, exaggeration: float | None = None) -> Path:
+    """Write `run` to an .rrd file; the file appears only once it is complete. `rate` and
+    `exaggeration` as for `save_recording`."""
     with staged([path]) as (tmp,):
-        save_recording(run, tmp, rate)
+        save_recording(run, tmp, rate, exaggeration)
     return Path(path)

@@ -15,7 +15,6 @@ import io
 
 import numpy as np
 
-from rail_mj.analysis.en14363 import derailment_quotients
 from rail_mj.simulation.run import Run
 
 
@@ -40,42 +39,8 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
                                     left) and cant (m, signed as the curvature) under each wheelset
     speed                           on a speed profile (--speed-profile): the speed, m/s
     """
-    names = ["t", "x"]
-    cols = [run.t, run.x]
-    y, psi = run.y, run.psi
-    for i in range(run.n_wheelsets):
-        names += [f"y{i + 1}", f"psi{i + 1}"]
-        cols += [y[:, i], psi[:, i]]
-    forces = run.contact_forces()
-    for i in range(run.n_wheelsets):
-        names += [f"sum_y{i + 1}", f"flange{i + 1}"]
-        cols += [forces.lateral[:, i], forces.flange_lateral[:, i]]
-    frame_y, frame_psi = run.frame_y, run.frame_psi
-    for k, name in enumerate(run.frame_names):
-        names += [f"y_{name}", f"psi_{name}"]
-        cols += [frame_y[:, k], frame_psi[:, k]]
-    if run.layout.spatial is not None:  # a planar run's columns stay as they were
-        q = run.wheel_loads()
-        lateral, quotient = run.wheel_lateral_forces(), derailment_quotients(run)
-        for i in range(run.n_wheelsets):
-            for what, values in (("q", q), ("ylat", lateral), ("y_over_q", quotient)):
-                names += [f"{what}_left{i + 1}", f"{what}_right{i + 1}"]
-                cols += [values[:, i, 0], values[:, i, 1]]
-        roll, pitch, bounce = run.frame_roll, run.frame_pitch, run.frame_bounce
-        for k, name in enumerate(run.frame_names):
-            names += [f"bounce_{name}", f"roll_{name}", f"pitch_{name}"]
-            cols += [bounce[:, k], roll[:, k], pitch[:, k]]
-    if run.track is not None:  # a run on straight track keeps its columns
-        cant = run.track.cant(run.wheelset_station)
-        for i in range(run.n_wheelsets):
-            names.append(f"curvature{i + 1}")
-            cols.append(run.wheelset_curvature[:, i])
-        for i in range(run.n_wheelsets):
-            names.append(f"cant{i + 1}")
-            cols.append(cant[:, i])
-    if run.profile is not None:  # a run at constant speed keeps its columns
-        names.append("speed")
-        cols.append(run.speeds)
+    named, cols = run.columns()
+    names = [name for name, _unit in named]
     return names, np.column_stack(cols)
 
 

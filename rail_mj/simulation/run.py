@@ -15,6 +15,7 @@ import numpy as np
 
 from rail_mj.contact.creep import ContactForces, contact_forces
 from rail_mj.layout import Layout
+from rail_mj.practice import INITIAL_LATERAL
 from rail_mj.track import SpeedProfile, Track
 from rail_mj.track.speed import PROFILE_TRACK
 from rail_mj.vehicle.block import contact_parameters
@@ -31,7 +32,7 @@ class Request:
     layout: Layout
     speed: float
     distance: float
-    initial_lateral: float = 0.0
+    initial_lateral: float = INITIAL_LATERAL  # m, as `simulate`
     initial_yaw: float = 0.0
     state: tuple[np.ndarray, np.ndarray] | None = None
     track: Track | None = None  # None: straight track
@@ -133,6 +134,71 @@ class Run:
         frame, + to the left), creep, flange and the normal force's lateral part."""
         f = self.contact_forces()
         return np.stack([f.lateral_left, f.lateral_right], axis=-1)
+
+    def derailment_quotients(self) -> np.ndarray:
+        """(n_samples, n_wheelsets, 2): Y/Q of each wheel (EN 14363), Y the force the wheel puts
+        on its rail towards the outside of the track (positive: the flange-climbing direction:
+        the left wheel pushing its rail to the left). NaN where a wheel is off its rail (Q = 0)."""
+        outward = self.wheel_lateral_forces() * np.array([-1.0, 1.0])
+        q = self.wheel_loads()
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(q > 0.0, outward / np.where(q > 0.0, q, 1.0), np.nan)
+
+    def columns(self) -> tuple[list[tuple[str, str]], list[np.ndarray]]:
+        """Every sampled quantity as (name, unit) and its values, one per sample, SI units: the
+        columns of `rail-mj run --out` (rail_mj.output.samples, where each is described) and of
+        `to_dataframe`. Units are written as in names: s, m, rad, n (newtons), 1_per_m, m_per_s,
+        and "" for a ratio."""
+        names: list[tuple[str, str]] = [("t", "s"), ("x", "m")]
+        cols = [self.t, self.x]
+        y, psi = self.y, self.psi
+        for i in range(self.n_wheelsets):
+            names += [(f"y{i + 1}", "m"), (f"psi{i + 1}", "rad")]
+            cols += [y[:, i], psi[:, i]]
+        forces = self.contact_forces()
+        for i in range(self.n_wheelsets):
+            names += [(f"sum_y{i + 1}", "n"), (f"flange{i + 1}", "n")]
+            cols += [forces.lateral[:, i], forces.flange_lateral[:, i]]
+        frame_y, frame_psi = self.frame_y, self.frame_psi
+        for k, name in enumerate(self.frame_names):
+            names += [(f"y_{name}", "m"), (f"psi_{name}", "rad")]
+            cols += [frame_y[:, k], frame_psi[:, k]]
+        if self.layout.spatial is not None:  # a planar run's columns stay as they were
+            q, lateral, quotient = self.wheel_loads(), self.wheel_lateral_forces(), self.derailment_quotients()
+            for i in range(self.n_wheelsets):
+                for what, unit, values in (("q", "n", q), ("ylat", "n", lateral), ("y_over_q", "", quotient)):
+                    names += [(f"{what}_left{i + 1}", unit), (f"{what}_right{i + 1}", unit)]
+                    cols += [values[:, i, 0], values[:, i, 1]]
+            roll, pitch, bounce = self.frame_roll, self.frame_pitch, self.frame_bounce
+            for k, name in enumerate(self.frame_names):
+                names += [(f"bounce_{name}", "m"), (f"roll_{name}", "rad"), (f"pitch_{name}", "rad")]
+                cols += [bounce[:, k], roll[:, k], pitch[:, k]]
+        if self.track is not None:  # a run on straight track keeps its columns
+            cant = self.track.cant(self.wheelset_station)
+            names += [(f"curvature{i + 1}", "1_per_m") for i in range(self.n_wheelsets)]
+            cols += [self.wheelset_curvature[:, i] for i in range(self.n_wheelsets)]
+            names += [(f"cant{i + 1}", "m") for i in range(self.n_wheelsets)]
+            cols += [cant[:, i] for i in range(self.n_wheelsets)]
+        if self.profile is not None:  # a run at constant speed keeps its columns
+            names.append(("speed", "m_per_s"))
+            cols.append(self.speeds)
+        return names, cols
+
+    def to_dataframe(self):
+        """The run's samples as a pandas DataFrame, a row a sample: the columns of `columns`,
+        each named with its unit (`t_s`, `x_m`, `y1_m`, `psi1_rad`, `sum_y1_n`, `y_over_q_left1`).
+
+        Example:
+
+            >>> from rail_mj import load_layout, simulate
+            >>> run = simulate(load_layout("models/wheelset/wheelset.toml"), 30.0, 10.0)
+            >>> list(run.to_dataframe().columns)
+            ['t_s', 'x_m', 'y1_m', 'psi1_rad', 'sum_y1_n', 'flange1_n']
+        """
+        import pandas as pd
+
+        names, cols = self.columns()
+        return pd.DataFrame({f"{name}_{unit}" if unit else name: col for (name, unit), col in zip(names, cols)})
 
     @property
     def layout(self) -> Layout:

@@ -27,7 +27,7 @@ from collections.abc import Callable
 import numpy as np
 
 from rail_mj.layout import Layout
-from rail_mj.practice import DERAILMENT_LATERAL
+from rail_mj.practice import DERAILMENT_LATERAL, INITIAL_LATERAL
 from rail_mj.simulation.callback import CreepForces
 from rail_mj.simulation.run import Request, Run, RunRefused, SimulationError
 from rail_mj.simulation.stepping import Prepared, step_alone
@@ -157,7 +157,7 @@ def simulate(
     layout: Layout,
     speed: float | SpeedProfile,
     distance: float,
-    initial_lateral: float = 0.0,
+    initial_lateral: float = INITIAL_LATERAL,
     initial_yaw: float = 0.0,
     progress: Callable[[float], None] | None = None,
     derailment_lateral: float = DERAILMENT_LATERAL,
@@ -168,7 +168,8 @@ def simulate(
     """Run `layout` at `speed` (m/s, or a `SpeedProfile` of the speed along the track) for
     `distance` (m) from a disturbed start.
 
-    The disturbance: the whole vehicle shifted left by `initial_lateral` (m), and every
+    The disturbance: the whole vehicle shifted left by `initial_lateral` (m: 2 mm unless told, as
+    `rail-mj run`; 0 starts centred, and on straight perfect track nothing then moves), and every
     wheelset yawed by `initial_yaw` (rad) about its centre; or, to continue a run at a
     new speed, `state` = (qpos, qvel), for example a previous run's `final_state`.
     Raises ValueError for an impossible request and `SimulationError` for a run that

@@ -15,7 +15,7 @@ Example:
 
     >>> table = sweep("models/wheelset/wheelset.toml", speeds=(40.0, 80.0, 3), method="run",
     ...               distance=200.0)
-    >>> table.column("speed_m_per_s").to_pylist(), table.column("status").to_pylist()
+    >>> table["speed_m_per_s"].tolist(), table["status"].tolist()
     ([40.0, 60.0, 80.0], ['ok', 'ok', 'diverged'])
 """
 
@@ -35,7 +35,7 @@ import queue
 import threading
 import time
 import tomllib
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import CancelledError, ThreadPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
@@ -43,7 +43,8 @@ from typing import Any
 import numpy as np
 
 from rail_mj.files import is_special, read_input, staged
-from rail_mj.layout import LayoutError, layout_from_dict
+from rail_mj.layout import Layout, LayoutError, layout_from_dict
+from rail_mj.practice import INITIAL_LATERAL
 from rail_mj.studies.span import GRID, SEARCH, SWEEP, Span, SpanError
 from rail_mj.track import Track
 
@@ -52,7 +53,7 @@ METHODS = ("run", "eigen", "time", "nonlinear", "curving")
 # rail over the inner), not the layout's.
 CURVE_KEYS = ("track.radius", "track.cant")
 DEFAULT_DISTANCE = 1000.0  # m a run
-DEFAULT_INITIAL_LATERAL = 0.002  # m, as `rail-mj run`
+DEFAULT_INITIAL_LATERAL = INITIAL_LATERAL  # m, as `rail-mj run`
 STATUSES = ("ok", "diverged", "refused", "failed")
 
 # The result columns of each method, after the case's parameters and speed.
@@ -215,11 +216,87 @@ class Case:
         return out
 
 
+LayoutLike = str | Path | Layout | Mapping[str, Any]
+SpeedsLike = tuple[float, float, int] | str
+Assignments = Iterable[str] | Mapping[str, Any]
+
+
+def _layout_data(layout: LayoutLike) -> tuple[dict, Path]:
+    """The parsed layout a sweep varies, and the file relative paths in it are read from:
+    a layout file's path; a `Layout` read from one (rail_mj.load_layout: it is read again, and
+    must be what that file gives); or the parsed TOML itself, a dict (paths from the current
+    folder)."""
+    if isinstance(layout, Mapping):
+        return copy.deepcopy(dict(layout)), Path("<layout>")
+    path = Path(layout.source) if isinstance(layout, Layout) else Path(layout)
+    if isinstance(layout, Layout) and not path.is_file():
+        raise SweepError(
+            f"a Layout not read from a file ({layout.source}) cannot be swept: give the dict it was made from"
+        )
+    try:
+        data = tomllib.loads(read_input(path).decode("utf-8"))
+    except (OSError, UnicodeDecodeError) as e:
+        raise SweepError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SweepError(f"{path}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise SweepError(f"{path}: not a layout: its arrays or tables are nested too deeply to read") from None
+    if isinstance(layout, Layout):
+        try:
+            same = layout_from_dict(data, source=str(path)) == layout
+        except LayoutError:
+            same = False
+        if not same:
+            raise SweepError(
+                f"this Layout is not what {path} gives (changed since it was read, or the file was): "
+                f"sweep the file, or the dict of the layout wanted"
+            )
+    return data, path
+
+
+def _assignments(given: Assignments, what: str, parse: Callable[[str], Any]) -> list[tuple[str, Any]]:
+    """(key, value) pairs from `key=value` texts (each value read by `parse`, as the command line
+    does) or a mapping of keys to Python values (taken as they are)."""
+    if isinstance(given, Mapping):
+        return [(str(k), v) for k, v in given.items()]
+    if isinstance(given, str):
+        raise SweepError(f"{what}: give a list of key=value texts or a dict, got the text {given!r}")
+    return [(key, parse(value)) for key, value in (parse_assignment(text, what) for text in given)]
+
+
+def _grid_values(key: str, value: Any) -> list[float]:
+    """A grid's values: an `A:B:N[:log]` text, or a sequence of numbers."""
+    what = f"--grid {key}"
+    if isinstance(value, str):
+        return values_of(value, what)
+    try:
+        values = [float(v) for v in value]
+    except (TypeError, ValueError):
+        raise SweepError(f"{what}: give A:B:N or a list of numbers, got {value!r}") from None
+    if not values or not all(math.isfinite(v) for v in values):
+        raise SweepError(f"{what}: give at least one finite number, got {value!r}")
+    return values
+
+
+def _speeds(speeds: SpeedsLike) -> tuple[float, float, int]:
+    if isinstance(speeds, str):
+        try:
+            span = Span.parse(speeds, SWEEP, "speeds")
+        except SpanError as e:
+            raise SweepError(str(e)) from None
+        return span.a, span.b, span.n
+    try:
+        a, b, n = speeds
+    except (TypeError, ValueError):
+        raise SweepError(f"speeds: give (A, B, N) or 'A:B:N', got {speeds!r}") from None
+    return float(a), float(b), n  # N as given: Span.of refuses a non-integer
+
+
 def plan(
-    layout_path: str | Path,
-    speeds: tuple[float, float, int],
-    sets: Iterable[str] = (),
-    grids: Iterable[str] = (),
+    layout_path: LayoutLike,
+    speeds: SpeedsLike,
+    sets: Assignments = (),
+    grids: Assignments = (),
     method: str = "run",
     distance: float = DEFAULT_DISTANCE,
     recordings: str | Path | None = None,
@@ -233,7 +310,7 @@ def plan(
     if method not in METHODS:
         raise SweepError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     the_track, track_text = _track(track, method)
-    a, b, n = speeds
+    a, b, n = _speeds(speeds)
     try:
         span = Span.of(a, b, n, SWEEP, "speeds")
         if method not in ("run", "curving"):
@@ -242,28 +319,18 @@ def plan(
         raise SweepError(str(e)) from None
     if not (math.isfinite(distance) and distance > 0):
         raise SweepError(f"distance must be a positive number, got {distance}")
-    path = Path(layout_path)
-    try:
-        data = tomllib.loads(read_input(path).decode("utf-8"))
-    except (OSError, UnicodeDecodeError) as e:
-        raise SweepError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise SweepError(f"{path}: not valid TOML: {e}") from None
-    except RecursionError:
-        raise SweepError(f"{path}: not a layout: its arrays or tables are nested too deeply to read") from None
+    data, path = _layout_data(layout_path)
     curve: dict[str, float] = {}  # a curving sweep's curve keys given with --set
-    for text in sets:
-        key, value = parse_assignment(text, "--set")
+    for key, value in _assignments(sets, "--set", toml_value):
         if key in CURVE_KEYS:
-            curve[key] = _curve_value(key, toml_value(value), method)
+            curve[key] = _curve_value(key, value, method)
             continue
-        data = with_value(data, key, toml_value(value))
+        data = with_value(data, key, value)
     axes: list[tuple[str, list[float]]] = []
-    for text in grids:
-        key, value = parse_assignment(text, "--grid")
+    for key, value in _assignments(grids, "--grid", str):
         if key in (k for k, _ in axes):
             raise SweepError(f"--grid {key} is given twice")
-        axes.append((key, values_of(value, f"--grid {key}")))
+        axes.append((key, _grid_values(key, value)))
     try:  # the base layout (sets applied) must hold before any case runs
         layout_from_dict(data, source=str(path))
     except LayoutError as e:
@@ -732,12 +799,21 @@ def write_table(table, path: Path) -> None:
             pacsv.write_csv(table, tmp)
 
 
-def sweep(
-    layout_path: str | Path,
-    speeds: tuple[float, float, int],
+def sweep(layout: LayoutLike, speeds: SpeedsLike, **options: Any):
+    """`sweep_table` as a pandas DataFrame, one row per case, for a notebook: `layout` a file,
+    a `Layout` read from one or the parsed dict; `speeds` (A, B, N) or "A:B:N"; `sets` and
+    `grids` lists of `key=value` texts as on the command line or dicts of Python values
+    (`grids={"primary.yaw_stiffness": [1e6, 2e6]}` or `"1e6:1e7:5:log"`). Columns as the
+    sweep table's (`speed_m_per_s`, `status`, ...); None becomes NaN in number columns."""
+    return sweep_table(layout, speeds, **options).to_pandas()
+
+
+def sweep_table(
+    layout_path: LayoutLike,
+    speeds: SpeedsLike,
     *,
-    sets: Iterable[str] = (),
-    grids: Iterable[str] = (),
+    sets: Assignments = (),
+    grids: Assignments = (),
     method: str = "run",
     distance: float = DEFAULT_DISTANCE,
     workers: int | None = None,
@@ -942,7 +1018,12 @@ def summarise(table) -> dict:
     stable speed below the lowest range and that range's first; None when the lowest speed run
     is unstable already, or none is). Stability can come in windows: a freight wagon's car body
     unstable at low speed, stable above, its bogies hunting higher still. Cases that failed or
-    were refused say nothing of stability and are left out."""
+    were refused say nothing of stability and are left out. `table`: `sweep_table`'s, or
+    `sweep`'s DataFrame."""
+    if not hasattr(table, "to_pylist"):  # a DataFrame: NaN back to the table's None
+        import pyarrow as pa
+
+        table = pa.Table.from_pandas(table, preserve_index=False)
     rows = table.to_pylist()
     result = {
         "cases": len(rows),

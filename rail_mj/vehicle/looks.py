@@ -4,6 +4,9 @@ colours, and the wheel's mesh asset. Nothing here touches the dynamics.
 
 from __future__ import annotations
 
+import functools
+from pathlib import Path
+
 import mujoco
 import numpy as np
 
@@ -11,7 +14,7 @@ from rail_mj.layout import Layout
 from rail_mj.layout.kinds import Planar, SpatialVehicle
 from rail_mj.units import SIDES
 from rail_mj.vehicle.rounding import _g6
-from rail_mj.vehicle.wheel import wheel_profile, wheel_stl
+from rail_mj.vehicle.wheel import outline_stl, profile_outline, wheel_profile
 
 # Heights of the bodies above the rail, m. The model is planar (lateral and yaw), so
 # these place the bodies for viewing and have no effect on the dynamics. Bogie frame
@@ -55,6 +58,16 @@ FRAME_RGBA = [0.2, 0.3, 0.6, 1]
 # Half the gap left between two car bodies' drawn ends (gangway, coupler), m; drawing only.
 END_GAP = 0.15
 
+# [carbody] length, width and height (rail_mj.layout: optional) size the drawn body in place of the
+# coach's. A body no taller than FLAT_HEIGHT is a flat wagon's deck, one box; a taller one has
+# walls and a roof, and windows where its walls are tall enough for WINDOW_BAND with
+# WINDOW_HEADROOM above (a coach; a lower, windowless body is drawn in FREIGHT_RGBA).
+FLAT_HEIGHT = 0.6
+WINDOW_HEADROOM = 0.2
+DECK_RGBA = [0.42, 0.3, 0.2, 1]
+COACH_RGBA = [0.7, 0.2, 0.2, 1]
+FREIGHT_RGBA = [0.45, 0.32, 0.22, 1]
+
 
 def _quat_about_x(angle: float) -> list[float]:
     return [float(np.cos(angle / 2)), float(np.sin(angle / 2)), 0.0, 0.0]
@@ -92,8 +105,32 @@ def side_frame_heights(layout: Layout) -> tuple[float, float]:
 
 def wheel_radius(layout: Layout) -> float:
     """The wheel's outline, flange included (the mesh's largest radius)."""
+    return float(wheel_outline(layout)[:, 0].max())
+
+
+def wheel_outline(layout: Layout) -> np.ndarray:
+    """The (radius, axial) outline the wheel mesh revolves (rail_mj.vehicle.wheel): the layout's
+    own wheel profile with [profiles], else the coned tread and flange of r0 and the conicity."""
     w = layout.wheelset
-    return float(wheel_profile(w.rolling_radius, w.conicity)[:, 0].max())
+    if layout.profiles is None:
+        return wheel_profile(w.rolling_radius, w.conicity)
+    from rail_mj.contact.pair import stamp
+
+    return _profile_outline(layout.profiles, w.rolling_radius, w.contact_half_spacing, stamp(layout.profiles))
+
+
+@functools.lru_cache(maxsize=32)
+def _profile_outline(profiles, rolling_radius: float, half_spacing: float, stamp) -> np.ndarray:
+    """The wheel profile's outline, read once per profile file version (`stamp`: a changed file
+    is read again) and radius; the wheel geoms stand at b, the taping line at the track's d."""
+    from rail_mj.contact.pair import read_profiles
+    from rail_mj.contact.profiles import TAPING_LINE_FROM_BACK
+
+    wheel = read_profiles(profiles)[0]
+    taping = profiles.flange_back_spacing / 2 + TAPING_LINE_FROM_BACK  # rail_mj.contact.geometry's d
+    outline = profile_outline(wheel.y, wheel.z, rolling_radius, taping - half_spacing)
+    outline.flags.writeable = False  # shared by every caller
+    return outline
 
 
 def underframe_bottom(layout: Layout) -> float:
@@ -190,44 +227,62 @@ def add_bogie_frame(body, name: str, layout: Layout, wheelset_positions: tuple[f
 
 def add_carbody_shell(body, vehicle: Planar | SpatialVehicle) -> None:
     """The car body's geoms: a coach (underframe, side walls with a window strip, ends,
-    roof) over the bogies or wheelsets; a fixed body is only a translucent underframe,
-    the frame the suspension is held by."""
+    roof) over the bogies or wheelsets, or the body [carbody] length, width and height
+    describe (`add_coach_shell`); a fixed body is only a translucent underframe, the frame the
+    suspension is held by (length, width and height its size when given)."""
     layout, bogies = vehicle.layout, vehicle.bogies
+    c = layout.carbody
     xs = vehicle.supports
     middle = (max(xs) + min(xs)) / 2
-    if layout.carbody.fixed:  # a plate over the running gear, reaching 0.5 m past the wheels
-        half_width = CARBODY_HALF_WIDTH
+    if c.fixed:  # a plate over the running gear, reaching 0.5 m past the wheels
+        half_width = CARBODY_HALF_WIDTH if c.width is None else c.width / 2
+        depth = UNDERFRAME_DEPTH if c.height is None else c.height
         bottom = underframe_bottom(layout) - CARBODY_HEIGHT
         wheelbase = bogies.bogie.wheelset_positions if bogies is not None else (0.0,)
         reach = (max(wheelbase) - min(wheelbase)) / 2
-        half_length = (max(xs) - min(xs)) / 2 + reach + wheel_radius(layout) + 0.5
+        half_length = (max(xs) - min(xs)) / 2 + reach + wheel_radius(layout) + 0.5 if c.length is None else c.length / 2
         _box(
             body,
             "carbody_underframe",
-            (half_length, half_width, UNDERFRAME_DEPTH / 2),
-            (middle, 0, bottom + UNDERFRAME_DEPTH / 2),
+            (half_length, half_width, depth / 2),
+            (middle, 0, bottom + depth / 2),
             [0.7, 0.2, 0.2, 0.35],
         )
         return
-    add_coach_shell(body, "carbody", layout, middle, (max(xs) - min(xs)) / 2 + OVERHANG)
+    half_length = (max(xs) - min(xs)) / 2 + OVERHANG if c.length is None else c.length / 2
+    add_coach_shell(body, "carbody", layout, middle, half_length)
 
 
 def add_coach_shell(body, name: str, layout: Layout, middle: float, half_length: float) -> None:
-    """A coach's geoms, named <name>_*: centred at x = `middle` in `body`, `half_length` long."""
-    half_width = CARBODY_HALF_WIDTH
+    """A car body's geoms, named <name>_*: centred at x = `middle` in `body`, `half_length` long;
+    a coach, [carbody]'s width and height when given (a flat wagon's deck when low: FLAT_HEIGHT)."""
+    c = layout.carbody
+    half_width = CARBODY_HALF_WIDTH if c.width is None else c.width / 2
     # Heights in this body's frame; its origin is CARBODY_HEIGHT above the rail.
     bottom = underframe_bottom(layout) - CARBODY_HEIGHT
+    top = ROOF_HEIGHT - CARBODY_HEIGHT if c.height is None else bottom + c.height
+    if top - bottom <= FLAT_HEIGHT:
+        _box(
+            body,
+            f"{name}_deck",
+            (half_length, half_width, (top - bottom) / 2),
+            (middle, 0, (top + bottom) / 2),
+            DECK_RGBA,
+        )
+        return
     floor = bottom + UNDERFRAME_DEPTH
-    body_rgba, dark = [0.7, 0.2, 0.2, 1], [0.15, 0.15, 0.17, 1]
+    low, high = WINDOW_BAND
+    eaves = top - ROOF_DEPTH
+    windows = eaves - floor >= high + WINDOW_HEADROOM and half_length > VESTIBULE + 0.5
+    body_rgba, dark = (COACH_RGBA if windows else FREIGHT_RGBA), [0.15, 0.15, 0.17, 1]
     # The underframe a little narrower than the body, so that it reads as a separate band.
     _box(
         body,
         f"{name}_underframe",
-        (half_length, half_width - 0.1, UNDERFRAME_DEPTH / 2),
+        (half_length, max(half_width - 0.1, 0.5 * half_width), UNDERFRAME_DEPTH / 2),
         (middle, 0, bottom + UNDERFRAME_DEPTH / 2),
         dark,
     )
-    eaves = ROOF_HEIGHT - ROOF_DEPTH - CARBODY_HEIGHT
     wall_half_height = (eaves - floor) / 2
     for side, sign in SIDES:
         _box(
@@ -237,20 +292,19 @@ def add_coach_shell(body, name: str, layout: Layout, middle: float, half_length:
             (middle, sign * (half_width - WALL / 2), floor + wall_half_height),
             body_rgba,
         )
-        # Windows: a dark strip just proud of the wall, short of the vestibules at the ends.
-        low, high = WINDOW_BAND
-        _box(
-            body,
-            f"{name}_windows_{side}",
-            (half_length - VESTIBULE, 0.005, (high - low) / 2),
-            (middle, sign * (half_width + 0.005), floor + (low + high) / 2),
-            [0.1, 0.12, 0.18, 1],
-        )
+        if windows:  # a dark strip just proud of the wall, short of the vestibules at the ends
+            _box(
+                body,
+                f"{name}_windows_{side}",
+                (half_length - VESTIBULE, 0.005, (high - low) / 2),
+                (middle, sign * (half_width + 0.005), floor + (low + high) / 2),
+                [0.1, 0.12, 0.18, 1],
+            )
     for end, sign in (("front", 1.0), ("rear", -1.0)):
         _box(
             body,
             f"{name}_end_{end}",
-            (WALL / 2, half_width - WALL, wall_half_height),
+            (WALL / 2, max(half_width - WALL, 0.5 * half_width), wall_half_height),
             (middle + sign * (half_length - WALL / 2), 0, floor + wall_half_height),
             body_rgba,
         )
@@ -266,12 +320,18 @@ def add_coach_shell(body, name: str, layout: Layout, middle: float, half_length:
 
 def mesh_file(layout: Layout) -> str:
     w = layout.wheelset
-    return f"wheel_r{w.rolling_radius:g}_c{w.conicity:g}.stl"
+    if layout.profiles is None:
+        return f"wheel_r{w.rolling_radius:g}_c{w.conicity:g}.stl"
+    from rail_mj.contact.pair import STANDARD_PROFILES
+
+    wheel = layout.profiles.wheel
+    name = wheel if wheel in STANDARD_PROFILES["wheel"] else Path(wheel).stem
+    return f"wheel_{name}_r{w.rolling_radius:g}.stl"
 
 
 def add_wheel_mesh(spec: mujoco.MjSpec, layout: Layout) -> None:
-    """The wheel's mesh (rail_mj.vehicle.wheel), which every wheel geom draws, in `spec.assets`."""
-    w = layout.wheelset
-    stl = wheel_stl(w.rolling_radius, w.conicity)
+    """The wheel's mesh (rail_mj.vehicle.wheel: `wheel_outline` revolved), which every wheel geom
+    draws, in `spec.assets`."""
+    stl = outline_stl(wheel_outline(layout))
     spec.add_mesh(name="wheel", file=mesh_file(layout))
     spec.assets = {mesh_file(layout): stl}

@@ -1,13 +1,16 @@
-"""Wheel geometry: a coned tread with a flange, revolved into a mesh by trimesh.
+"""Wheel geometry: a coned tread with a flange, or a wheel profile's own outline
+(rail_mj.contact.profiles), revolved into a mesh by trimesh.
 
 The mesh is for looking at. MuJoCo collides meshes through their convex hulls,
 which would fill the flange throat, so wheel-rail contact is computed in
-`rail_mj.contact.creep` from the same numbers (r0, conicity), never from this mesh.
+`rail_mj.contact.creep` from the same numbers (r0, conicity, or the profiles' contact
+tables), never from this mesh.
 """
 
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 import trimesh
@@ -21,6 +24,10 @@ FLANGE_BACK = -0.060  # back face of the wheel (inside face, towards the track c
 TREAD_OUTER = 0.075  # outer face of the wheel
 HUB_FRACTION = 0.2  # hub (bore) radius as a fraction of r0
 SECTIONS = 48
+# A profile's points (an S1002's 1001) are thinned to those the outline needs to stay within
+# this of every point (Douglas-Peucker): 48 sections of a thousand points would be a mesh of
+# 96,000 triangles per wheel, drawn in every recording, for detail far below a pixel.
+PROFILE_TOLERANCE = 0.1e-3  # m
 
 
 def wheel_profile(rolling_radius: float, conicity: float) -> np.ndarray:
@@ -45,17 +52,66 @@ def wheel_profile(rolling_radius: float, conicity: float) -> np.ndarray:
     return np.asarray(points, dtype=float)
 
 
-def wheel_mesh(rolling_radius: float, conicity: float) -> trimesh.Trimesh:
-    """The wheel as a closed mesh, axle along +z (outward), contact point at z = 0."""
-    mesh = trimesh.creation.revolve(wheel_profile(rolling_radius, conicity), sections=SECTIONS)
+def profile_outline(y: np.ndarray, z: np.ndarray, rolling_radius: float, offset: float = 0.0) -> np.ndarray:
+    """Closed (radius, axial) outline of a wheel with the profile (y, z) (rail_mj.contact.profiles'
+    convention: y from the taping line towards the field side, z = -(r - r0)), its taping line
+    `offset` outward of the axial origin, counter-clockwise as `wheel_profile`'s: from the hub at the
+    flange back, along the profile to the outer face, back to the hub."""
+    y, z = np.asarray(y, dtype=float), np.asarray(z, dtype=float)
+    keep = _thinned(y, z, PROFILE_TOLERANCE)
+    hub = HUB_FRACTION * rolling_radius
+    # The surface stays well outside the hub (only a profile far from any wheel's could reach it).
+    radius = np.maximum(rolling_radius - z[keep], 1.5 * hub)
+    axial = y[keep] + offset
+    points = [(hub, axial[0]), *zip(radius, axial), (hub, axial[-1]), (hub, axial[0])]
+    return np.asarray(points, dtype=float)
+
+
+def _thinned(y: np.ndarray, z: np.ndarray, tolerance: float) -> np.ndarray:
+    """Indices of the points of the polyline (y, z) that keep it within `tolerance` of all of them
+    (Ramer-Douglas-Peucker), the ends always."""
+    keep = np.zeros(len(y), dtype=bool)
+    keep[[0, -1]] = True
+    spans = [(0, len(y) - 1)]
+    while spans:
+        a, b = spans.pop()
+        if b - a < 2:
+            continue
+        dy, dz = y[b] - y[a], z[b] - z[a]
+        inner = slice(a + 1, b)
+        distance = np.abs(dy * (z[inner] - z[a]) - dz * (y[inner] - y[a])) / math.hypot(dy, dz)
+        k = int(np.argmax(distance))
+        if distance[k] > tolerance:
+            keep[a + 1 + k] = True
+            spans += [(a, a + 1 + k), (a + 1 + k, b)]
+    return np.flatnonzero(keep)
+
+
+def revolved_mesh(outline: np.ndarray) -> trimesh.Trimesh:
+    """A closed (radius, axial) outline revolved about the axle: a closed mesh, axle along +z."""
+    mesh = trimesh.creation.revolve(outline, sections=SECTIONS)
     if not mesh.is_watertight or mesh.volume <= 0:
         raise RuntimeError("wheel profile did not revolve into a closed, outward-facing mesh")
     return mesh
 
 
-@functools.lru_cache(maxsize=64)
+def wheel_mesh(rolling_radius: float, conicity: float) -> trimesh.Trimesh:
+    """The wheel as a closed mesh, axle along +z (outward), contact point at z = 0."""
+    return revolved_mesh(wheel_profile(rolling_radius, conicity))
+
+
 def wheel_stl(rolling_radius: float, conicity: float) -> bytes:
-    """Binary STL of the wheel, byte-for-byte the same for the same inputs (made once for
-    them: a sweep builds the same wheel for every case)."""
+    """Binary STL of the coned wheel, byte-for-byte the same for the same inputs."""
+    return outline_stl(wheel_profile(rolling_radius, conicity))
+
+
+def outline_stl(outline: np.ndarray) -> bytes:
+    """Binary STL of a wheel revolved from `outline` (made once for each: a sweep builds the
+    same wheel for every case)."""
+    return _stl(np.ascontiguousarray(outline, dtype=float).tobytes())
+
+
+@functools.lru_cache(maxsize=64)
+def _stl(points: bytes) -> bytes:
     # The exporter `Trimesh.export(file_type="stl")` calls, whose type says it gives bytes.
-    return trimesh.exchange.stl.export_stl(wheel_mesh(rolling_radius, conicity))
+    return trimesh.exchange.stl.export_stl(revolved_mesh(np.frombuffer(points).reshape(-1, 2)))

@@ -14,7 +14,7 @@ from rail_mj.analysis import Stability, summary
 from rail_mj.cli import main
 from rail_mj.layout import load_layout
 from rail_mj.simulation.runner import simulate
-from rail_mj.studies.sweep import describe, summarise, sweep
+from rail_mj.studies.sweep import describe, summarise, sweep_table
 
 COACH = MODELS / "manchester-coach" / "manchester-coach.toml"
 FREIGHT = DATA / "freight-window.toml"
@@ -134,7 +134,7 @@ def test_the_freight_wagons_windows_show_in_a_run_sweep():
     """Runs at 10, 50 and 90 m/s: the car body grows at 10 (the wheelsets' motion with it), the
     motion decays at 50 (the car body's slowly: -0.004 1/s), the bogies hunt at 90; the summary
     gives both ranges."""
-    table = sweep(str(FREIGHT), (10.0, 90.0, 3), distance=500.0, workers=2)
+    table = sweep_table(str(FREIGHT), (10.0, 90.0, 3), distance=500.0, workers=2)
     rows = sorted(table.to_pylist(), key=lambda r: r["speed_m_per_s"])
     assert [r["growth_rate_per_s"] > 0 for r in rows] == [True, False, True]
     assert rows[0]["frequency_hz"] == pytest.approx(0.35, abs=0.01)  # the car body's mode

@@ -135,13 +135,13 @@ def test_recording_holds_the_run_in_mm_mrad_and_kn(tmp_path):
 
 
 def test_recording_has_a_blueprint(tmp_path):
-    run = simulate(load_layout(MODELS / "wheelset" / "wheelset.toml"), speed=20.0, distance=5.0)
+    run = simulate(load_layout(MODELS / "wheelset" / "wheelset.toml"), speed=20.0, distance=5.0, initial_lateral=0.0)
     path = write_recording(run, tmp_path / "w.rrd")
     assert len(RrdReader(str(path)).blueprints()) == 1
 
 
 def test_the_camera_follows_the_vehicle(tmp_path):
-    run = simulate(load_layout(MODELS / "bogie" / "bogie.toml"), speed=25.0, distance=5.0)
+    run = simulate(load_layout(MODELS / "bogie" / "bogie.toml"), speed=25.0, distance=5.0, initial_lateral=0.0)
     path = write_recording(run, tmp_path / "bogie.rrd")
     bp = blueprint_components(path)
     # The 3D view tracks an entity fixed to the car body that spans the whole vehicle.
@@ -271,7 +271,7 @@ def test_table_columns(tmp_path):
     np.testing.assert_allclose(column["psi_bogie2"], run.frame_psi[:, 1])
     assert np.max(np.abs(column["y_carbody"])) > 1e-3  # the car body moves with the 2 mm start
     # The fixed car body of the shipped bogie has no columns.
-    bogie = simulate(load_layout(MODELS / "bogie" / "bogie.toml"), speed=25.0, distance=2.0)
+    bogie = simulate(load_layout(MODELS / "bogie" / "bogie.toml"), speed=25.0, distance=2.0, initial_lateral=0.0)
     assert table(bogie)[0][-2:] == ["y_bogie1", "psi_bogie1"]
 
 
@@ -291,7 +291,7 @@ def test_cli_writes_recording_and_csv(tmp_path, capsys):
 def test_recording_moves_the_vehicle_along_the_track(tmp_path):
     layout = load_layout(MODELS / "bogie" / "bogie.toml")
     run = simulate(layout, speed=25.0, distance=10.0, initial_lateral=0.002)
-    path = write_recording(run, tmp_path / "bogie.rrd")
+    path = write_recording(run, tmp_path / "bogie.rrd", exaggeration=1.0)  # true size (tests/output/test_review.py)
     keep = recorded_samples(run)
     poses = {}
     for chunk in RrdReader(str(path)).stream():
@@ -360,9 +360,9 @@ def test_a_run_on_a_curved_track_is_drawn_along_it(tmp_path):
     from rail_mj.track import load_track
 
     track = load_track(MODELS / "tracks" / "curve-600.toml")
-    run = simulate(load_layout(COACH), 30.0, 700.0, track=track)
+    run = simulate(load_layout(COACH), 30.0, 700.0, track=track, initial_lateral=0.0)
     path = tmp_path / "curve.rrd"
-    write_recording(run, path)
+    write_recording(run, path, exaggeration=1.0)  # true size: the lateral bound below is the body's own
     chunks = [c for c in RrdReader(str(path)).stream() if c.entity_path == "/world/vehicle/carbody"]
     rows = [c.to_record_batch() for c in chunks]
     translation = np.concatenate(
@@ -395,7 +395,7 @@ def test_a_run_on_a_curved_track_plots_each_wheel_s_wear_number(tmp_path):
     from rail_mj.track import load_track
 
     track = load_track(MODELS / "tracks" / "curve-600.toml")
-    run = simulate(load_layout(COACH), 30.0, 420.0, track=track)
+    run = simulate(load_layout(COACH), 30.0, 420.0, track=track, initial_lateral=0.0)
     titles = [p.title for p in plots(run)]
     assert titles.index("Wheels: wear number Tγ (N)") == titles.index("Track under the wheelsets: cant (mm)") + 1
     rrd = write_recording(run, tmp_path / "curve.rrd", rate=math.inf)

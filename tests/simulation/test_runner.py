@@ -95,9 +95,9 @@ def test_a_flat_vehicle_is_linearised_on_its_flanges():
 
 def test_impossibly_slow_run_is_refused_naming_the_limit():
     with pytest.raises(RunRefused, match=r"too slow.*2\*f22/V.*timestep.*limit"):
-        simulate(load_layout(COACH), speed=1e-4, distance=100.0)
+        simulate(load_layout(COACH), speed=1e-4, distance=100.0, initial_lateral=0.0)
     with pytest.raises(RunRefused, match="too slow"):  # steps overflow to inf
-        simulate(load_layout(COACH), speed=1e-300, distance=100.0)
+        simulate(load_layout(COACH), speed=1e-300, distance=100.0, initial_lateral=0.0)
 
 
 def test_hunting_without_flange_contact_stops_with_a_reason():

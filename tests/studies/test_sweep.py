@@ -15,7 +15,7 @@ from rail_mj.analysis.stability import Stability
 from rail_mj.cli import main
 from rail_mj.layout import load_layout
 from rail_mj.studies import sweep as sweep_module
-from rail_mj.studies.sweep import Journal, SweepError, plan, summarise, sweep
+from rail_mj.studies.sweep import Journal, SweepError, plan, summarise, sweep_table
 
 WHEELSET = MODELS / "wheelset" / "wheelset.toml"  # linear creep, no flange: Vc = 57.50 m/s
 BOGIE = MODELS / "bogie" / "bogie.toml"
@@ -27,7 +27,7 @@ def results(table) -> list[dict]:
 
 
 def test_the_bracket_of_a_run_sweep_contains_the_eigen_critical_speed():
-    table = sweep(WHEELSET, (45.0, 70.0, 6), distance=400.0)
+    table = sweep_table(WHEELSET, (45.0, 70.0, 6), distance=400.0)
     (bracket,) = summarise(table)["brackets"]
     low, high = bracket["critical_speed_bracket_m_per_s"]
     critical = Stability(load_layout(WHEELSET)).critical_speed().critical_speed
@@ -36,8 +36,8 @@ def test_the_bracket_of_a_run_sweep_contains_the_eigen_critical_speed():
 
 def test_threads_and_one_worker_give_identical_tables():
     args = dict(speeds=(30.0, 90.0, 5), grids=["primary.yaw_stiffness=1e6:4e6:2"], distance=150.0)
-    one = sweep(WHEELSET, workers=1, **args)
-    two = sweep(WHEELSET, workers=2, **args)
+    one = sweep_table(WHEELSET, workers=1, **args)
+    two = sweep_table(WHEELSET, workers=2, **args)
     assert results(one) == results(two)
     assert one.num_rows == 10 and one.column_names[:3] == ["case", "primary.yaw_stiffness", "speed_m_per_s"]
 
@@ -51,14 +51,14 @@ def test_a_broken_case_is_failed_and_the_rest_finish(monkeypatch):
         return real(case, layout, run)
 
     monkeypatch.setattr(sweep_module, "_summarise_run", broken)
-    rows = sweep(WHEELSET, (30.0, 50.0, 3), distance=100.0).to_pylist()
+    rows = sweep_table(WHEELSET, (30.0, 50.0, 3), distance=100.0).to_pylist()
     assert [r["status"] for r in rows] == ["ok", "failed", "ok"]
     assert rows[1]["message"] == "RuntimeError: deliberately broken"
     assert rows[0]["max_abs_lateral_m"] > 0 and rows[2]["max_abs_lateral_m"] > 0
 
 
 def test_bad_values_are_refused_per_case_and_unknown_keys_stop_the_sweep():
-    rows = sweep(WHEELSET, (30.0, 30.0, 1), grids=["wheelset.conicity=-0.1:0.2:4"], distance=60.0).to_pylist()
+    rows = sweep_table(WHEELSET, (30.0, 30.0, 1), grids=["wheelset.conicity=-0.1:0.2:4"], distance=60.0).to_pylist()
     assert [r["status"] for r in rows] == ["refused", "ok", "ok", "ok"]
     assert "wheelset.conicity" in rows[0]["message"]
     with pytest.raises(SweepError, match="yaw_stifness"):
@@ -97,7 +97,7 @@ def test_resuming_keeps_every_written_row_and_runs_only_the_rest(tmp_path):
     with open(journal.path, "a") as f:  # a kill in the middle of a write
         f.write('{"case": 99, "speed_m_')
     ran = []
-    table = sweep(
+    table = sweep_table(
         WHEELSET,
         (20.0, 59.0, 40),
         distance=1500.0,
@@ -111,16 +111,16 @@ def test_resuming_keeps_every_written_row_and_runs_only_the_rest(tmp_path):
         assert kept[row["case"]] == row
     assert not journal.path.exists() and out.exists()
     again = []
-    sweep(WHEELSET, (20.0, 59.0, 40), distance=1500.0, out=out, progress=lambda *a: again.append(a))
+    sweep_table(WHEELSET, (20.0, 59.0, 40), distance=1500.0, out=out, progress=lambda *a: again.append(a))
     assert again == []  # finished: nothing runs
 
 
 def test_an_output_of_another_sweep_is_not_overwritten(tmp_path):
     out = tmp_path / "sweep.parquet"
-    sweep(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=out)
+    sweep_table(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=out)
     before = out.read_bytes()
     with pytest.raises(SweepError, match="another sweep"):
-        sweep(WHEELSET, (30.0, 45.0, 2), distance=50.0, out=out)
+        sweep_table(WHEELSET, (30.0, 45.0, 2), distance=50.0, out=out)
     assert out.read_bytes() == before
 
 
@@ -128,14 +128,14 @@ def test_a_dask_cluster_gives_the_local_table():
     import distributed
 
     args = dict(speeds=(30.0, 70.0, 3), grids=["wheelset.conicity=0.05:0.1:2"], distance=100.0)
-    local = sweep(WHEELSET, **args)
+    local = sweep_table(WHEELSET, **args)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None) as cluster:
-        remote = sweep(WHEELSET, scheduler=cluster.scheduler_address, **args)
+        remote = sweep_table(WHEELSET, scheduler=cluster.scheduler_address, **args)
     assert results(remote) == results(local)
 
 
 def test_critical_speed_sweeps_match_the_critical_speed_command(capsys):
-    table = sweep(WHEELSET, (5.0, 150.0, 60), method="eigen", grids=["wheelset.conicity=0.1:0.2:2"])
+    table = sweep_table(WHEELSET, (5.0, 150.0, 60), method="eigen", grids=["wheelset.conicity=0.1:0.2:2"])
     rows = table.to_pylist()
     assert main(["critical-speed", str(WHEELSET), "--json"]) == 0
     assert rows[0]["critical_speed_m_per_s"] == json.loads(capsys.readouterr().out)["critical_speed"]
@@ -187,7 +187,7 @@ def test_cli_sweep_and_map(tmp_path, capsys):
 
 def test_one_recording_per_run_case(tmp_path):
     folder = tmp_path / "recordings"
-    table = sweep(WHEELSET, (30.0, 40.0, 2), distance=40.0, recordings=folder)
+    table = sweep_table(WHEELSET, (30.0, 40.0, 2), distance=40.0, recordings=folder)
     assert table.column("status").to_pylist() == ["ok", "ok"]
     assert sorted(p.name for p in folder.iterdir()) == ["case-00000.rrd", "case-00001.rrd"]
     assert all(p.stat().st_size > 0 for p in folder.iterdir())
@@ -216,11 +216,11 @@ def test_a_sweep_output_must_be_a_regular_file(tmp_path):
     fifo = tmp_path / "s.csv"
     os.mkfifo(fifo)
     with pytest.raises(SweepError, match="regular file"):
-        sweep(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=fifo)
+        sweep_table(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=fifo)
     damaged = tmp_path / "d.parquet"
     damaged.write_bytes(b"not parquet")
     with pytest.raises(SweepError, match="not a sweep table"):
-        sweep(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=damaged)
+        sweep_table(WHEELSET, (30.0, 40.0, 2), distance=50.0, out=damaged)
 
 
 def test_a_case_key_changes_with_the_profile_file_it_reads(tmp_path):
@@ -242,7 +242,7 @@ def test_a_journal_line_that_is_no_row_is_set_aside_and_the_rest_resumes(bad, tm
     """A sweep's journal with one good row and then a bad line: the bad one is named by its line
     number on stderr and its case runs again; the good row is kept as it was (its wall time too)."""
     out = tmp_path / "sweep.csv"
-    sweep(WHEELSET, (30.0, 40.0, 2), distance=20.0, out=out)
+    sweep_table(WHEELSET, (30.0, 40.0, 2), distance=20.0, out=out)
     first = sweep_module.read_table(out)[0]
     out.unlink()
     journal = Journal(out)
@@ -345,7 +345,7 @@ def test_a_server_that_is_no_dask_scheduler_is_named_within_the_connect_timeout(
     started = time.monotonic()
     try:
         with pytest.raises(SweepError, match=r"answered"):
-            sweep(WHEELSET, (30.0, 40.0, 2), distance=20.0, scheduler=address)
+            sweep_table(WHEELSET, (30.0, 40.0, 2), distance=20.0, scheduler=address)
     finally:
         for conn in [listener, *held]:
             conn.close()
@@ -360,7 +360,7 @@ def test_a_cluster_without_workers_ends_the_sweep_after_the_stated_time(monkeypa
     with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster:
         started = time.monotonic()
         with pytest.raises(sweep_module.ClusterError, match=r"has had no worker for 2 s"):
-            sweep(WHEELSET, (30.0, 40.0, 2), distance=20.0, scheduler=cluster.scheduler_address, out=out)
+            sweep_table(WHEELSET, (30.0, 40.0, 2), distance=20.0, scheduler=cluster.scheduler_address, out=out)
         assert time.monotonic() - started < 2.0 + 3 * sweep_module.POLL + 5.0
     assert not out.exists()
 

@@ -71,7 +71,7 @@ def test_a_restrained_wheelset_settles_where_its_creep_and_spring_balance_the_cu
     a little more."""
     layout = layout_from_dict(_linear("wheelset"))
     radius, speed = 1000.0, 20.0
-    run = simulate(layout, speed, 1500.0, track=_curve(radius))
+    run = simulate(layout, speed, 1500.0, track=_curve(radius), initial_lateral=0.0)
     w, c, k = layout.wheelset, layout.creep, 1.0 / radius
     psi = w.mass * speed**2 * k / (2 * c.f22)
     y = -(w.rolling_radius / w.conicity) * (
@@ -144,7 +144,7 @@ def test_an_elastic_bogie_at_the_balance_speed_takes_the_closed_form_angles_of_a
     outward, here negative."""
     layout, psi1, psi_b = _elastic_bogie()
     radius, speed = ELASTIC_RADIUS, ELASTIC_SPEED
-    run = simulate(layout, speed, 600.0, track=_curve(radius, _balance_cant(radius, speed)))
+    run = simulate(layout, speed, 600.0, track=_curve(radius, _balance_cant(radius, speed)), initial_lateral=0.0)
     late = run.x > run.x[-1] - 100.0
     np.testing.assert_allclose(run.psi[late], np.broadcast_to([-psi1, psi1], run.psi[late].shape), rtol=1e-6)
     np.testing.assert_allclose(run.frame_psi[late, 0], -psi_b, rtol=1e-6)
@@ -164,7 +164,7 @@ def test_the_rails_carry_the_whole_vehicle_uncompensated_force(name, distance):
     layout = load_layout(MODELS / name / f"{name}.toml")
     radius, speed, cant = 1200.0, 30.0, 0.08
     track = _curve(radius, cant)
-    run = simulate(layout, speed, distance, track=track)
+    run = simulate(layout, speed, distance, track=track, initial_lateral=0.0)
     model = run.vehicle.model
     moving = [b for b in range(1, model.nbody) if model.body_dofnum[b] > 0 and model.body(b).name != "odometer"]
     mass = float(np.sum(model.body_mass[moving]))
@@ -172,7 +172,9 @@ def test_the_rails_carry_the_whole_vehicle_uncompensated_force(name, distance):
     total = run.contact_forces().lateral[-1].sum()
     # The rails push inward (+y, left) on a left curve: minus the outward uncompensated force.
     assert total == pytest.approx(force, rel=1e-6)
-    balanced = simulate(layout, speed, distance, track=_curve(radius, _balance_cant(radius, speed)))
+    balanced = simulate(
+        layout, speed, distance, track=_curve(radius, _balance_cant(radius, speed)), initial_lateral=0.0
+    )
     assert abs(balanced.contact_forces().lateral[-1].sum()) < 1e-6 * force
 
 
@@ -183,7 +185,7 @@ def test_a_long_car_body_sits_inside_the_curve_by_the_chord_s_offset():
 
     layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
     radius, speed = 600.0, 20.0
-    run = simulate(layout, speed, 300.0, track=_curve(radius, _balance_cant(radius, speed)))
+    run = simulate(layout, speed, 300.0, track=_curve(radius, _balance_cant(radius, speed)), initial_lateral=0.0)
     c = max(layout.carbody.bogie_positions or ())
     body = run.frame_names.index("carbody")
     bogies = run.frame_y[-1, [run.frame_names.index("bogie1"), run.frame_names.index("bogie2")]]
@@ -215,7 +217,7 @@ def test_a_transition_brings_the_wheelset_onto_its_curving_offset_without_a_kick
     )
     peaks = []
     for track in (smooth, step):
-        run = simulate(layout, speed, 600.0, track=track)
+        run = simulate(layout, speed, 600.0, track=track, initial_lateral=0.0)
         if track is smooth:
             quasi_static = offset * run.wheelset_curvature[:, 0] * radius
             assert np.max(np.abs(run.y[:, 0] - quasi_static)) < 0.05 * abs(offset)
@@ -245,7 +247,7 @@ def test_a_run_longer_than_its_track_is_refused_in_one_line():
 
     layout = load_layout(MODELS / "bogie" / "bogie.toml")
     with pytest.raises(ValueError, match=r"longer than the track .*1000 m"):
-        simulate(layout, 20.0, 2000.0, track=_curve(800.0, 0.0, 1000.0))
+        simulate(layout, 20.0, 2000.0, track=_curve(800.0, 0.0, 1000.0), initial_lateral=0.0)
 
 
 def test_straight_track_given_as_a_track_runs_as_without_one():
@@ -328,7 +330,7 @@ def test_the_steady_state_solved_directly_is_where_a_run_settles(name, radius, s
 
     layout = load_layout(MODELS / name / f"{name}.toml")
     steady = steady_state(layout, radius, speed, cant)
-    run = simulate(layout, speed, 600.0, track=_curve(radius, cant, 700.0))
+    run = simulate(layout, speed, 600.0, track=_curve(radius, cant, 700.0), initial_lateral=0.0)
     np.testing.assert_allclose(steady.y[0], run.y[-1], rtol=0, atol=1e-9)
     np.testing.assert_allclose(steady.psi[0], run.psi[-1], rtol=0, atol=1e-9)
     np.testing.assert_allclose(steady.frame_y[0], run.frame_y[-1], rtol=0, atol=1e-8)
@@ -478,8 +480,10 @@ def test_a_spatial_vehicle_without_gravity_on_a_cant_ramp_is_refused_in_one_line
         }
     )
     with pytest.raises(ValueError, match=r"a spatial vehicle without gravity on a track whose cant varies"):
-        simulate(layout, 30.0, 100.0, track=ramp)
-    assert simulate(layout, 30.0, 20.0, track=_curve(1200.0, 0.08)).station[-1] == pytest.approx(20.0, abs=0.05)
+        simulate(layout, 30.0, 100.0, track=ramp, initial_lateral=0.0)
+    assert simulate(layout, 30.0, 20.0, track=_curve(1200.0, 0.08), initial_lateral=0.0).station[-1] == pytest.approx(
+        20.0, abs=0.05
+    )
 
 
 def test_straight_and_curved_runs_stepped_together_are_each_run_alone():
@@ -532,7 +536,7 @@ def test_a_linear_planar_vehicle_settles_on_one_linear_solve():
         mujoco.mj_forward(model, data)
     loads = data.qacc[coordinates].copy()  # M^-1 f at q = 0 on the curve
     solved = np.linalg.solve(stiffness, -loads)
-    run = simulate(layout, speed, 2000.0, track=track)
+    run = simulate(layout, speed, 2000.0, track=track, initial_lateral=0.0)
     settled = run.final_state[0][coordinates]
     np.testing.assert_allclose(settled, solved, rtol=0, atol=1e-7 * np.max(np.abs(solved)))
     force = np.zeros(model.nv)
