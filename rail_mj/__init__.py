@@ -25,11 +25,9 @@ Example:
 
 from __future__ import annotations
 
-import hashlib
 import os
-from pathlib import Path
 
-from rail_mj import _compat, _lazy
+from rail_mj import _compat, _lazy, files
 
 __version__ = "0.2.0"
 
@@ -42,18 +40,11 @@ def _numba_cache_dir() -> None:
     tables' layout in rail_mj.numerics, the laws' numbers, the law itself inside the native
     callback): after an edit elsewhere a stale cache would give wrong forces without a
     word. A folder per version of the sources, every file of every subpackage included,
-    cannot be stale. NUMBA_CACHE_DIR set by the user is respected.
+    cannot be stale (rail_mj.files.cache_folder). NUMBA_CACHE_DIR set by the user is respected.
     """
     if "NUMBA_CACHE_DIR" in os.environ:
         return
-    here = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for source in sorted(here.rglob("*.py")):
-        digest.update(source.relative_to(here).as_posix().encode() + source.read_bytes())
-    base = here / "__pycache__"
-    if not os.access(here, os.W_OK):  # an installed, read-only package
-        base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "rail-mj"
-    os.environ["NUMBA_CACHE_DIR"] = str(base / f"numba-{digest.hexdigest()[:16]}")
+    os.environ["NUMBA_CACHE_DIR"] = str(files.cache_folder("numba"))
 
 
 _numba_cache_dir()

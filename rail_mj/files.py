@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import functools
+import hashlib
 import os
 import shutil
 import signal
@@ -20,6 +22,7 @@ import stat
 import sys
 import tempfile
 import threading
+import zipfile
 from pathlib import Path
 
 STDOUT = "-"
@@ -229,3 +232,56 @@ def staged(paths):
 def atomic_write(path, data: bytes) -> None:
     with staged([path]) as (tmp,):
         tmp.write_bytes(data)
+
+
+# --- what is computed once and kept between commands -----------------------------------------
+
+
+@functools.lru_cache(maxsize=1)
+def sources_digest() -> str:
+    """A hash of every source file of the package: what a kept result was computed by."""
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for source in sorted(here.rglob("*.py")):
+        digest.update(source.relative_to(here).as_posix().encode() + source.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def cache_folder(kind: str) -> Path:
+    """Where results of `kind` ("numba", "contact") are kept between commands: a folder named
+    by the package's sources, so that no edit anywhere can leave a stale one in use, beside the
+    sources (rail_mj/__pycache__) or, for a read-only installed package, in the user's cache
+    ($XDG_CACHE_HOME/rail-mj or ~/.cache/rail-mj). Not made here."""
+    here = Path(__file__).resolve().parent
+    base = here / "__pycache__"
+    if not os.access(here, os.W_OK):
+        base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "rail-mj"
+    return base / f"{kind}-{sources_digest()}"
+
+
+def cached_arrays(kind: str, key: str) -> dict | None:
+    """The arrays kept under `key` (a hash of everything they depend on), or None: never kept,
+    or unreadable (a half-written or damaged file is computed again, and replaced)."""
+    import numpy as np
+
+    path = cache_folder(kind) / f"{key}.npz"
+    try:  # the file opened here: np.load leaves its own open when the archive is damaged
+        with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
+            return {name: data[name] for name in data.files}
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile):
+        return None
+
+
+def keep_arrays(kind: str, key: str, arrays: dict) -> None:
+    """Keep `arrays` (name -> numpy array) under `key`, whole or not at all (a file written beside
+    and renamed, so that processes computing the same key at once do not clash). A cache that
+    cannot be written (a read-only or full disk) is no error: the result is computed again."""
+    import numpy as np
+
+    folder = cache_folder(kind)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with staged([folder / f"{key}.npz"]) as (tmp,), open(tmp, "wb") as f:
+            np.savez(f, **arrays)
+    except OSError:
+        pass

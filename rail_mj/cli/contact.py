@@ -19,6 +19,7 @@ from rail_mj.cli.options import (
     check_profile_outputs,
     layout_of,
     span_of,
+    tables_of,
     uses_stdout,
     warn,
     written,
@@ -36,13 +37,13 @@ def contact_cmd(layout, as_json):
     """The Hertz contact ellipse and Kalker creep coefficients of LAYOUT's [contact]."""
     from rail_mj.layout import contact_patch_of
 
-    lay = layout_of(layout)
-    if lay.profiles is not None:
+    if "profiles" in tables_of(layout):  # refused before its contact tables are built
         raise Failure(
             f"{layout}: contact: on [profiles] each contact point has its own ellipse; "
             f"rail-mj contact-geometry tabulates the points",
             EXIT_BAD_INPUT,
         )
+    lay = layout_of(layout)
     if lay.contact is None:
         raise Failure(f"{layout}: contact: no [contact] table; the layout gives f11..f33 itself", EXIT_BAD_INPUT)
     result = contact_patch_of(lay).as_dict()

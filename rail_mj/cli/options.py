@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from rail_mj.files import NO_ROOM, STDOUT, is_special, staged
+from rail_mj.files import NO_ROOM, STDOUT, is_special, read_input, staged
 from rail_mj.layout import Layout, LayoutError, load_layout
 from rail_mj.practice import RANGES
 from rail_mj.studies.span import Rules, Span, SpanError
@@ -51,6 +51,19 @@ def written(paths):
 def output_failure(error: OSError, message: str) -> Failure:
     """The Failure of an output that could not be written: exit 3 when the disk is full."""
     return Failure(message, EXIT_RUN_FAILED if error.errno in NO_ROOM else EXIT_BAD_INPUT)
+
+
+def tables_of(path: str) -> set[str]:
+    """The top-level tables a layout file has, read without checking it (empty when it cannot
+    be read: `layout_of` then says why): for a command to refuse what it cannot do before the
+    layout's contact tables are built."""
+    import tomllib
+
+    try:
+        data = tomllib.loads(read_input(path).decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError):
+        return set()
+    return {k for k, v in data.items() if isinstance(v, dict)}
 
 
 def layout_of(path: str) -> Layout:
