@@ -25,7 +25,8 @@ def simulate_many(
     derailment_lateral: float = DERAILMENT_LATERAL,
     finished: Callable[[int, Run | Exception, float], None] | None = None,
     stop: threading.Event | None = None,
-) -> list[Run | Exception]:
+    keep: bool = True,
+) -> list[Run | Exception | None]:
     """Many runs stepped together, each result exactly the Run that `simulate` gives for its
     request, bit for bit, or the exception it raises (ValueError, SimulationError).
 
@@ -39,11 +40,14 @@ def simulate_many(
     one by one, each run again on its own. `finished(k, result, seconds)`, if given, is
     told each result as soon as it is known, from the thread that stepped it: k its
     place in `requests`, seconds its share of the threads' time. Once `stop` is set, the
-    threads stop after their chunk (the runs not finished have no result: None)."""
+    threads stop after their chunk (the runs not finished have no result: None). With `keep`
+    false a run is dropped once `finished` has been told it (its result in the list is None): a
+    sweep holds the runs being stepped, not every run's record till the end."""
     results: list = [None] * len(requests)
 
     def done(k: int, result, seconds: float) -> None:
-        results[k] = result
+        if keep or isinstance(result, Exception):
+            results[k] = result
         if finished is not None:
             finished(k, result, seconds)
 

@@ -301,12 +301,13 @@ def plan(
     distance: float = DEFAULT_DISTANCE,
     recordings: str | Path | None = None,
     track: str | Path | None = None,
-    held_together: bool = True,
+    held_at_once: int | None = 1,
 ) -> list[Case]:
     """Every case of a sweep, in order: grid points (first key slowest), then speeds. `track`: a
     track file (rail_mj.track) every run follows from its start. A plan of more than MAX_CASES
-    cases is refused, and so, when its runs are `held_together` in this process (no cluster),
-    is one whose runs' records need more than this machine's memory."""
+    cases is refused, and so is one whose `held_at_once` longest runs (those stepped together in
+    this process; None: on a cluster, none here) have records that need more than this machine's
+    memory."""
     if method not in METHODS:
         raise SweepError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     the_track, track_text = _track(track, method)
@@ -357,8 +358,9 @@ def plan(
     run_speeds = _run_speeds(span) if method in ("run", "curving") else [None]
     n_points = math.prod(len(v) for _, v in axes)
     _check_size(n_points, run_speeds)
-    if method == "run" and held_together:
-        _check_memory(n_points, run_speeds, distance, layout_from_dict(data, source=str(path)).n_wheelsets)
+    if method == "run" and held_at_once:
+        n_wheelsets = layout_from_dict(data, source=str(path)).n_wheelsets
+        _check_memory(n_points, run_speeds, distance, n_wheelsets, held_at_once)
     points = [dict(zip([k for k, _ in axes], combo)) for combo in itertools.product(*[v for _, v in axes])]
     cases: list[Case] = []
     for point in points:
@@ -437,18 +439,22 @@ def records_floor(n_wheelsets: int, distance: float, speed: float) -> float:
     return 8.0 * floats_per_sample * distance / speed / MAX_TIMESTEP
 
 
-def _check_memory(n_points: int, run_speeds: Sequence[float | None], distance: float, n_wheelsets: int) -> None:
-    """Refuse runs whose records cannot all be held: simulate_many keeps each until the sweep
-    ends, so a sweep run here needs at least the sum of records_floor."""
+def _check_memory(
+    n_points: int, run_speeds: Sequence[float | None], distance: float, n_wheelsets: int, held: int
+) -> None:
+    """Refuse runs whose records cannot be held: a sweep steps `held` runs at once, the longest
+    first, each keeping its whole record until it ends (then only its row is kept), so it needs
+    at least the records_floor of its `held` longest runs."""
     from rail_mj.simulation.timestep import MAX_TIMESTEP
 
-    need = n_points * sum(records_floor(n_wheelsets, distance, float(v)) for v in run_speeds if v is not None)
-    have = memory_bytes()
+    floors = sorted((records_floor(n_wheelsets, distance, float(v)) for v in run_speeds if v is not None), reverse=True)
+    longest = [f for f in floors for _ in range(n_points)][:held]
+    need, have = sum(longest), memory_bytes()
     if need > have:
         raise SweepError(
-            f"the runs' records need at least {need / 2**30:.3g} GB ({n_points * len(run_speeds):,} runs of "
-            f"{distance:g} m, a sample every {MAX_TIMESTEP * 1e3:g} ms or more often), more than this machine's "
-            f"{have / 2**30:.3g} GB: shorten --distance, run fewer cases, or use --scheduler"
+            f"the runs' records need at least {need / 2**30:.3g} GB ({len(longest)} runs of {distance:g} m stepped "
+            f"at once, a sample every {MAX_TIMESTEP * 1e3:g} ms or more often), more than this machine's "
+            f"{have / 2**30:.3g} GB: shorten --distance, use fewer --workers, or use --scheduler"
         )
 
 
@@ -521,7 +527,7 @@ def run_rows(cases: list[Case], threads: int = 1) -> Iterator[dict]:
 
     def step() -> None:
         try:
-            simulate_many(requests, threads, finished=finished, stop=stop)
+            simulate_many(requests, threads, finished=finished, stop=stop, keep=False)
         except Exception:
             rows.put(False)
         rows.put(None)
@@ -832,7 +838,10 @@ def sweep_table(
     each finished row. `track`: a track file every run follows (rail_mj.track; runs only).
     `warn` is told each journal line set aside (not a row: its case runs again).
     """
-    cases = plan(layout_path, speeds, sets, grids, method, distance, recordings, track, held_together=scheduler is None)
+    from rail_mj.simulation.batch import PACK
+
+    held = None if scheduler is not None else PACK * (workers or os.cpu_count() or 1)
+    cases = plan(layout_path, speeds, sets, grids, method, distance, recordings, track, held_at_once=held)
     columns = columns_of(cases)
     output = Path(out) if out is not None else None
     if output is not None and output.suffix not in (".csv", ".parquet"):

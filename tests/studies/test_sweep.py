@@ -294,15 +294,19 @@ def test_the_records_floor_is_a_lower_bound_of_a_runs_record_and_within_two_of_i
 def test_runs_whose_records_exceed_the_memory_are_refused_in_one_line_unless_on_a_cluster(
     monkeypatch, tmp_path, capsys
 ):
-    """64 runs of 10 km on a machine given 1 GB: refused naming the memory needed and had; the
-    same plan for a cluster (its runs held a pack at a time on its workers) is made."""
+    """64 runs of 10 km on a machine given 1 GB: 16 stepped at once (two threads of a pack of
+    eight) are refused, naming the memory needed and had; the same plan for a cluster (nothing held
+    here) is made, and so is one stepping a single run at a time of a short one."""
     monkeypatch.setattr(sweep_module, "memory_bytes", lambda: 2**30)
-    with pytest.raises(SweepError, match=r"^the runs' records need at least [0-9.]+ GB \(64 runs of 10000 m"):
-        plan(BOGIE, (5.0, 150.0, 64), distance=10_000.0)
-    assert len(plan(BOGIE, (5.0, 150.0, 64), distance=10_000.0, held_together=False)) == 64
+    with pytest.raises(SweepError, match=r"^the runs' records need at least [0-9.]+ GB \(16 runs of 10000 m"):
+        plan(BOGIE, (5.0, 150.0, 64), distance=10_000.0, held_at_once=16)
+    # The floor of the slowest run alone, 2000 s at 1 kHz of 30 floats, is 0.45 GB: one fits.
+    assert len(plan(BOGIE, (5.0, 150.0, 64), distance=10_000.0, held_at_once=1)) == 64
+    assert len(plan(BOGIE, (5.0, 150.0, 64), distance=10_000.0, held_at_once=None)) == 64
     assert len(plan(BOGIE, (5.0, 150.0, 64), distance=10.0)) == 64  # a short one fits
     out = tmp_path / "s.csv"
-    assert main(["sweep", str(BOGIE), "--speeds", "5:150:64", "--distance", "10000", "-o", str(out)]) == 2
+    argv = ["sweep", str(BOGIE), "--speeds", "5:150:64", "--distance", "10000", "--workers", "2"]
+    assert main([*argv, "-o", str(out)]) == 2
     assert not list(tmp_path.iterdir())
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "more than this machine's 1 GB" in err[0]
