@@ -33,6 +33,10 @@ DERAILMENT_LATERAL = 0.072  # m
 # the whole vehicle shifted 2 mm, about a quarter of a usual flangeway clearance: small enough
 # for the linear behaviour, large enough to read the motion far above round-off.
 INITIAL_LATERAL = 0.002  # m
+
+# The factors a recording's 3D view may draw lateral motion and yaw at: from true size to where
+# a 13 mm hunting motion is drawn 13 m wide and the bodies leave the scene.
+EXAGGERATION_LIMITS = (1.0, 1000.0)
 # How far an S1002 flange stands above the tread at the taping line (EN 13715): the
 # flange's front edge is sqrt((r0 + h)^2 - r0^2) ahead of the axle at rail-top level.
 FLANGE_HEIGHT = 0.028  # m

@@ -25,7 +25,7 @@ from rail_mj.cli.options import (
     written,
 )
 from rail_mj.layout import Layout
-from rail_mj.practice import INITIAL_LATERAL, max_initial_yaw
+from rail_mj.practice import EXAGGERATION_LIMITS, INITIAL_LATERAL, max_initial_yaw
 
 
 @click.command("generate")
@@ -208,9 +208,7 @@ def _recording_rate(text: str) -> float | None:
 
 
 def _exaggeration(text: str) -> float | None:
-    """--exaggerate: None (auto) or a factor from 1 to 1000 (rail_mj.output.recording.EXAGGERATION_LIMITS)."""
-    from rail_mj.output.recording import EXAGGERATION_LIMITS
-
+    """--exaggerate: None (auto) or a factor from 1 to 1000 (rail_mj.practice.EXAGGERATION_LIMITS)."""
     if text == "auto":
         return None
     try:

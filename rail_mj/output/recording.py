@@ -68,6 +68,7 @@ from rail_mj.analysis.en14363 import dominant_frequency
 from rail_mj.files import staged
 from rail_mj.layout.kinds import Coned, Profiled, contact_model
 from rail_mj.layout.reader import Flange
+from rail_mj.practice import EXAGGERATION_LIMITS
 from rail_mj.simulation.run import Run
 from rail_mj.track import Track
 from rail_mj.units import MM_PER_M, MRAD_PER_RAD, N_PER_KN
@@ -154,7 +155,6 @@ COLOUR_NAMES = (
 # MAX_EXAGGERATION (a run at rest, or round-off, is not blown up to fill the view).
 EXAGGERATED_REACH = 0.5  # of wheelset.contact_half_spacing
 MAX_EXAGGERATION = 100.0
-EXAGGERATION_LIMITS = (1.0, 1000.0)  # what `exaggeration=` may ask for: beyond, bodies leave the scene
 
 # The window the plots open on: WINDOW_CYCLES cycles of the motion's frequency (the highest
 # peak of the wheelsets' lateral velocity's spectrum), kept within WINDOW_SPAN (s), its moment
