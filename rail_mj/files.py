@@ -16,13 +16,13 @@ import errno
 import functools
 import hashlib
 import os
+import re
 import shutil
 import signal
 import stat
 import sys
 import tempfile
 import threading
-import zipfile
 from pathlib import Path
 
 STDOUT = "-"
@@ -103,21 +103,31 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def remove_stale(final: Path) -> None:
-    """Remove the temporary files of `final` left by writers that were killed (SIGKILL, a
-    crash): `.NAME.PID.XXXX.tmp` beside it whose process is gone. A live process's are
-    kept, whoever it is: a second writer of the same output may be at work."""
-    head = f".{final.name}."
+_CLEANED: set[Path] = set()  # folders looked through for stale temporary files, this process
+# What `_stage` names a temporary file: `.NAME.PID.XXXXXXXX.tmp`, mkstemp's eight characters.
+_TEMPORARY = re.compile(r"\..+\.(\d+)\.[a-z0-9_]{8}\.tmp")
+
+
+def remove_stale(folder: Path) -> None:
+    """Remove the temporary files in `folder` left by writers that were killed (SIGKILL, a
+    crash): those named as `_stage` names them whose process is gone. A live process's are
+    kept, whoever it is: a second writer may be at work. Once a process for each folder: a
+    sweep's thousands of recordings do not list their folder a thousand times. (A process id
+    means nothing on another host: in a folder shared by machines a live writer's file may be
+    removed; its rename then fails, and says so.)"""
+    if folder in _CLEANED:
+        return
+    _CLEANED.add(folder)
     try:
-        names = os.listdir(final.parent)
+        names = os.listdir(folder)
     except OSError:
         return
     for name in names:
-        pid = name[len(head) :].partition(".")[0]
-        if name.startswith(head) and name.endswith(".tmp") and pid.isdigit() and not _alive(int(pid)):
+        match = _TEMPORARY.fullmatch(name)
+        if match is not None and not _alive(int(match.group(1))):
             with contextlib.suppress(OSError):
-                if stat.S_ISREG(os.lstat(final.parent / name).st_mode):
-                    os.unlink(final.parent / name)
+                if stat.S_ISREG(os.lstat(folder / name).st_mode):
+                    os.unlink(folder / name)
 
 
 def _stage(final: Path, special: bool) -> Path:
@@ -126,7 +136,7 @@ def _stage(final: Path, special: bool) -> Path:
     writer's process id, so that the next writer can tell a killed one's from a live one's."""
     if not special:
         final.parent.mkdir(parents=True, exist_ok=True)
-        remove_stale(final)
+        remove_stale(final.parent)
     where = None if special else final.parent
     fd, tmp = tempfile.mkstemp(dir=where, prefix=f".{final.name}.{os.getpid()}.", suffix=".tmp")
     os.fchmod(fd, 0o666 & ~_UMASK)  # mkstemp makes owner-only files
@@ -164,6 +174,9 @@ def _uninterrupted():
     """Defer the signals of _HELD to the end of the block, then act on them as before."""
     if threading.current_thread() is not threading.main_thread():
         yield  # only the main thread may set handlers; it is the one they interrupt
+        return
+    if any(signal.getsignal(n) is None for n in _HELD):  # a handler set from C: not ours to move
+        yield
         return
     arrived: list[int] = []
     before = {n: signal.signal(n, lambda number, frame: arrived.append(number)) for n in _HELD}
@@ -268,7 +281,7 @@ def cached_arrays(kind: str, key: str) -> dict | None:
     try:  # the file opened here: np.load leaves its own open when the archive is damaged
         with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
             return {name: data[name] for name in data.files}
-    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile):
+    except Exception:  # only a cache: whatever is wrong with the file, compute again
         return None
 
 

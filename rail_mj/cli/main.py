@@ -113,8 +113,10 @@ def _main(argv: list[str] | None) -> int:
     except BrokenPipeError:  # the reader of standard output went away (`| head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_PIPE_CLOSED
-    except SystemExit as e:  # click's own end of a broken pipe, its stdout made quiet
-        return e.code if isinstance(e.code, int) else EXIT_PIPE_CLOSED
+    except SystemExit as e:  # click's own end of a broken pipe (sys.exit(1)), its stdout made quiet
+        if e.code == 1:
+            return EXIT_PIPE_CLOSED
+        raise
     except MemoryError:
         click.echo("rail-mj: error: out of memory: shorten --distance or use fewer speeds", err=True)
         return EXIT_RUN_FAILED

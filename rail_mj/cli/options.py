@@ -1,8 +1,9 @@
 """What every `rail-mj` command shares: its failures and exit statuses, the layout it reads,
 the checks of its speeds, ranges and outputs, and its one-line progress.
 
-Exit status: 0 success; 2 bad input (layout, arguments, output path); 3 a run that
-cannot be done or that diverged. Every failure is one line on stderr (`Failure`), and so
+Exit status: 0 success; 1 standard output's reader gone; 2 bad input (layout, arguments,
+output path); 3 a run that cannot be done or that diverged, or a full disk (rail_mj.cli.main).
+Every failure is one line on stderr (`Failure`), and so
 is every warning (a legal value far outside railway practice: rail_mj.layout.practice).
 """
 

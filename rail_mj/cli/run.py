@@ -19,6 +19,7 @@ from rail_mj.cli.options import (
     check_profile_outputs,
     check_speed,
     layout_of,
+    output_failure,
     track_of,
     uses_stdout,
     warn_deficiency,
@@ -51,7 +52,7 @@ def generate_cmd(layout, out_dir):
     except ValueError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     except OSError as e:
-        raise Failure(str(e), EXIT_BAD_INPUT) from None
+        raise output_failure(e, str(e)) from None
     for path in written:
         click.echo(str(path))
 

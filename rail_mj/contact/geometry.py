@@ -30,6 +30,7 @@ import functools
 import hashlib
 import io
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -407,13 +408,14 @@ def _default_table(profiles, r0: float, _stamp) -> ContactTable:
     takes 2.6 s) under a key of everything the table depends on: the profiles' contents (a
     file's bytes, a standard profile's name), how the track places them, r0 and the shifts; the
     code that computes it names the cache's folder (rail_mj.files.cache_folder)."""
-    track = track_of_profiles(profiles, r0)
     key = _table_key(profiles, r0)
+    track = track_of_profiles(profiles, r0)
     kept = cached_arrays(CACHE_KIND, key)
-    if kept is not None:  # the same code (the folder) and inputs (the key): the same columns
+    if kept is not None and _table_key(profiles, r0) == key:  # the same code (the folder) and inputs
         return ContactTable(kept, track)
     table = contact_table(track)
-    keep_arrays(CACHE_KIND, key, table.columns)
+    if _table_key(profiles, r0) == key:  # a file saved while it was read is not kept under either
+        keep_arrays(CACHE_KIND, key, table.columns)
     return table
 
 
@@ -421,15 +423,21 @@ CACHE_KIND = "contact"
 
 
 def _table_key(profiles, r0: float) -> str:
+    from importlib.metadata import version
+
     from rail_mj.contact.pair import STANDARD_PROFILES
 
-    what: list[object] = []
+    # numpy's and scipy's versions too: their interpolation and root finding make the numbers.
+    what: list[object] = [version("numpy"), version("scipy")]
     for kind, name in (("wheel", profiles.wheel), ("rail", profiles.rail)):
         if name in STANDARD_PROFILES[kind]:
             what.append(name)
-        else:
-            with open(name, "rb") as f:  # read already, and checked, by track_of_profiles
-                what.append(hashlib.sha256(f.read()).hexdigest())
+        else:  # its contents and its suffix (.csv and .prw read differently); unreadable: no key
+            try:
+                with open(name, "rb") as f:
+                    what += [Path(name).suffix.lower(), hashlib.sha256(f.read()).hexdigest()]
+            except OSError:
+                what.append(None)
     what += [profiles.rail_inclination, profiles.track_gauge, profiles.flange_back_spacing, r0]
     what.append(hashlib.sha256(DEFAULT_YS.tobytes()).hexdigest())
     return hashlib.sha256(repr(what).encode()).hexdigest()[:32]

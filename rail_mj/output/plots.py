@@ -246,7 +246,7 @@ def cell_edges(centres, log: bool) -> np.ndarray:
     outer edges half a cell beyond the outer centres in the same space, so that a log axis's
     bottom cell around 2e6 starts at 1e6 from a next value of 4e6 (matplotlib's "nearest" shading
     takes arithmetic midpoints, which put it at 1e6 - 1e6 = 0 and below). A lone centre's cell
-    spans a factor sqrt(10) (a log axis: half a decade) or +-5 % of it (+-0.5 at 0) either way."""
+    spans a factor 10**0.25 (a log axis: half a decade in all) or +-5 % of it (+-0.5 at 0) either way."""
     values = np.asarray(centres, dtype=float)
     if log:
         return (

@@ -51,6 +51,7 @@ Example:
 
 from __future__ import annotations
 
+import errno
 import math
 import uuid
 from pathlib import Path
@@ -992,7 +993,9 @@ def save_recording(run: Run, path: str | Path, rate: float | None = None, exagge
     _log_samples(rec, run, keep, shown, factor)
     data = stream.read()
     rec.disconnect()
-    Path(path).write_bytes(data or b"")
+    if not data:  # Rerun always writes a header: nothing at all is its failure, not a recording
+        raise OSError(errno.EIO, "the recording came out empty")
+    Path(path).write_bytes(data)
 
 
 def write_recording(run: Run, path: str | Path, rate: float | None = None, exaggeration: float | None = None) -> Path:

@@ -30,6 +30,7 @@ import itertools
 import json
 import logging
 import math
+import operator
 import os
 import queue
 import threading
@@ -232,6 +233,9 @@ def _layout_data(layout: LayoutLike) -> tuple[dict, Path]:
     if isinstance(layout, Layout) and not path.is_file():
         raise SweepError(
             f"a Layout not read from a file ({layout.source}) cannot be swept: give the dict it was made from"
+            if layout.source == Layout.source
+            else f"the file this Layout was read from, {layout.source}, is not there from {Path.cwd()}: "
+            f"sweep the file by its path"
         )
     try:
         data = tomllib.loads(read_input(path).decode("utf-8"))
@@ -275,6 +279,8 @@ def _grid_values(key: str, value: Any) -> list[float]:
         raise SweepError(f"{what}: give A:B:N or a list of numbers, got {value!r}") from None
     if not values or not all(math.isfinite(v) for v in values):
         raise SweepError(f"{what}: give at least one finite number, got {value!r}")
+    if len(set(values)) != len(values):  # two cases of one key: a resumed sweep would keep one
+        raise SweepError(f"{what}: a value is given twice in {value!r}")
     return values
 
 
@@ -287,9 +293,9 @@ def _speeds(speeds: SpeedsLike) -> tuple[float, float, int]:
         return span.a, span.b, span.n
     try:
         a, b, n = speeds
+        return float(a), float(b), operator.index(n)
     except (TypeError, ValueError):
-        raise SweepError(f"speeds: give (A, B, N) or 'A:B:N', got {speeds!r}") from None
-    return float(a), float(b), n  # N as given: Span.of refuses a non-integer
+        raise SweepError(f"speeds: give (A, B, N) with N a whole number, or 'A:B:N', got {speeds!r}") from None
 
 
 def plan(
@@ -454,7 +460,7 @@ def _check_memory(
         raise SweepError(
             f"the runs' records need at least {need / 2**30:.3g} GB ({len(longest)} runs of {distance:g} m stepped "
             f"at once, a sample every {MAX_TIMESTEP * 1e3:g} ms or more often), more than this machine's "
-            f"{have / 2**30:.3g} GB: shorten --distance, use fewer --workers, or use --scheduler"
+            f"{have / 2**30:.3g} GB: shorten the distance, use fewer workers, or a Dask scheduler"
         )
 
 
@@ -935,15 +941,20 @@ def _connect(scheduler: str):
 
     def connect() -> None:
         try:
-            made["client"] = Client(scheduler, timeout=CONNECT_TIMEOUT)
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+            if late.is_set():  # given up on meanwhile: not left open behind the user's back
+                client.close()
+            made["client"] = client
         except BaseException as e:  # MemoryError too: a foreign protocol read as a frame length
             made["error"] = e
 
+    late = threading.Event()
     thread = threading.Thread(target=connect, name="rail-mj-connect", daemon=True)
     thread.start()
     thread.join(CONNECT_TIMEOUT + 1.0)
     where = f"--scheduler {scheduler!r}"
     if thread.is_alive():
+        late.set()
         raise SweepError(f"{where}: nothing there answered as a Dask scheduler within {CONNECT_TIMEOUT:g} s")
     if "error" in made:
         e = made["error"]
@@ -975,6 +986,14 @@ def _quiet_dask():
             logger.setLevel(level)
 
 
+def _any_worker(client) -> bool:
+    try:  # one worker's details are enough to know (Dask 2025 and later; all of them before)
+        info = client.scheduler_info(n_workers=1)
+    except TypeError:
+        info = client.scheduler_info()
+    return bool(info.get("workers"))
+
+
 def _on_cluster(cases: list[Case], scheduler: str) -> Iterator[dict]:
     """Rows as a Dask cluster finishes its tasks. A cluster that fails ends the sweep in one
     ClusterError, the rows so far journalled: no worker for WORKERLESS_TIMEOUT, the scheduler
@@ -1000,7 +1019,7 @@ def _on_cluster(cases: list[Case], scheduler: str) -> Iterator[dict]:
                 if client.status != "running":
                     raise ClusterError(f"{where}: the scheduler went away (the client is {client.status})")
                 now = time.monotonic()
-                if client.scheduler_info().get("workers"):
+                if _any_worker(client):
                     workerless_since = None
                 elif workerless_since is None:
                     workerless_since = now
@@ -1015,6 +1034,10 @@ def _on_cluster(cases: list[Case], scheduler: str) -> Iterator[dict]:
             ) from None
         except (OSError, TimeoutError) as e:  # the scheduler unreachable in scheduler_info
             raise ClusterError(f"{where}: the scheduler went away ({' '.join(str(e).split())[:200]})") from None
+        except Exception as e:  # run_task never raises for a case: what fails is the cluster (rail_mj
+            # missing on a worker, a result that cannot travel)
+            why = " ".join(str(e).split())[:200]
+            raise ClusterError(f"{where}: a task failed on the cluster: {type(e).__name__}: {why}") from None
         finally:
             with contextlib.suppress(Exception):
                 client.close(timeout=CONNECT_TIMEOUT)

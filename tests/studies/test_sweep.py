@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -341,14 +342,21 @@ def _server(reply: bytes):
 
 
 @pytest.mark.parametrize(
-    "reply", [b"", b"HTTP/1.0 200 OK\r\nContent-Type: text/html\r\n\r\n<html>not dask</html>" * 50]
+    "reply, says",
+    [
+        (b"", r": nothing there answered as a Dask scheduler within 1 s$"),
+        # Dask reads the reply's first bytes as a frame length: terabytes, a MemoryError.
+        (b"HTTP/1.0 200 OK\r\nContent-Type: text/html\r\n\r\n<html>not dask</html>" * 50, r": it answered, but not as"),
+    ],
 )
-def test_a_server_that_is_no_dask_scheduler_is_named_within_the_connect_timeout(reply, monkeypatch):
+def test_a_server_that_is_no_dask_scheduler_is_named_within_the_connect_timeout(reply, says, monkeypatch):
+    """A server that swallows the connection, and one that answers in another protocol (HTTP):
+    neither completes Dask's handshake, and both are named within the connect timeout."""
     monkeypatch.setattr(sweep_module, "CONNECT_TIMEOUT", 1.0)
     listener, held, address = _server(reply)
     started = time.monotonic()
     try:
-        with pytest.raises(SweepError, match=r"answered"):
+        with pytest.raises(SweepError, match=says):
             sweep_table(WHEELSET, (30.0, 40.0, 2), distance=20.0, scheduler=address)
     finally:
         for conn in [listener, *held]:
@@ -369,9 +377,9 @@ def test_a_cluster_without_workers_ends_the_sweep_after_the_stated_time(monkeypa
     assert not out.exists()
 
 
-def test_a_scheduler_killed_mid_sweep_ends_it_in_one_line_exit_3(tmp_path, capsys):
-    """A `dask scheduler` with no workers, killed two seconds into the sweep: the sweep ends
-    at once with one line (not "unexpected FutureCancelledError"), exit 3."""
+def test_a_scheduler_killed_while_the_sweep_waits_on_it_ends_it_in_one_line_exit_3(tmp_path, capsys):
+    """A `dask scheduler` with the sweep's tasks queued (no worker to take them), killed two
+    seconds in: the sweep ends at once with one line (not "unexpected FutureCancelledError"), exit 3."""
     import socket
     import threading
 
@@ -402,3 +410,28 @@ def test_a_scheduler_killed_mid_sweep_ends_it_in_one_line_exit_3(tmp_path, capsy
     assert status == 3
     assert len(lines) == 1 and "the scheduler went away" in lines[0], lines
     assert elapsed < 2.0 + 10.0
+
+
+@pytest.mark.parametrize(
+    "speeds, grids, says",
+    [
+        ((30.0, 40.0, 2.5), {}, "N a whole number"),
+        (("a", 40.0, 2), {}, "give (A, B, N)"),
+        ((30.0, 40.0, 2), {"primary.yaw_stiffness": [1e6, 1e6]}, "a value is given twice"),
+        ((30.0, 40.0, 2), {"primary.yaw_stiffness": []}, "at least one finite number"),
+        ((30.0, 40.0, 2), {"primary.yaw_stiffness": "nonsense"}, "A:B:N"),
+    ],
+)
+def test_python_values_that_make_no_sweep_are_refused_in_one_line(speeds, grids, says):
+    with pytest.raises(SweepError, match=re.escape(says)):
+        plan(BOGIE, speeds, grids=grids)
+
+
+def test_python_values_give_the_cases_the_command_lines_texts_give():
+    """`grids` and `sets` as dicts of Python values, a `Layout` read from a file, and "A:B:N":
+    the same cases, keys included, as the texts the command line passes."""
+    texts = plan(BOGIE, (30.0, 40.0, 2), sets=["creep.law=polach"], grids=["primary.yaw_stiffness=1e6:4e6:2"])
+    values = plan(
+        load_layout(BOGIE), "30:40:2", sets={"creep.law": "polach"}, grids={"primary.yaw_stiffness": [1e6, 4e6]}
+    )
+    assert [c.key for c in values] == [c.key for c in texts] and len(texts) == 4
