@@ -11,9 +11,14 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
+
+from rail_mj.files import cached_arrays, keep_arrays
+
+if TYPE_CHECKING:
+    import trimesh
 
 # Profile dimensions in m, measured from the nominal contact point along the axle
 # (positive outward, away from the track centre). Round numbers of the size of a
@@ -89,6 +94,8 @@ def _thinned(y: np.ndarray, z: np.ndarray, tolerance: float) -> np.ndarray:
 
 def revolved_mesh(outline: np.ndarray) -> trimesh.Trimesh:
     """A closed (radius, axial) outline revolved about the axle: a closed mesh, axle along +z."""
+    import trimesh  # 0.5 s to import: only where a mesh is made, not for one kept (`_stl`)
+
     mesh = trimesh.creation.revolve(outline, sections=SECTIONS)
     if not mesh.is_watertight or mesh.volume <= 0:
         raise RuntimeError("wheel profile did not revolve into a closed, outward-facing mesh")
@@ -113,5 +120,17 @@ def outline_stl(outline: np.ndarray) -> bytes:
 
 @functools.lru_cache(maxsize=64)
 def _stl(points: bytes) -> bytes:
+    """Kept on disk too (rail_mj.files.cache_folder, named by the sources): every command builds
+    its vehicle's model, and trimesh alone takes half a second to import."""
+    import hashlib
+
+    key = hashlib.sha256(points).hexdigest()[:32]
+    kept = cached_arrays("meshes", key)
+    if kept is not None and "stl" in kept:
+        return kept["stl"].tobytes()
+    import trimesh
+
     # The exporter `Trimesh.export(file_type="stl")` calls, whose type says it gives bytes.
-    return trimesh.exchange.stl.export_stl(revolved_mesh(np.frombuffer(points).reshape(-1, 2)))
+    stl = trimesh.exchange.stl.export_stl(revolved_mesh(np.frombuffer(points).reshape(-1, 2)))
+    keep_arrays("meshes", key, {"stl": np.frombuffer(stl, dtype=np.uint8)})
+    return stl
