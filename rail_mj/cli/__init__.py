@@ -6,6 +6,7 @@ curving.py     curving: the steady state on constant curves
 stability.py   eigen, critical-speed, root-locus, bifurcation
 studies.py     sweep, map
 contact.py     contact, creep, profile, conicity, contact-geometry
+track.py       track: a track file's irregularities written and drawn
 main.py        the command group, registering the commands; `main`
 """
 

@@ -15,6 +15,7 @@ curving.py     curving
 stability.py   eigen, critical-speed, root-locus, bifurcation
 studies.py     sweep, map
 contact.py     contact, creep, profile, conicity, contact-geometry
+track.py       track
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import threading
 
 import click
 
-from rail_mj.cli import contact, curving, run, stability, studies
+from rail_mj.cli import contact, curving, run, stability, studies, track
 from rail_mj.cli.options import EXIT_BAD_INPUT, EXIT_RUN_FAILED, Failure
 
 # What click itself returns when standard output's reader has gone: the output was cut short.
@@ -56,6 +57,7 @@ COMMANDS = (
     contact.profile_cmd,
     contact.conicity_cmd,
     contact.contact_geometry_cmd,
+    track.track_cmd,
 )
 for command in COMMANDS:
     cli.add_command(command)

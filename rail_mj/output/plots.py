@@ -421,3 +421,40 @@ def contact_geometry_png(table, title: str, conicity: float | None = None) -> by
     ax_prof.legend(loc="lower right", fontsize=8)
     fig.suptitle(f"Contact geometry (rigid wheelset, zero yaw): {title}")
     return _png(fig)
+
+
+def irregularities_png(x, channels: dict, title: str, spec=None, band=None) -> bytes:
+    """A track's four irregularity channels against distance (mm), and each one's power spectral
+    density (Welch, one-sided, per cycle/m) beside its target, the spectrum's S_f(f) = 2π·S(2π·f),
+    within the band kept (dashed: its ends)."""
+    from scipy.signal import welch
+
+    from rail_mj.track.irregularities import CHANNELS
+
+    fig, axes = plt.subplots(len(CHANNELS), 2, figsize=(15, 11), layout="constrained", width_ratios=(2.2, 1))
+    step = float(x[1] - x[0]) if len(x) > 1 else 1.0
+    for (ax_x, ax_f), channel in zip(axes, CHANNELS):
+        values = channels[channel]
+        ax_x.plot(x, values * 1e3, lw=0.6)
+        ax_x.set(ylabel=f"{channel.replace('_', ' ')} (mm)")
+        ax_x.grid(alpha=0.3)
+        if len(values) > 16 and np.any(values):
+            f, p = welch(values, fs=1.0 / step, nperseg=min(len(values), 4096))
+            keep = f > 0
+            ax_f.loglog(f[keep], p[keep], lw=0.8, label="realised (Welch)")
+        if spec is not None and channel in spec.channels and band is not None:
+            f_target = np.geomspace(1.0 / band[1], 1.0 / band[0], 200)
+            target = 2.0 * np.pi * spec.density(channel, 2.0 * np.pi * f_target)
+            ax_f.loglog(f_target, target, "k", lw=1.2, label=f"{spec.name} target")
+            for edge in (1.0 / band[1], 1.0 / band[0]):
+                ax_f.axvline(edge, color="grey", ls="--", lw=0.8)
+            # The band, not the leakage beyond it, decides the scale.
+            ax_f.set_ylim(float(target.min()) / 100.0, float(target.max()) * 10.0)
+        ax_f.set(ylabel="PSD (m²·m)")
+        ax_f.grid(alpha=0.3, which="both")
+        if ax_f.get_legend_handles_labels()[0]:
+            ax_f.legend(loc="lower left", fontsize=8)
+    axes[-1][0].set(xlabel="distance along the track (m)")
+    axes[-1][1].set(xlabel="spatial frequency (1/m)")
+    fig.suptitle(title)
+    return _png(fig)

@@ -4,6 +4,9 @@
     reader.py      a track file (TOML sections or CSV design geometry) -> checked `Track`, one line per problem
     speed.py       `SpeedProfile`: the speed along the track, linear between points (a run that brakes)
     bodies.py      each body at its own station: the track under it, the suspension's geometric pre-deflections
+    irregularities.py  track irregularities: standard spectra (ERRI B176, FRA), band variances, realisations,
+                   a track file's [irregularities] (generated or measured) and their CSV
+    errors.py      `TrackError`, one line naming the file and the section
 
 Example:
 

@@ -42,11 +42,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rail_mj.track.errors import TrackError
 from rail_mj.units import GRAVITY
+
+if TYPE_CHECKING:
+    from rail_mj.track.irregularities import Irregularities
 
 Array = NDArray[np.float64]
 
@@ -63,10 +68,6 @@ KINDS = ("straight", "transition", "curve")
 PIECE_TURN = 0.25  # rad
 NODES = 8
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(NODES)
-
-
-class TrackError(ValueError):
-    """A track that cannot be used; the message is one line naming the file and the section."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,6 +110,8 @@ class Track:
     # Legal values far outside railway practice and steps between sections with no transition
     # (rail_mj.practice), one line each.
     warnings: tuple[str, ...] = dataclasses.field(default=(), compare=False)
+    # [irregularities] (rail_mj.track.irregularities), or None: perfect track.
+    irregularities: Irregularities | None = None
     # The sections as arrays, for vectorised look-ups (set once, by __post_init__).
     _starts: Array = dataclasses.field(init=False, repr=False, compare=False)
     _lengths: Array = dataclasses.field(init=False, repr=False, compare=False)

@@ -54,6 +54,7 @@ from typing import Any
 from rail_mj.files import read_input
 from rail_mj.practice import CANT_STEP, CURVATURE_STEP, RANGES
 from rail_mj.track.geometry import KINDS, Section, Track, TrackError
+from rail_mj.track.irregularities import irregularities_from_dict
 
 # Longer than any railway line (the Trans-Siberian is 9289 km), and than any run; a length past
 # it is a unit or a typing mistake.
@@ -98,7 +99,7 @@ def track_from_dict(data: Any, source: str = "<track>") -> Track:
     if not isinstance(data, dict):
         raise TrackError(f"{source}: must be a table of [[section]] tables, got {_kind(data)}")
     for key in data:
-        if key != "section":
+        if key not in ("section", "irregularities"):
             raise TrackError(f"{source}: {key}: unknown key (a track file is [[section]] tables, in order)")
     if "section" not in data:
         raise TrackError(f"{source}: section: missing: a track is [[section]] tables, in order, at least one")
@@ -138,7 +139,19 @@ def track_from_dict(data: Any, source: str = "<track>") -> Track:
     if start > MAX_LENGTH:
         raise TrackError(f"{source}: the track is {start:g} m long, more than {MAX_LENGTH:g} m: check the units (m)")
     warnings += _steps(source, sections)
-    return Track(tuple(sections), source, tuple(warnings))
+    irregular = None
+    if "irregularities" in data:
+        base = Path(source).parent
+
+        def read(name: str) -> str:
+            try:
+                return read_input(base / name).decode("utf-8")
+            except (OSError, UnicodeDecodeError) as e:
+                why = getattr(e, "strerror", None) or e
+                raise TrackError(f"{source}: irregularities.file: {name}: cannot read: {why}") from None
+
+        irregular = irregularities_from_dict(data["irregularities"], source, read)
+    return Track(tuple(sections), source, tuple(warnings), irregular)
 
 
 def _section(

@@ -1,0 +1,98 @@
+"""[irregularities] in a track file, generated or measured, and `rail-mj track`, which writes
+them as the measured CSV reads them: the round trip, the refusals, runs that refuse them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import MODELS
+
+from rail_mj.cli import main
+from rail_mj.track import TrackError, load_track
+from rail_mj.track.irregularities import CSV_COLUMNS, SPECTRA, band_variance
+
+STRAIGHT = '[[section]]\nkind = "straight"\nlength = 1500.0\n'
+
+
+def _track(tmp_path, irregularities: str):
+    path = tmp_path / "track.toml"
+    path.write_text(STRAIGHT + "\n[irregularities]\n" + irregularities)
+    return path
+
+
+def test_a_generated_track_written_and_read_back_as_measured_is_the_same(tmp_path, capsys):
+    track = _track(tmp_path, 'spectrum = "erri-low"\nseed = 4\nscale = 1.5\n')
+    out, png = tmp_path / "channels.csv", tmp_path / "channels.png"
+    assert main(["track", str(track), "-o", str(out), "--png", str(png)]) == 0
+    assert out.read_text().splitlines()[0] == ",".join(CSV_COLUMNS)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    summary = capsys.readouterr().out
+    assert "samples over" in summary and "rms (mm)" in summary
+    generated = load_track(track).irregularities
+    x, channels = generated.channels(1500.0)
+    # The realised level's rms, past the fade-in, near the spectrum's: 1.5 x the band's rms.
+    settled = x >= 50.0
+    expected = 1.5 * band_variance(SPECTRA["erri-low"], "level") ** 0.5
+    assert np.sqrt(np.mean(channels["level"][settled] ** 2)) == pytest.approx(expected, rel=0.3)
+    measured_track = tmp_path / "measured.toml"
+    measured_track.write_text(STRAIGHT + '\n[irregularities]\nfile = "channels.csv"\n')
+    measured = load_track(measured_track).irregularities
+    mx, mchannels = measured.channels(1500.0)
+    np.testing.assert_allclose(mx, x, rtol=0, atol=1e-9)
+    for name, values in channels.items():
+        np.testing.assert_allclose(mchannels[name], values, rtol=1e-9, atol=1e-15)  # 10 digits in the CSV
+
+
+@pytest.mark.parametrize(
+    "irregularities, says",
+    [
+        ('spectrum = "erri-medium"\n', "irregularities.spectrum: must be one of"),
+        ('spectrum = "erri-low"\nwavelengths = [150.0, 3.0]\n', "irregularities.wavelengths: need"),
+        ('spectrum = "erri-low"\nseed = -1\n', "irregularities.seed: must be a whole number"),
+        ('spectrum = "erri-low"\nscale = "big"\n', "irregularities.scale: must be a number"),
+        ('spectrum = "erri-low"\nsede = 3\n', "irregularities.sede: unknown key"),
+        ('spectrum = "erri-low"\nfile = "m.csv"\n', "a spectrum (generated) or a file (measured), one of them"),
+        ("", "a spectrum (generated) or a file (measured), one of them"),
+        ('file = "missing.csv"\n', "irregularities.file: missing.csv: cannot read"),
+    ],
+)
+def test_a_bad_irregularities_table_is_refused_in_one_line(irregularities, says, tmp_path):
+    with pytest.raises(TrackError) as caught:
+        load_track(_track(tmp_path, irregularities))
+    assert says in str(caught.value) and "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    "csv, says",
+    [
+        ("x,alignment_mm,level_mm,cross_level_mm,gauge_mm\n0,0,0,0,0\n1,0,0,0,0\n", "the header must be"),
+        (",".join(CSV_COLUMNS) + "\n0,0,0,0,0\n0,1,1,1,1\n", "x_m must increase"),
+        (",".join(CSV_COLUMNS) + "\n0,0,0,0,0\n1,0,nan,0,0\n", "line 3: need 5 finite numbers"),
+        (",".join(CSV_COLUMNS) + "\n0,0,0,0,0\n", "at least two rows"),
+    ],
+)
+def test_a_bad_measured_file_is_refused_naming_the_line(csv, says, tmp_path):
+    (tmp_path / "m.csv").write_text(csv)
+    with pytest.raises(TrackError, match=None) as caught:
+        load_track(_track(tmp_path, 'file = "m.csv"\n'))
+    assert says in str(caught.value)
+
+
+def test_the_command_refuses_a_track_without_irregularities_and_writing_over_its_measurements(tmp_path, capsys):
+    plain = tmp_path / "plain.toml"
+    plain.write_text(STRAIGHT)
+    assert main(["track", str(plain), "-o", str(tmp_path / "c.csv")]) == 2
+    assert "no [irregularities]" in capsys.readouterr().err
+    (tmp_path / "m.csv").write_text(",".join(CSV_COLUMNS) + "\n0,0,0,0,0\n10,1,1,1,1\n")
+    track = _track(tmp_path, 'file = "m.csv"\n')
+    assert main(["track", str(track), "-o", str(tmp_path / "m.csv")]) == 2
+    assert "is the measured file" in capsys.readouterr().err
+    assert (tmp_path / "m.csv").read_text().endswith("10,1,1,1,1\n")
+
+
+def test_a_run_on_an_irregular_track_is_refused_until_runs_apply_them(tmp_path, capsys):
+    track = _track(tmp_path, 'spectrum = "erri-low"\n')
+    argv = ["run", str(MODELS / "wheelset" / "wheelset.toml"), "--speed", "30", "--distance", "100"]
+    assert main([*argv, "--track", str(track)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "[irregularities] are not applied to runs yet" in err[0]
