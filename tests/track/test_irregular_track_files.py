@@ -96,3 +96,11 @@ def test_a_run_on_an_irregular_track_is_refused_until_runs_apply_them(tmp_path, 
     assert main([*argv, "--track", str(track)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "[irregularities] are not applied to runs yet" in err[0]
+
+
+def test_a_sweep_on_an_irregular_track_is_refused_once(tmp_path):
+    from rail_mj.studies.sweep import SweepError, plan
+
+    track = _track(tmp_path, 'spectrum = "erri-low"\n')
+    with pytest.raises(SweepError, match=r"\[irregularities\] are not applied to runs yet"):
+        plan(MODELS / "wheelset" / "wheelset.toml", (30.0, 40.0, 2), distance=100.0, track=track)
