@@ -175,6 +175,12 @@ HOSTILE = [
     ["sweep", WHEELSET, "--speeds", "30:40:2", "--set", "wheelset.mass.x=1", "-o", "s.csv"],
     ["sweep", WHEELSET, "--speeds", "30:40:2", "--workers", "0", "-o", "s.csv"],
     ["sweep", WHEELSET, "--speeds", "30:40:2", "--scheduler", "", "-o", "s.csv"],
+    # track: not a track, no such file, a layout given as a track, an output that is a folder
+    ["track", "missing.toml", "-o", "c.csv"],
+    ["track", WHEELSET, "-o", "c.csv"],
+    ["track", MODELS / "tracks" / "curve-600.toml", "-o", "c.csv"],
+    ["track", MODELS / "tracks" / "curve-600.toml", "-o", "/proc/c.csv"],
+    ["track", MODELS / "tracks" / "curve-600.toml"],
     ["sweep", WHEELSET, "--speeds", "30:40:2", "-o", "s.xlsx"],
     ["sweep", WHEELSET, "--speeds", "5:150:1", "--method", "eigen", "-o", "s.csv"],
     ["map", WHEELSET, "--x", "wheelset.conicity=0.1:0.2:2", "--y", "wheelset.conicity=0.1:0.2:2", "-o", "m.png"],
