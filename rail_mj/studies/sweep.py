@@ -339,16 +339,14 @@ def plan(
             raise SweepError(f"--grid {key} is given twice")
         axes.append((key, _grid_values(key, value)))
     try:  # the base layout (sets applied) must hold before any case runs
-        layout_from_dict(data, source=str(path))
+        base = layout_from_dict(data, source=str(path))
     except LayoutError as e:
         raise SweepError(str(e)) from None
-    if method == "nonlinear":
-        base = layout_from_dict(data, source=str(path))
-        if base.flange is None or base.creep.law == "linear":
-            raise SweepError(
-                f"{path}: the nonlinear critical speed needs [flange] and a saturating creep "
-                f"law (set them with --set, or in the layout)"
-            )
+    if method == "nonlinear" and (base.flange is None or base.creep.law == "linear"):
+        raise SweepError(
+            f"{path}: the nonlinear critical speed needs [flange] and a saturating creep "
+            f"law (set them with --set, or in the layout)"
+        )
     for key, values in axes:  # a key the layout does not know fails the sweep, not each case
         if key in CURVE_KEYS:
             for v in values:
@@ -365,8 +363,7 @@ def plan(
     n_points = math.prod(len(v) for _, v in axes)
     _check_size(n_points, run_speeds)
     if method == "run" and held_at_once:
-        n_wheelsets = layout_from_dict(data, source=str(path)).n_wheelsets
-        _check_memory(n_points, run_speeds, distance, n_wheelsets, held_at_once)
+        _check_memory(n_points, run_speeds, distance, base.n_wheelsets, held_at_once)
     points = [dict(zip([k for k, _ in axes], combo)) for combo in itertools.product(*[v for _, v in axes])]
     cases: list[Case] = []
     for point in points:
