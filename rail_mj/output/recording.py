@@ -584,15 +584,14 @@ def axis_range(values, floor: float = 0.0, positive: bool = False) -> list[float
     return [0.0, edge] if positive else [-edge, edge]
 
 
-def blueprint(run: Run, shown: list[Plot] | None = None, factor: float | None = None) -> rrb.Blueprint:
-    """The default layout: the plots (`plots(run)`, or `shown`) in a grid on the left, each
+def blueprint(run: Run, shown: list[Plot], factor: float | None, window: Window | None) -> rrb.Blueprint:
+    """The default layout: the plots `shown` (`plots(run)`) in a grid on the left, each
     opening on `review_window(run)` on both timelines, its legend where it covers no data
     (`legend_corner`); on the right the 3D view, its camera following the vehicle, lateral
     motion and yaw exaggerated `factor` times (None: `exaggeration(run)`) as its name says,
-    above the layout and the flange strikes. The time panel marks the window."""
-    shown = plots(run) if shown is None else shown
+    above the layout and the flange strikes. The time panel marks the window (`window`,
+    `review_window(run)`, found once by the caller)."""
     factor = _factor(run, factor)
-    window = review_window(run)
     ranges = _visible_ranges(run, window)
     views = []
     for p in shown:
@@ -663,7 +662,7 @@ def exaggeration_text(factor: float) -> str:
     )
 
 
-def _layout_text(run: Run, keep: np.ndarray, factor: float, shown: list[Plot]) -> str:
+def _layout_text(run: Run, keep: np.ndarray, factor: float, shown: list[Plot], window: Window | None) -> str:
     try:
         source = Path(run.layout.source).read_text(encoding="utf-8")
     except OSError:
@@ -676,7 +675,7 @@ def _layout_text(run: Run, keep: np.ndarray, factor: float, shown: list[Plot]) -
         f"recorded at {rate:.4g} samples/s, one in {every} of the run's samples (the CSV of "
         f"`rail-mj run --out` has them all)\n\n"
         f"{exaggeration_text(factor)}\n\n"
-        f"{_window_text(run, review_window(run))}\n\n"
+        f"{_window_text(run, window)}\n\n"
         f"{_key_text(shown)}\n\n"
         f"```toml\n{source}\n```\n"
     )
@@ -720,11 +719,13 @@ def log_run(rec: rr.RecordingStream, run: Run, rate: float | None = None, exagge
     """Log a run into an open recording, at `rate` (see `recorded_samples`), the 3D view's
     lateral motion and yaw `exaggeration` times their size (None: `exaggeration(run)`): static
     data once, the series in column batches."""
-    _log_samples(rec, run, recorded_samples(run, rate), plots(run), _factor(run, exaggeration))
+    _log_samples(rec, run, recorded_samples(run, rate), plots(run), _factor(run, exaggeration), review_window(run))
 
 
-def _log_samples(rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: list[Plot], factor: float) -> None:
-    text = _layout_text(run, keep, factor, shown)
+def _log_samples(
+    rec: rr.RecordingStream, run: Run, keep: np.ndarray, shown: list[Plot], factor: float, window: Window | None
+) -> None:
+    text = _layout_text(run, keep, factor, shown, window)
     rec.log("/layout", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True)
     rec.log(EXAGGERATION_PATH, rr.TextDocument(exaggeration_text(factor)), static=True)
     indexes = [
@@ -989,8 +990,9 @@ def save_recording(run: Run, path: str | Path, rate: float | None = None, exagge
     # (a full disk) logs ERROR lines and its flush never returns, where this write raises
     # one OSError. One read at the end: the reader of 0.41 takes one stream per file.
     stream = rr.binary_stream(rec)
-    rec.send_blueprint(blueprint(run, shown, factor), make_active=False, make_default=True)
-    _log_samples(rec, run, keep, shown, factor)
+    window = review_window(run)  # a flange-strike search and a periodogram: once, for both
+    rec.send_blueprint(blueprint(run, shown, factor, window), make_active=False, make_default=True)
+    _log_samples(rec, run, keep, shown, factor, window)
     data = stream.read()
     rec.disconnect()
     if not data:  # Rerun always writes a header: nothing at all is its failure, not a recording
