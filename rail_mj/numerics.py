@@ -49,8 +49,8 @@ NUMERIC_COUPLES = "rail_mj/couples"
 
 # The block's first number, "this is rail-mj's native block, version 6": six significant
 # figures, as MuJoCo's MJCF writer keeps them. Version 5 added the track part (below), version 6
-# its speed profile.
-MAGIC = 7043.06
+# its speed profile, version 7 its irregularities.
+MAGIC = 7043.07
 # Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
 # of rows of its profile contact table (0: coned wheels), where its track part starts (from
 # the vehicle's first entry), then the contact parameters (ContactParameters.table,
@@ -84,7 +84,20 @@ TRACK_AT = 6  # offset of the track part's offset within a vehicle's entries
 # (k = 0), heading (1) or cant roll (2) that the track gives it; per tendon: tendon, its
 # length's terms as a joint's (an axlebox tendon's include its wheelset's cant roll, which no
 # joint takes: rail_mj.vehicle.curve), then the dofs it acts on: count, then (dof, coefficient).
-TRACK_HEADER = 8
+# The header's last entry is where the irregularity part starts, from the track part's first entry
+# (0: a perfect track, no part).
+TRACK_HEADER = 9
+IRREGULAR_AT = 8  # offset of the irregularity part's offset within the track part
+# The irregularity part (rail_mj.vehicle.rails): the number of spline intervals m, the first
+# station x0 (m) and the interval (m), whether the vertical channels act (1: a spatial vehicle with
+# gravity; 0: the lateral ones only), the number of wheelsets; then per interval SPLINE entries,
+# per channel (rail_mj.track.irregularities.CHANNELS, in order) the cubic's coefficients c0..c3 in
+# the distance from the interval's start (m, m/m, 1/m, 1/m^2); then per wheelset its mass (kg),
+# roll inertia about the rail level (kg m^2), the height of its centre above the rails (m) and its
+# axlebox tendons: count, then (tendon, its length's rate in the wheelset's rise, in its roll about
+# its centre).
+IRREGULAR_HEADER = 5
+SPLINE = 16
 BREAKPOINT = 5
 SPEED_POINT = 2
 # The odometer's mass, kg: it is coupled to no other body, so its mass only has to be positive
@@ -114,6 +127,12 @@ def track_part_size(data: np.ndarray, k: int) -> int:
     for _ in range(tendons):
         e += 2 + 2 * int(data[e + 1])
         e += 1 + 2 * int(data[e])
+    if int(data[k + IRREGULAR_AT]):
+        e = k + int(data[k + IRREGULAR_AT])
+        intervals, wheelsets = int(data[e]), int(data[e + 4])
+        e += IRREGULAR_HEADER + SPLINE * intervals
+        for _ in range(wheelsets):
+            e += 4 + 3 * int(data[e + 3])
     return e - k
 
 

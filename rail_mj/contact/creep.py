@@ -635,6 +635,7 @@ def wheelset_contact(
     spin_inertia=0.0,
     cone_gravity=False,
     wear=False,
+    gauge=0.0,
 ):
     """The rails' forces on one wheelset, by origin: (creep lateral, flange lateral, creep
     couple, spin moment, flange moment), N and N m (see `ContactForces`), then each wheel's
@@ -650,15 +651,22 @@ def wheelset_contact(
     `cone_gravity` the normal forces' lateral parts on knife-edge rails (`cone_gravity_forces`),
     counted with the flange's. Returns the gyroscopic yaw moment, then each wheel's wear number
     (`wear_number`: left, right) if `wear`, else zeros: the native callback, which reads the first
-    ten entries only, leaves `wear` out, and its compiled law has no trace of it."""
+    ten entries only, leaves `wear` out, and its compiled law has no trace of it.
+
+    `gauge`: the gauge's departure from nominal (m, wider positive; a track irregularity,
+    rail_mj.track.irregularities): each rail stands gauge/2 further out, so each flange meets its
+    rail gauge/2 later; the cones' tread and the knife-edge rails' spacing are left as they are
+    (a gauge of a few mm changes b by a few parts in 10^3). On irregular track `y`, `psi`,
+    `y_dot` are the wheelset's relative to the rails' centreline (rail_mj.simulation.irregular)."""
     # Creepages (docs/creep.md): on the tread xi_x_left = -(b*psi'/V) - lam*y/r0 and
     # xi_x_right is its negative; the lateral creepage is the same on both wheels, and the
     # spin differs between them only by the constant contact-angle term, which cancels
     # between the two wheels' linear forces and is left out (with a saturating law or FASTSIM
     # it would not cancel exactly: docs/creep.md, section 6). Without flange contact
     # flange_slope is the conicity: no rise.
-    rise_left = _radius_rise(y, p[_LAM], p[_SLOPE], p[_CLEARANCE])
-    rise_right = _radius_rise(-y, p[_LAM], p[_SLOPE], p[_CLEARANCE])
+    clearance = p[_CLEARANCE] + 0.5 * gauge
+    rise_left = _radius_rise(y, p[_LAM], p[_SLOPE], clearance)
+    rise_right = _radius_rise(-y, p[_LAM], p[_SLOPE], clearance)
     turning = p[_B] * psi_dot / speed
     xi_left = -turning - rise_left / p[_R0]
     xi_right = turning - rise_right / p[_R0]
@@ -690,7 +698,7 @@ def wheelset_contact(
         )
     flange_lateral = flange_moment = 0.0
     if flange:
-        flange_lateral = _flange_force(y, y_dot, p[_CLEARANCE], p[_K_FLANGE], p[_C_FLANGE])
+        flange_lateral = _flange_force(y, y_dot, clearance, p[_K_FLANGE], p[_C_FLANGE])
         if flange_lateral != 0.0:
             radius = p[_R0] + max(rise_left, rise_right)  # the flanging wheel's
             flange_moment = flange_lateral * _flange_lead(y, psi, radius, p[_SLOPE], p[_B])
@@ -726,7 +734,9 @@ def _between(lo, hi, t, column):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail, creep_left=(0.0, 0.0), creep_right=(0.0, 0.0)):
+def _normal_loads(
+    lo, hi, t, lo2, hi2, t2, axle_load, r0, moment, about_rail, creep_left=(0.0, 0.0), creep_right=(0.0, 0.0)
+):
     """Each wheel's normal load (N) from the wheelset's vertical and roll equilibrium under
     its axle load: N_L*V_L + N_R*V_R = W, N_L*M_L + N_R*M_R + moment = 0 with V = sum w*cos(g)
     and M = sum w*(l*cos(g) - s*h*sin(g)) over the wheel's points (the roll moment of its
@@ -738,10 +748,14 @@ def _normal_loads(lo, hi, t, axle_load, r0, moment, about_rail, creep_left=(0.0,
     whose own normal force rolls the wheelset onto it (M_L <= 0: the left; M_R >= 0: the
     right). `creep_left`, `creep_right`: each wheel's creep forces' vertical force and roll
     moment per unit normal load, added to its V and M (a spatial vehicle's: Nadal's balance).
+    The left wheel's entries are interpolated between rows `lo`, `hi` at `t`, the right's between
+    `lo2`, `hi2` at `t2` (the same rows but on a track whose gauge departs from nominal).
     Returns (N_left, N_right, V_left, V_right), V without the creep."""
     v_left = v_right = m_left = m_right = 0.0
     for side in range(2):
         s = 1.0 - 2.0 * side
+        if side == 1:
+            lo, hi, t = lo2, hi2, t2
         for slot in range(_t.SLOTS):
             c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
             w = _between(lo, hi, t, c + _t.WEIGHT)
@@ -784,7 +798,20 @@ NADAL_PASSES = 5
 
 @numba.njit(cache=True, error_model="numpy")
 def profiled_contact(
-    geo, p, law, falling, y, psi, y_dot, psi_dot, speed, load=math.nan, moment=0.0, spin_inertia=0.0, wear=False
+    geo,
+    p,
+    law,
+    falling,
+    y,
+    psi,
+    y_dot,
+    psi_dot,
+    speed,
+    load=math.nan,
+    moment=0.0,
+    spin_inertia=0.0,
+    wear=False,
+    gauge=0.0,
 ):
     """The rails' forces on one wheelset on profiles, by origin as `wheelset_contact` gives
     them: (creep lateral, normal lateral, creep couple, spin moment, lead moment). `geo`:
@@ -810,6 +837,12 @@ def profiled_contact(
     a spatial vehicle's: the wheelset's roll rate from the table's roll against y), and each
     wheel's wear number, summed over its contact points, each with its own creepages, if `wear`
     (else zeros, as `wheelset_contact`).
+
+    `gauge`: the gauge's departure from nominal (m, wider positive; a track irregularity): each rail
+    stands gauge/2 further out, and each wheel's entries are read at its own shift from its rail,
+    the left's at y - gauge/2, the right's at y + gauge/2. That leaves out how the gauge changes
+    the wheelset's roll, which moves each contact a little (docs/irregularities.md: against tables
+    made at the wider gauge, delta r within 0.4 % rms at 2 mm, 5 % at 5 mm on S1002/60E1).
     """
     # The table is stored in mm, kN and GPa (rail_mj.contact.tables): SI from here on.
     y0, dy, rows = geo[0, _t.HEADER_Y0] * M_PER_MM, geo[0, _t.HEADER_DY] * M_PER_MM, int(geo[0, _t.HEADER_ROWS])
@@ -819,21 +852,47 @@ def profiled_contact(
     if math.isnan(y):  # a diverged state: no table row, and the runner reports it
         nan = math.nan
         return nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan
-    u = min(max((y - y0) / dy, 0.0), rows - 1.0)
+    u = min(max((y - 0.5 * gauge - y0) / dy, 0.0), rows - 1.0)
     i = min(int(u), rows - 2)
     t = u - i
     lo, hi = geo[1 + i], geo[2 + i]
+    u2 = min(max((y + 0.5 * gauge - y0) / dy, 0.0), rows - 1.0)
+    i2 = min(int(u2), rows - 2)
+    t2 = u2 - i2
+    lo2, hi2 = geo[1 + i2], geo[2 + i2]
     spatial = not math.isnan(load)
     gyro_yaw = 0.0
     if spatial and spin_inertia > 0.0:  # roll in mrad per mm of y: rad/m
-        roll_rate = (hi[_t.ROLL] - lo[_t.ROLL]) / (hi[_t.Y] - lo[_t.Y]) * y_dot
+        slope = (hi[_t.ROLL] - lo[_t.ROLL]) / (hi[_t.Y] - lo[_t.Y])
+        slope2 = (hi2[_t.ROLL] - lo2[_t.ROLL]) / (hi2[_t.Y] - lo2[_t.Y])
+        roll_rate = 0.5 * (slope + slope2) * y_dot
         gyro_yaw, gyro_roll = gyroscopic(spin_inertia, speed / r0, roll_rate, psi_dot)
         moment -= gyro_roll
     n_left, n_right, v_left, v_right = _normal_loads(
-        lo, hi, t, load if spatial else axle_load, r0, moment if spatial else 0.0, spatial
+        lo, hi, t, lo2, hi2, t2, load if spatial else axle_load, r0, moment if spatial else 0.0, spatial
     )
     f = _points(
-        lo, hi, t, p, law, falling, psi, y_dot, psi_dot, speed, shear, mu, r0, gravity, spinning, n_left, n_right, wear
+        lo,
+        hi,
+        t,
+        lo2,
+        hi2,
+        t2,
+        p,
+        law,
+        falling,
+        psi,
+        y_dot,
+        psi_dot,
+        speed,
+        shear,
+        mu,
+        r0,
+        gravity,
+        spinning,
+        n_left,
+        n_right,
+        wear,
     )
     # Nadal's balance (a spatial vehicle): the creep forces' vertical parts (large on a steep
     # flange) belong in the wheelset's equilibrium, and they grow with the loads they act under.
@@ -851,11 +910,16 @@ def profiled_contact(
             creep_right = (f[8] / n_right, f[10] / n_right)
         if creep_left == (0.0, 0.0) and creep_right == (0.0, 0.0):
             break
-        n_left, n_right, v_left, v_right = _normal_loads(lo, hi, t, load, r0, moment, True, creep_left, creep_right)
+        n_left, n_right, v_left, v_right = _normal_loads(
+            lo, hi, t, lo2, hi2, t2, load, r0, moment, True, creep_left, creep_right
+        )
         f = _points(
             lo,
             hi,
             t,
+            lo2,
+            hi2,
+            t2,
             p,
             law,
             falling,
@@ -919,6 +983,9 @@ def _points(
     lo,
     hi,
     t,
+    lo2,
+    hi2,
+    t2,
     p,
     law,
     falling,
@@ -945,16 +1012,20 @@ def _points(
     The wheelset's roll phi (the table's, left side up) tilts its axle: a point at the track-frame
     contact angle g lies at g - s*phi on the wheel, which sets the spin of the wheel's rotation
     and the yaw's lateral slip (docs/dynamics-on-profiles.md, creepages); with phi = 0 both are
-    the unrolled expressions to the last bit."""
+    the unrolled expressions to the last bit. The left wheel's entries are interpolated between
+    `lo`, `hi` at `t`, the right's between `lo2`, `hi2` at `t2` (`profiled_contact`, gauge); the
+    wheelset's roll is the mean of the two rows' (exactly either where they are one)."""
     creep_lateral = normal_lateral = couple = spin = lead_moment = 0.0
     y_left = y_right = 0.0
     fz_left = fz_right = mx_left = mx_right = 0.0
     wear_left = wear_right = 0.0
-    wheelset_roll = _between(lo, hi, t, _t.ROLL) * RAD_PER_MRAD  # rad, left side up
+    wheelset_roll = 0.5 * (_between(lo, hi, t, _t.ROLL) + _between(lo2, hi2, t2, _t.ROLL)) * RAD_PER_MRAD  # rad
     cos_roll, sin_roll = math.cos(wheelset_roll), math.sin(wheelset_roll)
     for side in range(2):
         s = 1.0 - 2.0 * side
         wheel = n_left if side == 0 else n_right
+        if side == 1:
+            lo, hi, t = lo2, hi2, t2
         for slot in range(_t.SLOTS):
             c = _t.FIRST_POINT + (side * _t.SLOTS + slot) * _t.POINT
             normal = wheel * _between(lo, hi, t, c + _t.WEIGHT)
@@ -1053,10 +1124,12 @@ def _kernel(
     nominal,
     spin_inertia,
     cone_gravity,
+    gauge,
 ):
-    """`contact_forces` over flat, contiguous state arrays (the speed one of them): the last
-    axis of the original shape is the wheelsets, sample k belongs to wheelset k % n. Rows: the fields of
-    ContactForces, in order. A non-empty `geometry` is the wheelsets' contact table."""
+    """`contact_forces` over flat, contiguous state arrays (the speed and the gauge's departure
+    among them): the last axis of the original shape is the wheelsets, sample k belongs to wheelset
+    k % n. Rows: the fields of ContactForces, in order. A non-empty `geometry` is the wheelsets'
+    contact table."""
     n = table.shape[1]
     out = np.zeros((FORCE_ROWS, y.size))
     profiled = geometry.shape[0] > 0
@@ -1076,6 +1149,7 @@ def _kernel(
                 moment[k],
                 spin_inertia,
                 True,
+                gauge[k],
             )
         else:
             forces = wheelset_contact(
@@ -1094,6 +1168,7 @@ def _kernel(
                 spin_inertia,
                 cone_gravity,
                 True,
+                gauge[k],
             )
         for row in range(5):
             out[row, k] = forces[row]
@@ -1120,6 +1195,7 @@ def _evaluate(
     nominal: float | None = None,
     spin_inertia: float = 0.0,
     cone_gravity: bool = False,
+    gauge=None,
 ):
     """The kernel's rows, each shaped like the states."""
     shape = np.shape(y)
@@ -1130,6 +1206,9 @@ def _evaluate(
         loads = [np.ascontiguousarray(np.broadcast_to(v, shape), dtype=np.float64).reshape(-1) for v in (load, moment)]
     # A speed a sample (a run on a speed profile) or one for all: broadcast like the states.
     speeds = np.ascontiguousarray(np.broadcast_to(np.asarray(speed, dtype=np.float64), shape)).reshape(-1)
+    gauges = np.ascontiguousarray(np.broadcast_to(np.asarray(0.0 if gauge is None else gauge, float), shape)).reshape(
+        -1
+    )
     return _kernel(
         p.table,
         p.geometry,
@@ -1142,6 +1221,7 @@ def _evaluate(
         np.nan if nominal is None else float(nominal),
         float(spin_inertia),
         bool(cone_gravity),
+        gauges,
     ).reshape((FORCE_ROWS,) + shape)
 
 
@@ -1157,6 +1237,7 @@ def contact_forces(
     nominal: float | None = None,
     spin_inertia: float = 0.0,
     cone_gravity: bool = False,
+    gauge=None,
 ) -> ContactForces:
     """The rails' forces on each wheelset, by origin: see `ContactForces`. States are
     arrays of one shape whose last axis is the wheelsets.
@@ -1173,10 +1254,12 @@ def contact_forces(
     axle loads and suspension roll moments about the rail level (docs/spatial.md, wheel
     loads); `nominal`: the wheel load the coefficients hold at (on cones each wheel's are
     scaled to its load; without `load` both wheels carry it); `spin_inertia` and `cone_gravity`:
-    the gyroscopic terms and the gravitational stiffness on cones (`wheelset_contact`).
+    the gyroscopic terms and the gravitational stiffness on cones (`wheelset_contact`);
+    `gauge` (None: nominal, or shaped like the states): the gauge's departure from nominal, m,
+    with the states relative to the rails' centreline (an irregular track's).
     """
     return ContactForces(
-        *_evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal, spin_inertia, cone_gravity)
+        *_evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal, spin_inertia, cone_gravity, gauge)
     )
 
 
@@ -1192,6 +1275,7 @@ def wheelset_forces(
     nominal: float | None = None,
     spin_inertia: float = 0.0,
     cone_gravity: bool = False,
+    gauge=None,
 ):
     """Lateral force Fy (N) and yaw moment Mz (N m) of the rails on each wheelset: the
     sums of `contact_forces`. On the tread, with the linear law and f23 = f33 = 0, this is
@@ -1199,5 +1283,5 @@ def wheelset_forces(
 
         Fy = -2*f22*(y_dot/V - psi),   Mz = -2*f11*b*(b*psi_dot/V + lam*y/r0).
     """
-    rows = _evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal, spin_inertia, cone_gravity)
+    rows = _evaluate(p, y, psi, y_dot, psi_dot, speed, load, moment, nominal, spin_inertia, cone_gravity, gauge)
     return rows[5], rows[6]

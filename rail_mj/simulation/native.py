@@ -53,6 +53,23 @@ from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, TRACK_A
 from rail_mj.simulation.curve import add_curve_forces, curvature_at, odometer, profiled_speed
 from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-exported: a native model's speed)
 from rail_mj.vehicle.poses import add_tendon_shifts, curve_state, scratch_size
+from rail_mj.vehicle.rails import (
+    ALIGNMENT,
+    ALIGNMENT_SLOPE,
+    GAUGE,
+    LEVEL,
+    LEVEL_CURVATURE,
+    LEVEL_SLOPE,
+    ROLL,
+    ROLL_CURVATURE,
+    ROLL_SLOPE,
+    irregular_at,
+    next_wheelset,
+    part_end,
+    rails_at,
+    shift_axleboxes,
+    wheelsets_at,
+)
 
 # --- the layout of MuJoCo's structs, from the installed version's declarations ----------
 
@@ -260,6 +277,12 @@ def _apply(
             for t in range(ntendon):
                 lengths[t], velocities[t] = length[t], velocity[t]
             add_tendon_shifts(block, track, bodies_end, scratch, lengths, velocities)
+        # An irregular track (rail_mj.vehicle.rails): each wheelset on the rails at its own station.
+        rails = irregular_at(block, track) if curved else 0
+        vertical = rails != 0 and block[rails + 3] != 0.0
+        w = wheelsets_at(block, rails) if rails else 0
+        r = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        height = 0.0
         k += VEHICLE_HEADER
         table = numba.carray(block, (k + ROWS * n,))[k:].reshape((ROWS, n))
         k += ROWS * n
@@ -272,6 +295,12 @@ def _apply(
             weight, nominal, spin_inertia = block[k], block[k + 1], block[k + 2]
             cone_gravity, tendons = block[k + 3] != 0.0, int(block[k + 4])
             k += LOADS_HEADER
+            if rails:
+                r = rails_at(block, rails, s_ref + xpos[3 * body])
+                if vertical:  # before the loads: the axlebox tendons' real deflections
+                    shift_axleboxes(
+                        block, w, speed, r[LEVEL], r[LEVEL_SLOPE], r[ROLL], r[ROLL_SLOPE], lengths, velocities
+                    )
             load, moment = math.nan, 0.0
             if tendons:  # a spatial vehicle: its axle load and roll moment (rail_mj.vehicle.loads)
                 load = weight
@@ -285,6 +314,14 @@ def _apply(
                 z, lateral = int(block[k + 1 + 2 * c]), int(block[k + 2 + 2 * c])
                 moment -= _tendon_force(stiffness, damping, springlength, lengths, velocities, z) * lengths[lateral]
             k += 1 + 2 * pairs
+            gauge = push = 0.0
+            if rails:
+                gauge = r[GAUGE]
+                if vertical:  # the wheelset's inertia rising and rolling with the rails
+                    mass, roll_inertia, height = block[w], block[w + 1], block[w + 2]
+                    load += mass * speed * speed * r[LEVEL_CURVATURE]
+                    moment -= roll_inertia * speed * speed * r[ROLL_CURVATURE]
+                w = next_wheelset(block, w)
             if speed <= 0.0:
                 continue  # no speed set: no rolling, no creep
             y = xpos[3 * body + 1]
@@ -292,9 +329,30 @@ def _apply(
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
             if curved:  # on a curve the track turns under the wheelset: its absolute yaw rate
                 psi_dot += speed * curvature_at(block, track, s_ref + xpos[3 * body])
+            if rails:  # the wheelset relative to its rails (rail_mj.vehicle.rails)
+                y -= r[ALIGNMENT]
+                psi -= r[ALIGNMENT_SLOPE]
+                y_dot -= speed * r[ALIGNMENT_SLOPE]
+                if vertical:
+                    y += height * r[ROLL]
+                    y_dot += height * speed * r[ROLL_SLOPE]
+                    push = -load * r[ROLL]  # the rails' tilted normal forces, downhill
             if rows > 0:
                 f = profiled_contact(
-                    geometry, table[:, i], law, falling, y, psi, y_dot, psi_dot, speed, load, moment, spin_inertia
+                    geometry,
+                    table[:, i],
+                    law,
+                    falling,
+                    y,
+                    psi,
+                    y_dot,
+                    psi_dot,
+                    speed,
+                    load,
+                    moment,
+                    spin_inertia,
+                    False,
+                    gauge,
                 )
             else:
                 f = wheelset_contact(
@@ -312,8 +370,12 @@ def _apply(
                     nominal,
                     spin_inertia,
                     cone_gravity,
+                    False,
+                    gauge,
                 )
             fy, mz = f[0] + f[1], f[2] + f[3] + f[4]
+            if push != 0.0:
+                fy += push
             if f[9] != 0.0:  # the gyroscopic yaw moment (as the kernel adds it)
                 mz += f[9]
             px, pz = xpos[3 * body], xpos[3 * body + 2]
@@ -349,6 +411,8 @@ def _apply(
                 velocities,
                 force,
             )
+            if rails:
+                k = part_end(block, rails)
         else:
             k = track + TRACK_HEADER
 

@@ -21,6 +21,7 @@ from rail_mj.track.speed import PROFILE_TRACK
 from rail_mj.vehicle.block import contact_parameters
 from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.loads import AxleLoads
+from rail_mj.vehicle.rails import Rails
 from rail_mj.vehicle.spec import Vehicle
 
 
@@ -90,30 +91,36 @@ class Run:
         # callback gives the contact law (rail_mj.simulation.curve).
         speed = self.speeds[:, None]
         rates[..., 1] += speed * self.wheelset_curvature
+        y, psi, gauge = self.y, self.psi, None
+        rails = Rails.of(self.vehicle.model)
+        if rails is not None:  # on an irregular track each wheelset relative to its rails, as the callback has it
+            y, psi, rates[..., 0], gauge = rails.relative(self.wheelset_station, y, psi, rates[..., 0], speed)
         loads = self.axle_loads
         if loads is None or np.isnan(loads).all():
             return contact_forces(
                 params,
-                self.y,
-                self.psi,
+                y,
+                psi,
                 rates[..., 0],
                 rates[..., 1],
                 speed,
                 nominal=self.layout.wheelset.wheel_load,
+                gauge=gauge,
             )
         axle = AxleLoads.of(self.vehicle.model, self.vehicle.wheelset_names)
         # Axle loads are recorded only from a spatial vehicle's suspension (rail_mj.vehicle.sensors).
         assert axle is not None, "axle loads recorded from a vehicle without a suspension's loads"
         return contact_forces(
             params,
-            self.y,
-            self.psi,
+            y,
+            psi,
             rates[..., 0],
             rates[..., 1],
             speed,
             loads[..., 0],
             loads[..., 1],
             **axle.contact(),
+            gauge=gauge,
         )
 
     def guiding_forces(self) -> np.ndarray:

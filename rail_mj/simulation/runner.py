@@ -143,11 +143,6 @@ def _check_on_track(request: Request, vehicle: Vehicle, track: Track) -> float:
     starts at the track's start, or where a continued run's odometer had come to, and its
     leading wheelset must still be on the track at the end (beyond its ends a track goes on as
     it begins and ends, rail_mj.track: the bodies behind are on track all the way); where it starts."""
-    if track.irregularities is not None:
-        raise ValueError(
-            f"{track.source}: [irregularities] are not applied to runs yet: `rail-mj track` writes and draws "
-            f"them; run on the track without them"
-        )
     start = _start_station(request, vehicle)
     reach = track.length - max(request.layout.wheelset_x) - start
     if request.distance > reach:

@@ -33,6 +33,7 @@ from rail_mj.vehicle.block import contact_parameters, set_speed
 from rail_mj.vehicle.curve import ODOMETER, track_part
 from rail_mj.vehicle.joints import YAW
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
+from rail_mj.vehicle.rails import Rails
 from rail_mj.vehicle.spec import Vehicle
 
 SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
@@ -72,6 +73,11 @@ class Prepared:
         return min(lateral, self.table_end)
 
     @functools.cached_property
+    def rails(self) -> Rails | None:
+        """The rails under the wheelsets of an irregular track (rail_mj.vehicle.rails); None: perfect."""
+        return Rails.of(self.vehicle.model)
+
+    @functools.cached_property
     def table_end(self) -> float:
         """|y| where a profiled vehicle's contact table ends; inf on coned wheels."""
         profiled = isinstance(contact_model(self.request.layout), Profiled)
@@ -106,7 +112,13 @@ class Running:
     def left_rails(self, mine: slice, derailment_lateral: float) -> tuple[int, int] | None:
         """(sample, wheelset) where a wheelset first left the rails among the samples `mine`
         (|y| past `derailment_lateral`, or the end of the profiles' table), or None."""
-        lateral = np.abs(self.pos[mine][:, self.prepared.vehicle.wheelset_ids, 1])
+        vehicle = self.prepared.vehicle
+        lateral = np.abs(self.pos[mine][:, vehicle.wheelset_ids, 1])
+        rails = self.prepared.rails
+        if rails is not None:  # on an irregular track, relative to its rails (each a gauge/2 further out)
+            stations = self.pos[mine][:, vehicle.model.body(ODOMETER).id, 0][:, None] + vehicle.sensors.wheelset_x
+            y, _, _, gauge = rails.relative(stations, self.pos[mine][:, vehicle.wheelset_ids, 1], 0.0, 0.0, 0.0)
+            lateral = np.abs(y) - 0.5 * gauge
         off = np.nonzero(np.max(lateral, axis=1) > self.prepared.derailment(derailment_lateral))[0]
         if not len(off):
             return None
@@ -528,6 +540,8 @@ def _derailed(p: Prepared, worst: int, j: int, t, derailment_lateral: float, for
         if r.layout.flange
         else "without [flange] contact nothing bounds the motion"
     )
+    if p.rails is not None and r.track is not None:
+        why += f" on the irregularities of {r.track.source}"
     speed, x = r.speed, r.speed * t[j]
     if r.profile is not None and run is not None:  # where it left, at the speed it had there
         x, speed = float(run.x[-1]), float(run.speeds[-1])
@@ -548,7 +562,8 @@ def _derailed(p: Prepared, worst: int, j: int, t, derailment_lateral: float, for
             f"and {why}; lower --speed or shorten --distance"
         )
     return Derailed(
-        f"wheelset {worst + 1} left the rails: |y| passed {derailment_lateral} m at "
+        f"wheelset {worst + 1} left the rails: |y|{' from its rails' if p.rails is not None else ''} passed "
+        f"{derailment_lateral} m at "
         f"x = {x:.4g} m (t = {t[j]:.4g} s). {cause}",
         run,
     )

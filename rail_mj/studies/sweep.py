@@ -408,8 +408,6 @@ def _track(path: str | Path | None, method: str) -> tuple[Track | None, str | No
         track = load_track(path)
     except TrackError as e:
         raise SweepError(str(e)) from None
-    if track.irregularities is not None:  # refused once, not by every case
-        raise SweepError(f"{path}: [irregularities] are not applied to runs yet: sweep the track without them")
     return track, read_input(path).decode("utf-8")  # read and checked by load_track just before
 
 

@@ -54,6 +54,7 @@ DEFAULT_BAND = (3.0, 150.0)  # m
 SPACING = 0.3  # m
 FADE_IN = 50.0  # m: the irregularities grow from nothing over this, so the vehicle is not kicked
 RAIL_BASE = 1.5  # m, between rail centres: cross level is a height difference over it
+MAX_SAMPLES = 20_000_000  # a measured file resampled evenly: 320 bytes a sample in a run's model
 
 _ERRI_C, _ERRI_R, _ERRI_S = 0.8246, 0.0206, 0.438  # rad/m
 _FRA_C, _FRA_K = 0.8245, 0.25  # rad/m, -
@@ -255,6 +256,29 @@ class Irregularities:
             return x, dict(zip(CHANNELS, columns))
         assert self.spectrum is not None
         return realise(spectrum(self.spectrum), length, self.wavelengths, self.seed, self.scale)
+
+    def spline(self, length: float) -> tuple[float, float, Array]:
+        """The channels as cubic splines on an even grid, as a run reads them
+        (rail_mj.vehicle.rails): (x0, the interval, m, and per interval, per channel in CHANNELS
+        order, the coefficients c0..c3 of c0 + c1*t + c2*t^2 + c3*t^3, t the distance from the
+        interval's start), (intervals, 16). A realisation is on an even grid already; a measured
+        file is first splined at its own points and sampled at its median spacing."""
+        from scipy.interpolate import CubicSpline
+
+        x, channels = self.channels(length)
+        values = np.column_stack([channels[c] for c in CHANNELS])
+        steps = np.diff(x)
+        step = float(np.median(steps))
+        if not np.allclose(steps, step, rtol=1e-9, atol=0.0):
+            count = math.floor((x[-1] - x[0]) / step + 1e-9)
+            if count > MAX_SAMPLES:
+                raise TrackError(f"irregularities: {count} samples at {step:g} m: more than {MAX_SAMPLES:g}")
+            even = x[0] + step * np.arange(count + 1)
+            values = CubicSpline(x, values, axis=0)(even)
+            x = even
+        # Coefficients highest power first, (4, intervals, channels): ours lowest first, by channel.
+        c = CubicSpline(x, values, axis=0).c[::-1]
+        return float(x[0]), step, np.ascontiguousarray(c.transpose(1, 2, 0)).reshape(len(x) - 1, 4 * len(CHANNELS))
 
 
 def irregularities_from_dict(data, source: str, read: Callable[[str], str]) -> Irregularities:

@@ -15,6 +15,7 @@ loads.py       a spatial vehicle's axle loads from its axlebox tendons
 block.py       the one writer of the native block the compiled callback reads (rail_mj.numerics)
 curve.py       a vehicle on a curved track: its odometer and the block's track part
 poses.py       each body's pose on the track and the tendons' shifts, compiled: the callback's and the records'
+rails.py       the rails under each wheelset of an irregular track: the block's irregularity part, its kernels
 """
 
 from rail_mj import _lazy

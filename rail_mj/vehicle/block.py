@@ -35,6 +35,9 @@ from rail_mj.numerics import (
 from rail_mj.units import PA_PER_GPA
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
 
+# The odometer body of a vehicle on a track (rail_mj.vehicle.curve): its slide is the distance along it.
+ODOMETER = "odometer"
+
 # A straight track's part: no odometer, nothing to read.
 STRAIGHT = np.array([-1.0] + [0.0] * (TRACK_HEADER - 1))
 
@@ -198,3 +201,30 @@ def set_speed(model: mujoco.MjModel, speed: float, vehicle: int | None = None) -
     starts = vehicle_starts(model)
     for k in starts if vehicle is None else [starts[vehicle]]:
         model.numeric_data[k + SPEED] = speed
+
+
+def native_block(model: mujoco.MjModel) -> np.ndarray:
+    """The native block: the model's first numeric's data (rail_mj.numerics), a copy."""
+    adr, size = int(model.numeric_adr[0]), int(model.numeric_size[0])
+    return np.array(model.numeric_data[adr : adr + size], dtype=np.float64)
+
+
+def track_part_at(model: mujoco.MjModel, prefix: str) -> tuple[int, int] | None:
+    """(where the vehicle's entries start, where its track part starts) in the native block,
+    for the vehicle under `prefix` on a track; None on straight track (no track part)."""
+    from rail_mj.numerics import MAGIC, TRACK_AT, vehicle_starts
+
+    try:
+        odometer = model.body(prefix + ODOMETER).id
+    except KeyError:
+        return None
+    if model.nnumeric == 0:
+        return None
+    block = native_block(model)
+    if block[0] != MAGIC:
+        return None
+    for start in vehicle_starts(block):
+        k = start + int(block[start + TRACK_AT])
+        if int(block[k]) == odometer:
+            return start, k
+    return None

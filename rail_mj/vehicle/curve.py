@@ -26,10 +26,9 @@ from rail_mj.layout import Layout
 from rail_mj.numerics import ODOMETER_MASS, POSES
 from rail_mj.track import SpeedProfile, Track
 from rail_mj.units import GRAVITY
-from rail_mj.vehicle.block import joint_chain
+from rail_mj.vehicle.block import ODOMETER, joint_chain
 from rail_mj.vehicle.joints import PITCH, ROLL
 
-ODOMETER = "odometer"
 # Entries of G, the map from the track's geometry to the joints, below this are round-off of
 # the least-squares solve (its entries are lever arms of metres and ones).
 ROUND_OFF = 1e-12
@@ -76,6 +75,12 @@ def track_part(
     turns g into the track plane."""
     spatial = layout.spatial is not None
     gravity = layout.spatial is None or layout.spatial.gravity
+    if spatial and not gravity and track.irregularities is not None:
+        raise ValueError(
+            f"{layout.source}: a spatial vehicle without gravity on an irregular track is not modelled (its "
+            f"wheel loads, which the rails' level and cross level change, come from its suspension's weight): "
+            f"set [spatial] gravity = true, or run it on {track.source} without [irregularities]"
+        )
     if spatial and not gravity and _cant_varies(track):
         # A wheelset's cant roll reaches its axlebox springs through their roll levers, which only a
         # spatial vehicle with gravity carries (its wheel loads' numeric, rail_mj.vehicle.loads).
@@ -159,7 +164,14 @@ def track_part(
     part += [float(len(table)), float(len(own)), float(n_joints), float(n_tendons)]
     points = [] if profile is None else profile.block()
     part += [float(model.joint(prefix + ODOMETER).dofadr[0]), float(len(points) // 2)]
-    return np.concatenate([part, points, table.reshape(-1), bodies, joints, tendons])
+    body = np.concatenate([points, table.reshape(-1), bodies, joints, tendons])
+    if track.irregularities is None:
+        return np.concatenate([part, [0.0], body])
+    from rail_mj.vehicle.rails import irregular_part
+
+    # Where the irregularity part starts, from the track part's first entry (rail_mj.numerics).
+    offset = len(part) + 1 + len(body)
+    return np.concatenate([part, [float(offset)], body, irregular_part(model, layout, track, prefix)])
 
 
 def _cant_varies(track: Track) -> bool:

@@ -7,6 +7,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from rail_mj.vehicle.block import native_block, track_part_at
+
 
 def add_sensors(spec: mujoco.MjSpec, bodies: list[str]) -> None:
     """What a run records, measured by MuJoCo at every step: each body's pose (frame
@@ -77,7 +79,11 @@ class Sensors:
             self.tendon_rate = np.array([address(f"{n}_rate") for n in names])
         # On a curved or canted track, where the vehicle's track part sits in the native block and
         # where its odometer's reading is: the tendons' lengths are shifted by the track's geometry.
-        self.track_part, self.station = _track_part(model, prefix), -1
+        self.track_part, self.station = track_part_at(model, prefix), -1
+        # Each wheelset's distance ahead of the vehicle's origin, m (its station less the origin's).
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        self.wheelset_x = np.array([data.xpos[model.body(prefix + w).id, 0] for w in wheelset_names])
         if self.track_part is not None:
             from rail_mj.vehicle.curve import ODOMETER
 
@@ -109,7 +115,7 @@ class Sensors:
             from rail_mj.vehicle.poses import tendon_shifts
 
             start, k = self.track_part
-            block = _block(self.model)
+            block = native_block(self.model)
             stations = np.ascontiguousarray(readings[:, self.station], dtype=np.float64)
             # The speed at each sample: the block's, or on a speed profile the profile's at the
             # station, which the odometer follows (rail_mj.simulation.curve.profiled_speed).
@@ -120,32 +126,15 @@ class Sensors:
             else:
                 speeds = np.full(len(stations), float(block[start + SPEED]))
             tendon_shifts(block, k, speeds, stations, lengths, rates)
+            from rail_mj.vehicle.rails import Rails, axlebox_shifts
+
+            rails = Rails.of(self.model, self.prefix)
+            if rails is not None and rails.vertical:  # the rails' level and cross level under each wheelset
+                at = np.ascontiguousarray(stations[:, None] + self.wheelset_x[None, :])
+                axlebox_shifts(block, rails.part, speeds, at, lengths, rates)
+                rise, roll = rails.inertia(at, speeds[:, None])
+                loads[..., 0], loads[..., 1] = self.axle_loads.evaluate(self.model, lengths, rates, self.prefix)
+                loads[..., 0] += rise
+                loads[..., 1] -= roll
+                return
         loads[..., 0], loads[..., 1] = self.axle_loads.evaluate(self.model, lengths, rates, self.prefix)
-
-
-def _block(model: mujoco.MjModel) -> np.ndarray:
-    """The native block: the model's first numeric's data (rail_mj.numerics), a copy."""
-    adr, size = int(model.numeric_adr[0]), int(model.numeric_size[0])
-    return np.array(model.numeric_data[adr : adr + size], dtype=np.float64)
-
-
-def _track_part(model: mujoco.MjModel, prefix: str) -> tuple[int, int] | None:
-    """(where the vehicle's entries start, where its track part starts) in the native block,
-    for the vehicle under `prefix` on a track; None on straight track (no track part)."""
-    from rail_mj.numerics import MAGIC, TRACK_AT, vehicle_starts
-    from rail_mj.vehicle.curve import ODOMETER
-
-    try:
-        odometer = model.body(prefix + ODOMETER).id
-    except KeyError:
-        return None
-    if model.nnumeric == 0:
-        return None
-    block = _block(model)
-    if block[0] != MAGIC:
-        return None
-    for start in vehicle_starts(block):
-        k = start + int(block[start + TRACK_AT])
-        if int(block[k]) == odometer:
-            return start, k
-    return None

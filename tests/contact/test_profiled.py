@@ -375,7 +375,8 @@ def test_the_wheel_opposite_a_flange_spins_with_the_wheelsets_roll(coach):
     row, r0 = body[i], table[0, tables.HEADER_R0] * M_PER_MM
     shear = table[0, tables.HEADER_SHEAR_MODULUS] * 1e9
     roll = row[tables.ROLL] * 1e-3
-    n_left, n_right, _, _ = _normal_loads(row, row, 0.0, table[0, tables.HEADER_AXLE_LOAD] * N_PER_KN, r0, 0.0, False)
+    axle = table[0, tables.HEADER_AXLE_LOAD] * N_PER_KN
+    n_left, n_right, _, _ = _normal_loads(row, row, 0.0, row, row, 0.0, axle, r0, 0.0, False)
     lateral = moment = 0.0
     for side, (s, wheel) in enumerate(((1.0, n_left), (-1.0, n_right))):
         for slot in range(tables.SLOTS):
