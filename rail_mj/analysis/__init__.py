@@ -1,7 +1,9 @@
 """What runs and linearisations show.
 
     motion.py          amplitude, growth, frequency, flange strikes; the summary of a run
-    en14363.py         EN 14363: the running-instability criterion on Sigma Y, Y/Q, wheel safety
+    en14363.py         EN 14363: the running-instability criterion on Sigma Y, Y/Q, wheel safety,
+                       the on-track statistics per section
+    ride.py            ride comfort: floor accelerations, EN 12299's weightings, N_MV, Sperling's Wz
     curving.py         a run through curves: per curve, angle of attack, guiding force, Y/Q, cant deficiency
     stability.py       eigenvalues, named modes, critical speeds (eigen and time)
     train_modes.py     the names of a train's modes

@@ -227,3 +227,95 @@ def wheel_safety(run: Run) -> dict:
             "y_over_q_exceeded": largest is not None and largest > Y_OVER_Q_LIMIT,
         },
     }
+
+
+# EN 14363's statistics of a section's on-track quantities: the extremes read as the 0.15 % and
+# 99.85 % percentiles of the processed signal, beside its plain extremes.
+PERCENTILES = (0.15, 99.85)
+GUIDING_WINDOW = 2.0  # m: Sigma Y as its sliding mean over 2 m of track
+
+
+def guiding_limit(wheel_load: float) -> float:
+    """Prud'homme's limit on Sigma Y (2 m), N, for a static wheel load Q0 in N: 10 kN + 2*Q0/3."""
+    return 10e3 + 2.0 * wheel_load / 3.0
+
+
+def _statistics(values: np.ndarray) -> dict:
+    """min, max and the 0.15/99.85 % percentiles of the finite values; None where there are none."""
+    finite = values[np.isfinite(values)]
+    if not finite.size:
+        return {"min": None, "max": None, "p0_15": None, "p99_85": None}
+    low, high = np.percentile(finite, PERCENTILES)
+    return {"min": float(finite.min()), "max": float(finite.max()), "p0_15": float(low), "p99_85": float(high)}
+
+
+def on_track(run: Run) -> list[dict]:
+    """Per section of the run's track (rail_mj.track, in order) its samples' statistics (min, max,
+    0.15 and 99.85 % percentiles): per wheelset Sigma Y (2 m mean, N) against Prud'homme's limit; per
+    wheel Q (N), the unloading dQ/Q0 = (Q - Q0)/Q0, Y (N) and Y/Q (2 m means); per bogie frame its
+    lateral acceleration (m/s^2, in its own axes as a frame-mounted accelerometer reads it: on a
+    spatial vehicle with g*roll). A sample belongs to the section its wheelset (or frame) is in."""
+    if run.track is None:
+        return []
+    x, stations = run.x, run.wheelset_station
+    guiding = sliding_mean(run.guiding_forces(), x, GUIDING_WINDOW)
+    q, lateral = run.wheel_loads(), run.wheel_lateral_forces()
+    lateral_2m = sliding_mean(lateral, x, Y_OVER_Q_WINDOW)
+    quotient = sliding_mean(run.derailment_quotients(), x, Y_OVER_Q_WINDOW)
+    q0 = run.layout.wheelset.wheel_load
+    frames = _frame_accelerations(run)
+    out = []
+    for section in run.track.sections:
+        inside = (stations >= section.start) & (stations < section.end)
+        if not inside.any():
+            continue
+        wheelsets = []
+        for i in range(run.n_wheelsets):
+            mine = inside[:, i]
+            if not mine.any():
+                continue
+            wheels = {}
+            for side, wheel in enumerate(WHEELS):
+                load = q[mine, i, side]
+                wheels[wheel] = {
+                    "q_n": _statistics(load),
+                    "unloading": None if q0 is None else _statistics((load - q0) / q0),
+                    "y_n": _statistics(lateral_2m[mine, i, side]),
+                    "y_over_q": _statistics(quotient[mine, i, side]),
+                }
+            wheelsets.append({"wheelset": i + 1, "sum_y_n": _statistics(guiding[mine, i]), **wheels})
+        entry = {
+            "section": section.number,
+            "kind": section.kind,
+            "from_m": section.start,
+            "to_m": section.end,
+            "sum_y_limit_n": None if q0 is None else guiding_limit(q0),
+            "wheelsets": wheelsets,
+        }
+        if frames:
+            centre = run.station[:, None]
+            here = (centre >= section.start) & (centre < section.end)
+            entry["frames"] = [
+                {"body": name, "lateral_acceleration_m_per_s2": _statistics(a[here[:, 0]])} for name, a in frames
+            ]
+        out.append(entry)
+    return out
+
+
+def _frame_accelerations(run: Run) -> list[tuple[str, np.ndarray]]:
+    """Each bogie frame's lateral acceleration at its centre, in its own axes (see `on_track`)."""
+    from rail_mj.simulation.run import second_derivative
+    from rail_mj.units import GRAVITY
+
+    if len(run.t) < 3:
+        return []
+    dt = float(run.t[1] - run.t[0])
+    out = []
+    for k, name in enumerate(run.frame_names):
+        if not name.startswith("bogie"):
+            continue
+        a = second_derivative(run.frame_y[:, k], dt)
+        if run.layout.spatial is not None:
+            a = a + GRAVITY * run.frame_roll[:, k]
+        out.append((name, a))
+    return out

@@ -321,4 +321,11 @@ def _on_track(run: Run) -> dict:
         return {}
     from rail_mj.analysis.curving import curves
 
-    return {"track": run.track.source, "curves": curves(run)}
+    out: dict[str, object] = {"track": run.track.source, "curves": curves(run)}
+    if run.track.irregularities is not None:  # ride comfort and the on-track statistics (docs/ride.md)
+        from rail_mj.analysis.en14363 import on_track
+        from rail_mj.analysis.ride import ride
+
+        out["ride"] = ride(run)
+        out["sections"] = on_track(run)
+    return out

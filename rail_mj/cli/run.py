@@ -331,9 +331,15 @@ def _print_summary(result: dict, err: bool = False) -> None:
             "decayed: |y| (a body's, or its yaw) below 5 % of its largest value from then to the end; growth, "
             "frequency and wavelength are those of the motion before"
         )
-    for verdict in ("growing", "sustained"):
-        if result[verdict]:
-            say(f"{verdict}: {', '.join(result[verdict])}")
+    if "sections" in result:  # on irregular track
+        say(
+            "on irregular track the motion is the rails' forced response: its growth, decay and frequency "
+            "do not say whether the vehicle is stable (EN 14363's criterion below does)"
+        )
+    else:
+        for verdict in ("growing", "sustained"):
+            if result[verdict]:
+                say(f"{verdict}: {', '.join(result[verdict])}")
     flange = result["flange_contact"]
     if flange is not None:
         first, largest = flange["first_strike"], flange["largest_flange_force_at"]
@@ -371,7 +377,11 @@ def _print_summary(result: dict, err: bool = False) -> None:
                 f"{low['wheel']} at x = {low['x_m']:.4g} m)"
             )
         say(line)
-    if "track" in result:
+    if result.get("ride"):
+        _say_ride(say, result["ride"])
+    for section in result.get("sections", []):
+        _say_section(say, section)
+    if "track" in result and (result.get("curves") or "sections" not in result):
         # rail_mj.analysis.en14363.curving_part: the fit to the curvature and uncompensated
         # acceleration under each wheelset that the motion figures are taken about.
         largest = max(w["max_abs_lateral_about_curving_m"] for w in result["wheelsets"])
@@ -402,3 +412,67 @@ def _print_summary(result: dict, err: bool = False) -> None:
         factor = result.get("rrd_exaggeration", 1.0)
         scale = f", 3D view lateral motion and yaw x{factor:g}" if factor != 1.0 else ""
         say(f"recording: {result['rrd']}{at}{scale}  (open it with: {_rerun()} {result['rrd']})")
+
+
+def _say_ride(say, ride: dict) -> None:
+    """EN 12299's and Sperling's indices at each floor point (rail_mj.analysis.ride)."""
+    points = ride["points"]
+    names = "/".join(p["point"] for p in points)
+    where = "" if ride["floor_height_m"] is None else f", floor at {ride['floor_height_m']:g} m"
+
+    def each(key: str, spec: str) -> str:
+        return "/".join(_fmt(p[key], spec) for p in points)
+
+    vertical = points[0]["wz_vertical"] is not None
+    say(f"ride comfort (EN 12299, Sperling; at {names}{where}):")
+    say(f"  N_MV {each('n_mv', '.2f')}")
+    say(f"  Wz lateral {each('wz_lateral', '.2f')}" + (f", vertical {each('wz_vertical', '.2f')}" if vertical else ""))
+    say(
+        f"  floor acceleration rms lateral {each('rms_lateral_m_per_s2', '.3f')} m/s^2"
+        + (f", vertical {each('rms_vertical_m_per_s2', '.3f')} m/s^2" if vertical else "")
+    )
+
+
+def _say_section(say, section: dict) -> None:
+    """A section's on-track statistics (rail_mj.analysis.en14363.on_track): extremes as 99.85 %
+    percentiles, the plain extremes beside them."""
+    limit = section["sum_y_limit_n"]
+    at = f", Sigma Y limit {limit / 1e3:.1f} kN" if limit is not None else ""
+    say(
+        f"section {section['section']} ({section['kind']}, {section['from_m']:.0f} to {section['to_m']:.0f} m{at}): "
+        "p99.85 (max)"
+    )
+    say("  wheelset  |Sigma Y| 2 m (kN)  Y/Q 2 m        Q min (kN)     dQ/Q0 min")
+    for w in section["wheelsets"]:
+        wheels = [w["left"], w["right"]]
+        quotients, loads, unloadings = ([v[key] for v in wheels] for key in ("y_over_q", "q_n", "unloading"))
+        quotient = (_largest(quotients), _largest(quotients, "max"))
+        q = (_smallest(loads), _smallest(loads, "min"))
+        unloading = (_smallest(unloadings), _smallest(unloadings, "min"))
+        sum_y = (_extent(w["sum_y_n"], "p0_15", "p99_85"), _extent(w["sum_y_n"], "min", "max"))
+        say(
+            f"  {w['wheelset']:>8}  {_kilo(sum_y[0], '8.1f')} ({_kilo(sum_y[1], '.1f')})"
+            f"  {_fmt(quotient[0], '.3f')} ({_fmt(quotient[1], '.3f')})"
+            f"  {_kilo(q[0], '.1f')} ({_kilo(q[1], '.1f')})  {_fmt(unloading[0], '.3f')} ({_fmt(unloading[1], '.3f')})"
+        )
+    for frame in section.get("frames", []):
+        a = frame["lateral_acceleration_m_per_s2"]
+        high, largest = _extent(a, "p0_15", "p99_85"), _extent(a, "min", "max")
+        say(f"  {frame['body']} lateral acceleration p99.85 {_fmt(high, '.2f')} m/s^2 (max {_fmt(largest, '.2f')})")
+
+
+def _extent(stats: dict, low: str, high: str) -> float | None:
+    """The larger size of two of a statistics entry's values (None where there are none)."""
+    return None if stats[low] is None else max(abs(stats[low]), abs(stats[high]))
+
+
+def _largest(entries, key: str = "p99_85") -> float | None:
+    return max((e[key] for e in entries if e and e[key] is not None), default=None)
+
+
+def _smallest(entries, key: str = "p0_15") -> float | None:
+    return min((e[key] for e in entries if e and e[key] is not None), default=None)
+
+
+def _kilo(value: float | None, spec: str) -> str:
+    return _fmt(None if value is None else value / 1e3, spec)

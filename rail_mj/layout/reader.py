@@ -273,6 +273,9 @@ class Spatial:
     # Each bogie's design, leading first ([bogie] and [primary.axlebox] with the [bogies.N]
     # overrides, docs/spatial.md); `primary` and Layout.bogie stay the defaults.
     bogies: tuple[BogieDesign, ...] = ()
+    # m above the rail: where ride comfort reads the car body's floor (rail_mj.analysis.ride,
+    # EN 12299); None: at the car body's centre of mass.
+    floor_height: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1294,6 +1297,7 @@ def _spatial(
         gravity=t.flag("gravity", True),
         gravitational_stiffness=t.flag("gravitational_stiffness", True),
         gyroscopic=t.flag("gyroscopic", True),
+        floor_height=t.number("floor_height", None, low=0.0, low_open=True, high=MAX_HEIGHT, required=False),
     )
     t.done()
     if spatial.carbody_height < spatial.bogie_height:  # equal: the planar limit (docs/spatial.md)

@@ -37,6 +37,10 @@ def table(run: Run) -> tuple[list[str], np.ndarray]:
     pitch_bogie1, ...               displacement from the static equilibrium (m), roll and pitch
     curvature1, ..., cant1, ...     on a curved track (--track): the track's curvature (1/m, +
                                     left) and cant (m, signed as the curvature) under each wheelset
+    alignment1, ..., level1, ...,   on an irregular track: the rails under each wheelset (m,
+    cross_level1, ..., gauge1, ...  docs/irregularities.md), then the car body's floor
+    floor_lateral_bogie1, ...,      accelerations above each bogie and at its centre (m/s^2, in
+    floor_vertical_bogie1, ...      its own axes: docs/ride.md; vertical on a spatial vehicle)
     speed                           on a speed profile (--speed-profile): the speed, m/s
     """
     named, cols = run.columns()

@@ -17,11 +17,13 @@ from rail_mj.contact.creep import ContactForces, contact_forces
 from rail_mj.layout import Layout
 from rail_mj.practice import INITIAL_LATERAL
 from rail_mj.track import SpeedProfile, Track
+from rail_mj.track.irregularities import RAIL_BASE
 from rail_mj.track.speed import PROFILE_TRACK
+from rail_mj.units import GRAVITY
 from rail_mj.vehicle.block import contact_parameters
 from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.loads import AxleLoads
-from rail_mj.vehicle.rails import Rails
+from rail_mj.vehicle.rails import ALIGNMENT, GAUGE, LEVEL, ROLL, Rails
 from rail_mj.vehicle.spec import Vehicle
 
 
@@ -186,6 +188,24 @@ class Run:
             cols += [self.wheelset_curvature[:, i] for i in range(self.n_wheelsets)]
             names += [(f"cant{i + 1}", "m") for i in range(self.n_wheelsets)]
             cols += [cant[:, i] for i in range(self.n_wheelsets)]
+        rails = Rails.of(self.vehicle.model)
+        if rails is not None:  # on irregular track: the rails under each wheelset, the floor's accelerations
+            at = rails.at(self.wheelset_station)
+            for name, entry, factor in (
+                ("alignment", ALIGNMENT, 1.0),
+                ("level", LEVEL, 1.0),
+                ("cross_level", ROLL, RAIL_BASE),
+                ("gauge", GAUGE, 1.0),
+            ):
+                names += [(f"{name}{i + 1}", "m") for i in range(self.n_wheelsets)]
+                cols += [factor * at[:, i, entry] for i in range(self.n_wheelsets)]
+            floor = self.floor_accelerations()
+            if floor is not None:
+                names += [(f"floor_lateral_{p}", "m_per_s2") for p in floor.names]
+                cols += list(floor.lateral.T)
+                if floor.vertical is not None:
+                    names += [(f"floor_vertical_{p}", "m_per_s2") for p in floor.names]
+                    cols += list(floor.vertical.T)
         if self.profile is not None:  # a run at constant speed keeps its columns
             names.append(("speed", "m_per_s"))
             cols.append(self.speeds)
@@ -322,6 +342,50 @@ class Run:
         static equilibrium (the centred state), m."""
         rest = self.vehicle.model.body_pos[self._frame_ids, 2]
         return self.body_pos[:, self._frame_ids, 2] - rest
+
+    def floor_accelerations(self) -> Floor | None:
+        """The car body's floor accelerations (`Floor`) as an accelerometer fixed to the floor reads
+        them, in the car body's own axes: the second derivative of each floor point's motion (the body's
+        lateral, vertical, roll, pitch and yaw, linear in them as the model's tendons are:
+        rail_mj.vehicle.spatial.point_motion) and, laterally, the part of gravity the body's roll tilts
+        into its floor, g*phi. A planar car body has no roll or vertical motion: lateral only. None if the
+        car body does not move."""
+        if "carbody" not in self.frame_names or len(self.t) < 3:
+            return None
+        k = self.frame_names.index("carbody")
+        dt = float(self.t[1] - self.t[0])
+        layout = self.layout
+        bogies = layout.carbody.bogie_positions if layout.bogie is not None else None
+        positions = [*(bogies or ()), 0.0]
+        names = tuple([f"bogie{i + 1}" for i in range(len(positions) - 1)] + ["centre"])
+        y, yaw = self.frame_y[:, k], self.frame_psi[:, k]
+        spatial = layout.spatial
+        if spatial is None:
+            lateral = np.column_stack([second_derivative(y + x * yaw, dt) for x in positions])
+            return Floor(names, 1.0 / dt, lateral, None)
+        roll, pitch, bounce = self.frame_roll[:, k], self.frame_pitch[:, k], self.frame_bounce[:, k]
+        floor = spatial.carbody_height if spatial.floor_height is None else spatial.floor_height
+        rz = floor - spatial.carbody_height
+        # A floor point at (x, 0, rz) from the centre of mass: u_y = y + x*yaw - rz*roll, u_z = z - x*pitch.
+        lateral = np.column_stack([second_derivative(y + x * yaw - rz * roll, dt) + GRAVITY * roll for x in positions])
+        vertical = np.column_stack([second_derivative(bounce - x * pitch, dt) for x in positions])
+        return Floor(names, 1.0 / dt, lateral, vertical)
+
+
+@dataclasses.dataclass(frozen=True)
+class Floor:
+    """A car body's floor accelerations at its points (above each bogie, then the centre), in its own
+    axes: `lateral` and `vertical` (samples, points), m/s^2; `vertical` None on a planar vehicle."""
+
+    names: tuple[str, ...]
+    fs: float
+    lateral: np.ndarray
+    vertical: np.ndarray | None
+
+
+def second_derivative(x: np.ndarray, dt: float) -> np.ndarray:
+    """Central second differences of samples at dt, the ends one-sided (second order)."""
+    return np.gradient(np.gradient(x, dt, edge_order=2), dt, edge_order=2)
 
 
 def _yaw(quat: np.ndarray) -> np.ndarray:

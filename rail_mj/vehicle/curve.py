@@ -161,7 +161,20 @@ def track_part(
         tendons += [float(t), *_terms(row), float(len(coefficients))]
         tendons += [v for dof, c in coefficients for v in (float(dof), c)]
         n_tendons += 1
-    part += [float(len(table)), float(len(own)), float(n_joints), float(n_tendons)]
+    n_bodies = len(own)
+    if _straight_and_level(track):
+        # The track's geometry moves no body and loads none (every pose and load above is zero): the
+        # callback skips them. On irregular rails the axlebox tendons stay listed, with no terms, for
+        # the forces of the rails' deflections of them (rail_mj.vehicle.rails).
+        bodies, joints, n_bodies, n_joints = [], [], 0, 0
+        tendons, n_tendons = [], 0
+        if track.irregularities is not None:
+            for t in sorted(roll):
+                coefficients = _tendon_coefficients(model, t)
+                tendons += [float(t), 0.0, float(len(coefficients))]
+                tendons += [v for dof, c in coefficients for v in (float(dof), c)]
+                n_tendons += 1
+    part += [float(len(table)), float(n_bodies), float(n_joints), float(n_tendons)]
     points = [] if profile is None else profile.block()
     part += [float(model.joint(prefix + ODOMETER).dofadr[0]), float(len(points) // 2)]
     body = np.concatenate([points, table.reshape(-1), bodies, joints, tendons])
@@ -172,6 +185,13 @@ def track_part(
     # Where the irregularity part starts, from the track part's first entry (rail_mj.numerics).
     offset = len(part) + 1 + len(body)
     return np.concatenate([part, [float(offset)], body, irregular_part(model, layout, track, prefix)])
+
+
+def _straight_and_level(track: Track) -> bool:
+    """Whether `track` is straight with no cant all along (what its geometry adds is then nothing)."""
+    return all(
+        (s.curvature_start, s.curvature_end, s.cant_start, s.cant_end) == (0.0, 0.0, 0.0, 0.0) for s in track.sections
+    )
 
 
 def _cant_varies(track: Track) -> bool:

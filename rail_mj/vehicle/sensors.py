@@ -4,6 +4,8 @@ where their readings sit in sensordata.
 
 from __future__ import annotations
 
+import functools
+
 import mujoco
 import numpy as np
 
@@ -100,6 +102,18 @@ class Sensors:
         rates[..., 0] = readings[:, self.lateral_rate]
         rates[..., 1] = readings[:, self.yaw_rate]
 
+    @functools.cached_property
+    def _block(self) -> np.ndarray:
+        """The native block, copied once: its track and irregularity parts do not change in a run
+        (its speeds do, with set_speed: `loads` reads those from the model)."""
+        return native_block(self.model)
+
+    @functools.cached_property
+    def _rails(self):
+        from rail_mj.vehicle.rails import Rails
+
+        return Rails.of(self.model, self.prefix)
+
     def loads(self, readings: np.ndarray, loads: np.ndarray) -> None:
         """Fill each wheelset's (axle load P, roll moment M) from sensor readings (rail_mj.vehicle.loads);
         NaN for a vehicle whose wheels carry the layout's static load."""
@@ -115,7 +129,7 @@ class Sensors:
             from rail_mj.vehicle.poses import tendon_shifts
 
             start, k = self.track_part
-            block = native_block(self.model)
+            block = self._block
             stations = np.ascontiguousarray(readings[:, self.station], dtype=np.float64)
             # The speed at each sample: the block's, or on a speed profile the profile's at the
             # station, which the odometer follows (rail_mj.simulation.curve.profiled_speed).
@@ -124,11 +138,14 @@ class Sensors:
                 profile = block[k + TRACK_HEADER : k + TRACK_HEADER + SPEED_POINT * points].reshape(points, 2)
                 speeds = np.interp(stations, profile[:, 0], profile[:, 1])
             else:
-                speeds = np.full(len(stations), float(block[start + SPEED]))
+                # Read live: set_speed changes a compiled model's speed (the copy keeps the rest).
+                speeds = np.full(
+                    len(stations), float(self.model.numeric_data[self.model.numeric_adr[0] + start + SPEED])
+                )
             tendon_shifts(block, k, speeds, stations, lengths, rates)
-            from rail_mj.vehicle.rails import Rails, axlebox_shifts
+            from rail_mj.vehicle.rails import axlebox_shifts
 
-            rails = Rails.of(self.model, self.prefix)
+            rails = self._rails
             if rails is not None and rails.vertical:  # the rails' level and cross level under each wheelset
                 at = np.ascontiguousarray(stations[:, None] + self.wheelset_x[None, :])
                 axlebox_shifts(block, rails.part, speeds, at, lengths, rates)

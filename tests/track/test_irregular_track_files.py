@@ -110,3 +110,17 @@ def test_a_sweep_plans_an_irregular_track(tmp_path):
     track = _track(tmp_path, 'spectrum = "erri-low"\n')
     planned = plan(MODELS / "wheelset" / "wheelset.toml", (30.0, 40.0, 2), distance=100.0, track=track)
     assert len(planned) == 2 and all(case.track is not None and case.track.irregularities for case in planned)
+
+
+def test_the_shipped_irregular_track_is_what_its_readme_says():
+    """models/tracks/erri-high-5km.toml: 5.1 km, ERRI-high over 3-150 m, rms alignment 3.53 mm, level
+    4.69, cross level 2.98, gauge 0.46 (the band integrals, to the README's three digits); its grid's
+    variances (before the fade-in) within 1.1e-4 of them."""
+    from rail_mj.track.irregularities import CHANNELS, realised_variance
+
+    track = load_track(MODELS / "tracks" / "erri-high-5km.toml")
+    assert track.length == 5100.0 and track.irregularities.spectrum == "erri-high"
+    spec = SPECTRA["erri-high"]
+    for channel, rms_mm in zip(CHANNELS, (3.53, 4.69, 2.98, 0.46)):
+        assert band_variance(spec, channel) ** 0.5 * 1e3 == pytest.approx(rms_mm, abs=0.005)
+        assert realised_variance(spec, channel, track.length) == pytest.approx(band_variance(spec, channel), rel=1.1e-4)

@@ -205,3 +205,32 @@ def test_the_rails_are_the_track_files_channels_splined(tmp_path):
         np.testing.assert_allclose(difference, r[:, slope], rtol=0, atol=tolerance * scale)
     before = rails.at(np.array([-30.0, -1.0]))
     assert np.all(before == 0.0)
+
+
+def test_a_run_on_irregular_track_reports_ride_comfort_and_the_sections_statistics(tmp_path, capsys):
+    """The summary, JSON and text, of the spatial coach on 400 m of ERRI-high track: N_MV, Wz and the
+    floor accelerations at the three floor points; per section Sigma Y, Q, dQ/Q0, Y/Q and the frames'
+    accelerations, each extreme within its plain extremes."""
+    import json
+
+    from rail_mj.cli import main
+
+    path = tmp_path / "t.toml"
+    path.write_text('[[section]]\nkind = "straight"\nlength = 450.0\n\n[irregularities]\nspectrum = "erri-high"\n')
+    argv = ["run", str(SPATIAL), "--speed", "40", "--distance", "400", "--track", str(path)]
+    assert main([*argv, "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    points = result["ride"]["points"]
+    assert [p["point"] for p in points] == ["bogie1", "bogie2", "centre"]
+    for p in points:
+        assert 0.0 < p["n_mv"] < 6.0 and 1.0 < p["wz_lateral"] < 5.0 and 0.5 < p["wz_vertical"] < 5.0
+        assert p["max_continuous_comfort_lateral"] > 0.0
+    (section,) = result["sections"]
+    assert section["sum_y_limit_n"] == pytest.approx(10e3 + 2 * load_layout(SPATIAL).wheelset.wheel_load / 3)
+    for w in section["wheelsets"]:
+        for stats in (w["sum_y_n"], w["left"]["q_n"], w["right"]["y_over_q"], w["left"]["unloading"]):
+            assert stats["min"] <= stats["p0_15"] <= stats["p99_85"] <= stats["max"]
+    assert [f["body"] for f in section["frames"]] == ["bogie1", "bogie2"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "ride comfort (EN 12299, Sperling" in out and "N_MV" in out and "section 1 (straight" in out
