@@ -132,8 +132,34 @@ def sweep_cmd(layout, speeds, sets, grids, method, distance, track, workers, sch
     counts = ", ".join(f"{k} {v}" for k, v in result["by_status"].items() if v)
     click.echo(f"{result['cases']} cases ({counts}), {result['wall_time_s']:.1f} s of computing: {out}")
     for bracket in result.get("brackets", []):
-        where = ", ".join(f"{k} = {v:g}" for k, v in bracket.items() if k not in BRACKET_KEYS)
+        where = ", ".join(f"{k} = {_value(v)}" for k, v in bracket.items() if k not in BRACKET_KEYS)
         click.echo(describe(bracket) + (f" ({where})" if where else ""))
+    over = result.get("over_seeds", [])
+    if over:
+        click.echo(
+            "over the track's seeds (mean +/- spread): N_MV, Wz lateral, Wz vertical, Y/Q p99.85, |Sigma Y| p99.85 kN"
+        )
+    for entry in over:
+        where = ", ".join(f"{k} = {_value(v)}" for k, v in entry.items() if not k.endswith(("_mean", "_spread")))
+        cells = []
+        for q, scale in (
+            ("n_mv", 1),
+            ("wz_lateral", 1),
+            ("wz_vertical", 1),
+            ("y_over_q_p99_85", 1),
+            ("sum_y_p99_85_n", 1e3),
+        ):
+            mean, spread = entry[f"{q}_mean"], entry[f"{q}_spread"]
+            cell = "-" if mean is None else f"{mean / scale:.3g}"
+            if mean is not None and spread is not None:
+                cell += f" +/- {spread / scale:.2g}"
+            cells.append(cell)
+        click.echo(f"  {where}: {', '.join(cells)}")
+
+
+def _value(v) -> str:
+    """A parameter's value as the summary prints it: a number compactly, a name as it is."""
+    return f"{v:g}" if isinstance(v, int | float) and not isinstance(v, bool) else str(v)
 
 
 def _check_executor(workers: int | None, scheduler: str | None) -> None:

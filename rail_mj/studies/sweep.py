@@ -53,6 +53,9 @@ METHODS = ("run", "eigen", "time", "nonlinear", "curving")
 # The keys of a curving sweep's curve (--set, --grid): its radius (m, + left) and cant (m, the outer
 # rail over the inner), not the layout's.
 CURVE_KEYS = ("track.radius", "track.cant")
+# A run sweep's keys of the track's generated irregularities (rail_mj.track.irregularities): each
+# case's realisation (seed), track quality (spectrum) and multiplier (scale).
+IRREGULARITY_KEYS = ("irregularities.seed", "irregularities.spectrum", "irregularities.scale")
 DEFAULT_DISTANCE = 1000.0  # m a run
 DEFAULT_INITIAL_LATERAL = INITIAL_LATERAL  # m, as `rail-mj run`
 STATUSES = ("ok", "diverged", "refused", "failed")
@@ -84,9 +87,20 @@ RESULTS = {
 }
 
 
-def _results(method: str) -> tuple[str, ...]:
-    """The result columns of a method's rows."""
-    return RESULTS[method if method in ("run", "curving") else "critical"]
+# A run on irregular track adds its ride and on-track quantities (rail_mj.analysis.ride, en14363.on_track):
+# the largest over the floor points of N_MV and Wz, over the wheels of Y/Q's 99.85 % percentile (2 m),
+# over the wheelsets of |Sigma Y|'s (2 m), and the deepest unloading dQ/Q0's 0.15 % percentile.
+RIDE_RESULTS = ("n_mv", "wz_lateral", "wz_vertical", "y_over_q_p99_85", "sum_y_p99_85_n", "unloading_p0_15")
+
+
+def _results(method: str, irregular: bool = False) -> tuple[str, ...]:
+    """The result columns of a method's rows (`irregular`: runs on irregular track)."""
+    out = RESULTS[method if method in ("run", "curving") else "critical"]
+    return out + RIDE_RESULTS if irregular and method == "run" else out
+
+
+def _on_rails(case: Case) -> bool:
+    return case.track is not None and case.track.irregularities is not None
 
 
 TAIL = ("status", "message", "wall_time_s", "case_key")
@@ -170,6 +184,7 @@ class Case:
     track: Track | None = None  # a curved track the runs follow (rail_mj.track), or None: straight
     track_text: str | None = None  # its file's text, what the result depends on
     curve: dict[str, float] | None = None  # a curving case's track.radius and track.cant
+    irregular: dict[str, Any] | None = None  # a run case's irregularities.* values, its track's
 
     @property
     def run_speed(self) -> float:
@@ -186,6 +201,8 @@ class Case:
             what = [self.method, self.layout, self.params, self.speed, self.distance]
             if self.track_text is not None:
                 what.append(self.track_text)
+            if self.irregular:
+                what.append(self.irregular)
         elif self.method == "curving":  # a steady state: its layout, curve and speed
             what = [self.method, self.layout, self.params, self.curve, self.speed]
         else:  # a critical speed: its layout and the range searched
@@ -328,15 +345,22 @@ def plan(
         raise SweepError(f"distance must be a positive number, got {distance}")
     data, path = _layout_data(layout_path)
     curve: dict[str, float] = {}  # a curving sweep's curve keys given with --set
+    irregular: dict[str, Any] = {}  # a run sweep's irregularities keys given with --set
     for key, value in _assignments(sets, "--set", toml_value):
         if key in CURVE_KEYS:
             curve[key] = _curve_value(key, value, method)
             continue
+        if key in IRREGULARITY_KEYS:
+            irregular[key] = _irregularity_value(key, value, the_track, method)
+            continue
         data = with_value(data, key, value)
-    axes: list[tuple[str, list[float]]] = []
+    axes: list[tuple[str, list[Any]]] = []
     for key, value in _assignments(grids, "--grid", str):
         if key in (k for k, _ in axes):
             raise SweepError(f"--grid {key} is given twice")
+        if key in IRREGULARITY_KEYS:
+            axes.append((key, _irregularity_grid(key, value, the_track, method)))
+            continue
         axes.append((key, _grid_values(key, value)))
     try:  # the base layout (sets applied) must hold before any case runs
         base = layout_from_dict(data, source=str(path))
@@ -348,6 +372,8 @@ def plan(
             f"law (set them with --set, or in the layout)"
         )
     for key, values in axes:  # a key the layout does not know fails the sweep, not each case
+        if key in IRREGULARITY_KEYS:
+            continue
         if key in CURVE_KEYS:
             for v in values:
                 _curve_value(key, v, method)
@@ -369,9 +395,11 @@ def plan(
     for point in points:
         variant = data
         for key, grid_value in point.items():
-            if key not in CURVE_KEYS:
+            if key not in CURVE_KEYS and key not in IRREGULARITY_KEYS:
                 variant = with_value(variant, key, grid_value)
         on_curve = {**curve, **{k: v for k, v in point.items() if k in CURVE_KEYS}}
+        on_rails = {**irregular, **{k: v for k, v in point.items() if k in IRREGULARITY_KEYS}}
+        case_track = _irregular_track(the_track, on_rails) if on_rails else the_track
         for speed in run_speeds:
             index = len(cases)
             recording = (
@@ -388,9 +416,10 @@ def plan(
                     (a, b, n),
                     distance,
                     recording,
-                    the_track,
+                    case_track,
                     track_text,
                     on_curve or None,
+                    on_rails or None,
                 )
             )
     return cases
@@ -559,7 +588,7 @@ def _row(case: Case, compute: Callable[[], dict], extra_time: float = 0.0) -> di
 
     started = time.perf_counter()
     row = {"case": case.index, **case.params, "speed_m_per_s": case.speed}
-    row.update(dict.fromkeys(_results(case.method)))
+    row.update(dict.fromkeys(_results(case.method, _on_rails(case))))
     try:
         row.update(compute())
         status, message = "ok", ""
@@ -609,6 +638,34 @@ def _summarise_run(case: Case, layout, run) -> dict:
         "hunting": None if hunting is None else hunting["hunting"],
         "hunting_rms_n": None if hunting is None else max(hunting["max_rms_n"]),
         "hunting_limit_n": None if hunting is None else hunting["limit_n"],
+        **_ride_results(result),
+    }
+
+
+def _ride_results(result: dict) -> dict:
+    """A run's RIDE_RESULTS from its summary (none off irregular track)."""
+    if "sections" not in result:
+        return {}
+    points = (result.get("ride") or {}).get("points", [])
+
+    def largest(values) -> float | None:
+        found = [v for v in values if v is not None]
+        return max(found) if found else None
+
+    wheelsets = [w for s in result["sections"] for w in s["wheelsets"]]
+    wheels = [w[side] for w in wheelsets for side in ("left", "right")]
+    unloading = [u["p0_15"] for u in (w["unloading"] for w in wheels) if u is not None and u["p0_15"] is not None]
+    return {
+        "n_mv": largest(p["n_mv"] for p in points),
+        "wz_lateral": largest(p["wz_lateral"] for p in points),
+        "wz_vertical": largest(p["wz_vertical"] for p in points),
+        "y_over_q_p99_85": largest(w["y_over_q"]["p99_85"] for w in wheels),
+        "sum_y_p99_85_n": largest(
+            max(abs(w["sum_y_n"]["p0_15"]), abs(w["sum_y_n"]["p99_85"]))
+            for w in wheelsets
+            if w["sum_y_n"]["p0_15"] is not None
+        ),
+        "unloading_p0_15": min(unloading) if unloading else None,
     }
 
 
@@ -620,6 +677,53 @@ _LASTING = {"growing": 2, "sustained": 2, "not oscillating": 1, "decaying": 1}
 
 def _lasting(body: dict) -> tuple:
     return (_LASTING.get(body["motion"], 0), "wheelset" in body, body["final_abs_lateral_m"])
+
+
+def _irregularity_value(key: str, value: Any, track: Track | None, method: str) -> Any:
+    """An irregularities.* value, checked: a whole seed >= 0, a known spectrum's name, a scale >= 0; a
+    run sweep on a track with generated irregularities."""
+    from rail_mj.track.irregularities import SPECTRA
+
+    if method != "run":
+        raise SweepError(f"{key} is for runs (--method run) on a track with [irregularities]")
+    if track is None or track.irregularities is None:
+        raise SweepError(f"{key} needs --track FILE with [irregularities] (a spectrum) to vary")
+    if track.irregularities.spectrum is None:
+        raise SweepError(
+            f"{key}: {track.source}'s irregularities are measured ({track.irregularities.file}): nothing to vary"
+        )
+    name = key.partition(".")[2]
+    if name == "spectrum":
+        if not isinstance(value, str) or value not in SPECTRA:
+            raise SweepError(f"{key}: must be one of {', '.join(SPECTRA)}, got {value!r}")
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        raise SweepError(f"{key}: must be a number >= 0, got {value!r}")
+    if name == "seed":
+        if value != int(value):
+            raise SweepError(f"{key}: must be a whole number, got {value!r}")
+        return int(value)
+    return float(value)
+
+
+def _irregularity_grid(key: str, value: Any, track: Track | None, method: str) -> list[Any]:
+    """A grid of irregularities.* values: seeds and scales as A:B:N (or a list), spectra as names
+    separated by commas (or a list)."""
+    if key == "irregularities.spectrum":
+        names = [v.strip() for v in value.split(",")] if isinstance(value, str) else list(value)
+        values = [_irregularity_value(key, v, track, method) for v in names]
+    else:
+        values = [_irregularity_value(key, v, track, method) for v in _grid_values(key, value)]
+    if len(set(values)) != len(values):
+        raise SweepError(f"--grid {key}: a value is given twice in {value!r}")
+    return values
+
+
+def _irregular_track(track: Track | None, values: dict[str, Any]) -> Track | None:
+    """The sweep's track with a case's irregularities.* values."""
+    assert track is not None and track.irregularities is not None  # checked by _irregularity_value
+    change = {key.partition(".")[2]: v for key, v in values.items()}
+    return dataclasses.replace(track, irregularities=dataclasses.replace(track.irregularities, **change))
 
 
 def _curve_value(key: str, value: Any, method: str) -> float:
@@ -684,7 +788,8 @@ def _critical(case: Case, layout) -> dict:
 def columns_of(cases: list[Case]) -> list[str]:
     method = cases[0].method if cases else "run"
     params = list(cases[0].params) if cases else []
-    return ["case", *params, "speed_m_per_s", *_results(method), *TAIL]
+    irregular = bool(cases) and _on_rails(cases[0])
+    return ["case", *params, "speed_m_per_s", *_results(method, irregular), *TAIL]
 
 
 def _kind(value) -> str | None:
@@ -1059,7 +1164,9 @@ def summarise(table) -> dict:
         "by_status": {s: sum(r["status"] == s for r in rows) for s in STATUSES},
         "wall_time_s": float(sum(r["wall_time_s"] for r in rows)),
     }
-    if rows and "growth_rate_per_s" in rows[0]:
+    if rows and "n_mv" in rows[0]:  # on irregular track: the forced motion's growth says nothing of stability
+        result["over_seeds"] = _over_seeds(table.column_names, rows)
+    elif rows and "growth_rate_per_s" in rows[0]:
         params = [
             c
             for c in table.column_names
@@ -1092,6 +1199,31 @@ def summarise(table) -> dict:
             )
         result["brackets"] = brackets
     return result
+
+
+# The quantities `_over_seeds` takes the mean and spread of.
+OVER_SEEDS = ("n_mv", "wz_lateral", "wz_vertical", "y_over_q_p99_85", "sum_y_p99_85_n")
+
+
+def _over_seeds(columns, rows: list[dict]) -> list[dict]:
+    """Per variant and speed (every parameter but irregularities.seed), the mean and the sample
+    standard deviation over its seeds (its realisations of the track) of N_MV, Wz, Y/Q and Sigma Y, of the
+    cases that ran (`seeds`: how many; one seed: spread None)."""
+    params = [c for c in columns if c not in ("case", "irregularities.seed") and c not in RESULTS["run"]]
+    params = [c for c in params if c not in RIDE_RESULTS and c not in TAIL]
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        if r["status"] == "ok":
+            groups.setdefault(tuple(r[p] for p in params), []).append(r)
+    out = []
+    for key, group in groups.items():
+        entry: dict[str, Any] = {**dict(zip(params, key)), "seeds": len(group)}
+        for q in OVER_SEEDS:
+            values = np.array([r[q] for r in group if r[q] is not None], dtype=float)
+            entry[f"{q}_mean"] = float(values.mean()) if values.size else None
+            entry[f"{q}_spread"] = float(values.std(ddof=1)) if values.size > 1 else None
+        out.append(entry)
+    return out
 
 
 # A bracket's own entries; the rest name its variant's parameters.

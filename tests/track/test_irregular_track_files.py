@@ -3,11 +3,14 @@ them as the measured CSV reads them: the round trip, the refusals, runs that ref
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from conftest import DATA, MODELS
 
 from rail_mj.cli import main
+from rail_mj.layout import load_layout
 from rail_mj.track import TrackError, load_track
 from rail_mj.track.irregularities import CSV_COLUMNS, SPECTRA, band_variance
 
@@ -124,3 +127,60 @@ def test_the_shipped_irregular_track_is_what_its_readme_says():
     for channel, rms_mm in zip(CHANNELS, (3.53, 4.69, 2.98, 0.46)):
         assert band_variance(spec, channel) ** 0.5 * 1e3 == pytest.approx(rms_mm, abs=0.005)
         assert realised_variance(spec, channel, track.length) == pytest.approx(band_variance(spec, channel), rel=1.1e-4)
+
+
+def test_a_sweep_varies_the_seed_spectrum_and_scale_of_its_track(tmp_path):
+    """irregularities.seed/.spectrum/.scale as --set and --grid keys: each case on its own realisation
+    (its key says which), the base track's band kept; a key that cannot apply is refused in one line."""
+    from rail_mj.studies.sweep import SweepError, plan
+
+    layout = MODELS / "manchester-coach" / "manchester-coach.toml"
+    track = _track(tmp_path, 'spectrum = "erri-low"\nwavelengths = [3.0, 70.0]\n')
+    cases = plan(
+        layout,
+        (30.0, 30.0, 1),
+        distance=100.0,
+        track=track,
+        sets=["irregularities.scale=0.5"],
+        grids=["irregularities.seed=1:3:3", "irregularities.spectrum=erri-low,erri-high"],
+    )
+    assert len(cases) == 6 and len({c.key for c in cases}) == 6
+    got = {(c.track.irregularities.seed, c.track.irregularities.spectrum) for c in cases}
+    assert got == {(s, n) for s in (1, 2, 3) for n in ("erri-low", "erri-high")}
+    assert all(c.track.irregularities.scale == 0.5 and c.track.irregularities.wavelengths == (3.0, 70.0) for c in cases)
+    refusals = [
+        (dict(grids=["irregularities.seed=1:2:3"]), "must be a whole number"),
+        (dict(grids=["irregularities.spectrum=erri-low,fra-9"]), "must be one of"),
+        (dict(sets=["irregularities.scale=-1"]), "must be a number >= 0"),
+        (dict(sets=["irregularities.seed=2"], track=None), "needs --track FILE with [irregularities]"),
+    ]
+    for kwargs, message in refusals:
+        options = {"distance": 100.0, "track": track, **kwargs}
+        with pytest.raises(SweepError, match=re.escape(message)):
+            plan(layout, (30.0, 30.0, 1), **options)
+    (tmp_path / "m.csv").write_text(",".join(CSV_COLUMNS) + "\n0,0,0,0,0\n2000,1,1,1,1\n")
+    measured = tmp_path / "measured.toml"
+    measured.write_text(STRAIGHT + '\n[irregularities]\nfile = "m.csv"\n')
+    with pytest.raises(SweepError, match="are measured"):
+        plan(layout, (30.0, 30.0, 1), distance=100.0, track=measured, sets=["irregularities.seed=2"])
+
+
+def test_a_sweep_over_seeds_gives_ride_columns_and_their_spread(tmp_path):
+    """The coach at one speed on three realisations of ERRI-low: each row has N_MV, Wz, Y/Q and Sigma Y
+    (as the run's summary has them), and the summary their mean and sample spread over the seeds."""
+    from rail_mj.analysis import summary
+    from rail_mj.simulation.runner import simulate
+    from rail_mj.studies.sweep import summarise, sweep_table
+
+    layout = MODELS / "manchester-coach" / "manchester-coach.toml"
+    path = _track(tmp_path, 'spectrum = "erri-low"\n')
+    table = sweep_table(layout, (40.0, 40.0, 1), distance=280.0, track=path, grids=["irregularities.seed=1:3:3"])
+    rows = table.to_pylist()
+    assert [r["status"] for r in rows] == ["ok"] * 3
+    one = summary(simulate(load_layout(layout), 40.0, 280.0, track=load_track(path)))
+    first = next(r for r in rows if r["irregularities.seed"] == 1)
+    assert first["n_mv"] == pytest.approx(max(p["n_mv"] for p in one["ride"]["points"]), rel=1e-12)
+    (entry,) = summarise(table)["over_seeds"]
+    values = np.array([r["n_mv"] for r in rows])
+    assert entry["seeds"] == 3 and entry["n_mv_mean"] == pytest.approx(values.mean(), rel=1e-12)
+    assert entry["n_mv_spread"] == pytest.approx(values.std(ddof=1), rel=1e-12) and entry["n_mv_spread"] > 0
