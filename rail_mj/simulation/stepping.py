@@ -540,13 +540,16 @@ def _derailed(p: Prepared, worst: int, j: int, t, derailment_lateral: float, for
         if r.layout.flange
         else "without [flange] contact nothing bounds the motion"
     )
-    if p.rails is not None and r.track is not None:
-        why += f" on the irregularities of {r.track.source}"
     speed, x = r.speed, r.speed * t[j]
     if r.profile is not None and run is not None:  # where it left, at the speed it had there
         x, speed = float(run.x[-1]), float(run.speeds[-1])
         set_speed(p.vehicle.model, speed)  # the run is over: its model is linearised at that speed
-    if linearly_stable(p.vehicle, forces):
+    if p.rails is not None and r.track is not None:  # the rails drove it there, whatever the start
+        cause = (
+            f"The irregularities of {r.track.source} moved it further than its wheels can follow at "
+            f"{speed:.4g} m/s, and {why}; lower --speed, or run a smoother track (a smaller irregularities.scale)"
+        )
+    elif linearly_stable(p.vehicle, forces):
         start = (
             f"the start (shifted {r.initial_lateral:g} m, yawed {r.initial_yaw:g} rad)"
             if r.state is None

@@ -234,3 +234,24 @@ def test_a_run_on_irregular_track_reports_ride_comfort_and_the_sections_statisti
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "ride comfort (EN 12299, Sperling" in out and "N_MV" in out and "section 1 (straight" in out
+
+
+def test_a_wheelset_the_rails_throw_off_says_the_track_did_it(tmp_path):
+    """Ten times ERRI-high under the S1002 coach at 40 m/s: a wheelset leaves its rails, and the one-line
+    message names the track's irregularities as the cause and says what to change, not the start."""
+    from rail_mj.simulation.run import Derailed
+
+    path = tmp_path / "rough.toml"
+    path.write_text(
+        '[[section]]\nkind = "straight"\nlength = 600.0\n\n[irregularities]\nspectrum = "erri-high"\nscale = 10.0\n'
+    )
+    with pytest.raises(Derailed) as e:
+        simulate(
+            load_layout(MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml"),
+            40.0,
+            500.0,
+            track=load_track(path),
+        )
+    message = str(e.value)
+    assert "|y| from its rails passed" in message and f"The irregularities of {path}" in message
+    assert "irregularities.scale" in message and "\n" not in message and "start nearer" not in message
