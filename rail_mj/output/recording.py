@@ -512,6 +512,7 @@ def plots(run: Run) -> list[Plot]:
                 positive=True,
             ),
         ]
+    out += _irregular_plots(run, wheelset_series)
     if run.profile is not None:  # a speed that changes: what the motion's growth and decay follow
         out.append(Plot("Vehicle: speed (m/s)", [Series(SPEED_PATH, "speed (m/s)", CARBODY_COLOUR, run.speeds)]))
     match contact_model(run.layout):
@@ -528,6 +529,67 @@ def plots(run: Run) -> list[Plot]:
                     "Wheelsets: flange force (kN)", wheelset_series(flange_path, "kN", forces.flange_lateral / N_PER_KN)
                 )
             )
+    return out
+
+
+def rails_path(channel: str, i: int) -> str:
+    return f"/track/{channel}/wheelset{i + 1}"
+
+
+def floor_path(what: str, point: str) -> str:
+    return f"/ride/{what}/{point}"
+
+
+def _irregular_plots(run: Run, wheelset_series) -> list[Plot]:
+    """On irregular track: the rails under each wheelset (alignment; level too on a spatial vehicle),
+    the car body's floor accelerations above each bogie and at its centre, and the continuous comfort
+    N_C laterally (rail_mj.analysis.ride)."""
+    from rail_mj.analysis.ride import WB, WD, continuous_comfort
+    from rail_mj.vehicle.rails import ALIGNMENT, LEVEL, Rails
+
+    rails = Rails.of(run.vehicle.model)
+    if rails is None:
+        return []
+    at = rails.at(run.wheelset_station)
+    out = [
+        Plot(
+            "Rails under the wheelsets: alignment (mm)",
+            wheelset_series(lambda i: rails_path("alignment", i), "mm", at[..., ALIGNMENT] * MM_PER_M),
+        )
+    ]
+    if rails.vertical:
+        out.append(
+            Plot(
+                "Rails under the wheelsets: level (mm)",
+                wheelset_series(lambda i: rails_path("level", i), "mm", at[..., LEVEL] * MM_PER_M),
+            )
+        )
+    floor = run.floor_accelerations()
+    if floor is None:
+        return out
+    colours = [PALETTE[k % len(PALETTE)] for k in range(len(floor.names) - 1)] + [CARBODY_COLOUR]
+
+    def points(what: str, label: str, values) -> list[Series]:
+        return [
+            Series(floor_path(what, name), f"{name} ({label})", colour, values[:, k])
+            for k, (name, colour) in enumerate(zip(floor.names, colours))
+        ]
+
+    out.append(Plot("Car body floor: lateral acceleration (m/s²)", points("lateral", "m/s²", floor.lateral)))
+    comfort = np.column_stack([continuous_comfort(floor.lateral[:, k], floor.fs, WD) for k in range(len(floor.names))])
+    if floor.vertical is not None:
+        out.append(Plot("Car body floor: vertical acceleration (m/s²)", points("vertical", "m/s²", floor.vertical)))
+        vertical = [continuous_comfort(floor.vertical[:, k], floor.fs, WB) for k in range(len(floor.names))]
+        out.append(
+            Plot(
+                "Ride comfort: continuous N_CZ (EN 12299, 5 s)",
+                points("comfort_vertical", "N_CZ", np.column_stack(vertical)),
+                positive=True,
+            )
+        )
+    out.append(
+        Plot("Ride comfort: continuous N_CY (EN 12299, 5 s)", points("comfort_lateral", "N_CY", comfort), positive=True)
+    )
     return out
 
 

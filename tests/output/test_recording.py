@@ -406,3 +406,38 @@ def test_a_run_on_a_curved_track_plots_each_wheel_s_wear_number(tmp_path):
     assert np.max(forces.wear_right[:, 0]) > 0.0
     straight = simulate(load_layout(COACH), 30.0, 10.0, initial_lateral=0.002)
     assert not any("Tγ" in p.title for p in plots(straight))
+
+
+def test_a_run_on_irregular_track_plots_its_rails_floor_accelerations_and_comfort(tmp_path):
+    """On irregular track the recording adds the rails under each wheelset (alignment, level), the
+    car body's floor accelerations above each bogie and at the centre and the continuous comfort: the
+    values the Run and rail_mj.analysis.ride give (mm, m/s^2)."""
+    from rail_mj.analysis.ride import WD, continuous_comfort
+    from rail_mj.output.recording import floor_path, rails_path
+    from rail_mj.track import track_from_dict
+    from rail_mj.vehicle.rails import ALIGNMENT, LEVEL, Rails
+
+    track = track_from_dict(
+        {"section": [{"kind": "straight", "length": 400.0}], "irregularities": {"spectrum": "erri-high"}}
+    )
+    layout = load_layout(MODELS.parent / "tests" / "data" / "manchester-coach-spatial.toml")
+    run = simulate(layout, speed=40.0, distance=300.0, track=track)
+    titles = {p.title for p in plots(run)}
+    assert {
+        "Rails under the wheelsets: alignment (mm)",
+        "Rails under the wheelsets: level (mm)",
+        "Car body floor: lateral acceleration (m/s²)",
+        "Car body floor: vertical acceleration (m/s²)",
+        "Ride comfort: continuous N_CY (EN 12299, 5 s)",
+        "Ride comfort: continuous N_CZ (EN 12299, 5 s)",
+    } <= titles
+    series = read_series(write_recording(run, tmp_path / "rails.rrd", rate=math.inf))
+    at = Rails.of(run.vehicle.model).at(run.wheelset_station)
+    np.testing.assert_allclose(series[rails_path("alignment", 0)][2], at[:, 0, ALIGNMENT] * 1e3, rtol=1e-12)
+    np.testing.assert_allclose(series[rails_path("level", 3)][2], at[:, 3, LEVEL] * 1e3, rtol=1e-12)
+    floor = run.floor_accelerations()
+    np.testing.assert_allclose(series[floor_path("vertical", "centre")][2], floor.vertical[:, 2], rtol=1e-12)
+    comfort = continuous_comfort(floor.lateral[:, 0], floor.fs, WD)
+    logged = series[floor_path("comfort_lateral", "bogie1")][2]
+    late = np.isfinite(comfort)
+    np.testing.assert_allclose(logged[-late.sum() :], comfort[late], rtol=1e-12)
