@@ -34,6 +34,15 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   thread, the spread of the ratio over the repeats (target: the curve adds at most 15 %).
 
     python benchmarks/benchmark.py --curve     # only the curve's cost
+
+- the irregularities' cost (docs/irregularities.md): one RK4 step of the same vehicles with the native
+  callback at 55 m/s with no track, on a straight track file (its odometer) and on the same track
+  with ERRI-high irregularities (models/tracks/erri-high-5km.toml), the three alternating, from a
+  moving state (the vehicle shifted 2 mm, 1 km along the track; the irregular one's motion its own),
+  CPU time of the calling thread, the spread of the ratios over the repeats (target: the
+  irregularities add at most 15 %).
+
+    python benchmarks/benchmark.py --irregular # only the irregularities' cost
 """
 
 from __future__ import annotations
@@ -318,6 +327,63 @@ def curve_cost(speed: float = 30.0, n: int = 3000, repeats: int = 11):
     return rows
 
 
+def irregular_cost(speed: float = 55.0, n: int = 3000, repeats: int = 11):
+    """Per vehicle (name, nv, the step with no track, on the straight track file, on its irregular
+    twin, CPU s, best of each; the ratios irregular/straight and irregular/none of the repeats, min
+    and max)."""
+    import dataclasses
+
+    from rail_mj.track import load_track
+    from rail_mj.vehicle.block import set_speed
+
+    irregular = load_track(ROOT / "models" / "tracks" / "erri-high-5km.toml")
+    plain = dataclasses.replace(irregular, irregularities=None)
+    rows = []
+    for name, layout in (
+        ("planar coach", load_layout(COACH)),
+        ("spatial coach on cones", spatial_coned()),
+        ("coach on S1002/60E1", load_layout(S1002)),
+    ):
+        timestep = prepare(Request(layout, speed, 1000.0, 0.002)).timestep
+        models = []
+        for on in (None, plain, irregular):
+            vehicle = Vehicle(layout, on)
+            model = vehicle.model
+            model.opt.timestep = timestep
+            set_speed(model, speed)
+            data = mujoco.MjData(model)
+            data.qpos[vehicle.root_lateral_dofs] = 0.002
+            if on is not None:  # 1 km along the track, moving along it
+                odometer = model.joint("odometer")
+                data.qpos[odometer.qposadr[0]] = 1000.0
+                data.qvel[odometer.dofadr[0]] = speed
+            models.append((model, data))
+        times: list[list[float]] = [[], [], []]
+        with native.installed():
+            for _ in range(repeats):
+                for k, (model, data) in enumerate(models):
+                    times[k].append(cpu_per_step(model, data, n))
+        over_plain = np.array(times[2]) / np.array(times[1])
+        over_none = np.array(times[2]) / np.array(times[0])
+        best_times = [min(t) for t in times]
+        rows.append((name, models[0][0].nv, *best_times, over_plain, over_none))
+    return rows
+
+
+def print_irregular(rows) -> None:
+    print(
+        "| one RK4 step with the native creep callback, CPU time | no track | straight track file "
+        "| ERRI-high on it | irregular / straight | irregular / no track |"
+    )
+    print("|---|---|---|---|---|---|")
+    for name, nv, none, plain, rough, over_plain, over_none in rows:
+        print(
+            f"| {name} ({nv} dof) | {none * 1e6:.1f} µs | {plain * 1e6:.1f} µs | {rough * 1e6:.1f} µs "
+            f"| {rough / plain:.2f}x (pairs {over_plain.min():.2f}-{over_plain.max():.2f}) "
+            f"| {rough / none:.2f}x (pairs {over_none.min():.2f}-{over_none.max():.2f}) |"
+        )
+
+
 def print_curve(rows) -> None:
     print("| one RK4 step with the native creep callback, CPU time | straight | in a 600 m curve | curve / straight |")
     print("|---|---|---|---|")
@@ -334,6 +400,9 @@ def main() -> None:
         return
     if "--curve" in sys.argv[1:]:
         print_curve(curve_cost())
+        return
+    if "--irregular" in sys.argv[1:]:
+        print_irregular(irregular_cost())
         return
     starts = start_up()
     train_step, train_run, train_nv = train_speed()
