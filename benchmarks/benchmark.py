@@ -289,41 +289,56 @@ def print_spatial(rows) -> None:
         print(f"| {name}: `simulate`, 1 km at 60 m/s | {runs[0]:.2f} s | {runs[1]:.2f} s | {runs[1] / runs[0]:.2f}x |")
 
 
+def _coaches():
+    """The three coaches whose step the curve's and the irregularities' costs are measured on."""
+    return (
+        ("planar coach", load_layout(COACH)),
+        ("spatial coach on cones", spatial_coned()),
+        ("coach on S1002/60E1", load_layout(S1002)),
+    )
+
+
+def _stepped(layout, speed: float, tracks, station: float, n: int, repeats: int):
+    """The vehicle on each of `tracks` (None: no track) at the runner's timestep and `speed`, shifted
+    2 mm and, on a track, at `station` moving along it; their steps alternating, `repeats` times `n`
+    steps each: (nv, CPU s per step of each repeat, per track)."""
+    from rail_mj.vehicle.block import set_speed
+
+    timestep = prepare(Request(layout, speed, 1000.0, 0.002)).timestep
+    models = []
+    for on in tracks:
+        vehicle = Vehicle(layout, on)
+        model = vehicle.model
+        model.opt.timestep = timestep
+        set_speed(model, speed)
+        data = mujoco.MjData(model)
+        data.qpos[vehicle.root_lateral_dofs] = 0.002
+        if on is not None:
+            odometer = model.joint("odometer")
+            data.qpos[odometer.qposadr[0]] = station
+            data.qvel[odometer.dofadr[0]] = speed
+        models.append((model, data))
+    times: list[list[float]] = [[] for _ in models]
+    with native.installed():
+        for _ in range(repeats):
+            for k, (model, data) in enumerate(models):
+                times[k].append(cpu_per_step(model, data, n))
+    return models[0][0].nv, [np.array(t) for t in times]
+
+
 def curve_cost(speed: float = 30.0, n: int = 3000, repeats: int = 11):
     """Per vehicle (name, nv, the straight step and the curved step, CPU s, best of each; the
     ratios of the repeats' pairs, min and max): the same vehicle and timestep, on straight
     track and in the constant part of curve-600 with its odometer, their steps alternating."""
     from rail_mj.track import load_track
-    from rail_mj.vehicle.block import set_speed
 
     track = load_track(ROOT / "models" / "tracks" / "curve-600.toml")
     rows = []
-    for name, layout in (
-        ("planar coach", load_layout(COACH)),
-        ("spatial coach on cones", spatial_coned()),
-        ("coach on S1002/60E1", load_layout(S1002)),
-    ):
-        timestep = prepare(Request(layout, speed, 1000.0, 0.002)).timestep
-        models = []
-        for on in (None, track):
-            vehicle = Vehicle(layout, on)
-            model = vehicle.model
-            model.opt.timestep = timestep
-            set_speed(model, speed)
-            data = mujoco.MjData(model)
-            data.qpos[vehicle.root_lateral_dofs] = 0.002
-            if on is not None:  # the vehicle in the curve's constant part, moving along it
-                odometer = model.joint("odometer")
-                data.qpos[odometer.qposadr[0]] = 400.0
-                data.qvel[odometer.dofadr[0]] = speed
-            models.append((model, data))
-        times: list[list[float]] = [[], []]
-        with native.installed():
-            for _ in range(repeats):
-                for k, (model, data) in enumerate(models):
-                    times[k].append(cpu_per_step(model, data, n))
-        ratios = np.array(times[1]) / np.array(times[0])
-        rows.append((name, models[0][0].nv, min(times[0]), min(times[1]), ratios.min(), ratios.max()))
+    for name, layout in _coaches():
+        # In the curve's constant part, 400 m along the track.
+        nv, (straight, curved) = _stepped(layout, speed, (None, track), 400.0, n, repeats)
+        ratios = curved / straight
+        rows.append((name, nv, straight.min(), curved.min(), ratios.min(), ratios.max()))
     return rows
 
 
@@ -334,39 +349,13 @@ def irregular_cost(speed: float = 55.0, n: int = 3000, repeats: int = 11):
     import dataclasses
 
     from rail_mj.track import load_track
-    from rail_mj.vehicle.block import set_speed
 
     irregular = load_track(ROOT / "models" / "tracks" / "erri-high-5km.toml")
     plain = dataclasses.replace(irregular, irregularities=None)
     rows = []
-    for name, layout in (
-        ("planar coach", load_layout(COACH)),
-        ("spatial coach on cones", spatial_coned()),
-        ("coach on S1002/60E1", load_layout(S1002)),
-    ):
-        timestep = prepare(Request(layout, speed, 1000.0, 0.002)).timestep
-        models = []
-        for on in (None, plain, irregular):
-            vehicle = Vehicle(layout, on)
-            model = vehicle.model
-            model.opt.timestep = timestep
-            set_speed(model, speed)
-            data = mujoco.MjData(model)
-            data.qpos[vehicle.root_lateral_dofs] = 0.002
-            if on is not None:  # 1 km along the track, moving along it
-                odometer = model.joint("odometer")
-                data.qpos[odometer.qposadr[0]] = 1000.0
-                data.qvel[odometer.dofadr[0]] = speed
-            models.append((model, data))
-        times: list[list[float]] = [[], [], []]
-        with native.installed():
-            for _ in range(repeats):
-                for k, (model, data) in enumerate(models):
-                    times[k].append(cpu_per_step(model, data, n))
-        over_plain = np.array(times[2]) / np.array(times[1])
-        over_none = np.array(times[2]) / np.array(times[0])
-        best_times = [min(t) for t in times]
-        rows.append((name, models[0][0].nv, *best_times, over_plain, over_none))
+    for name, layout in _coaches():
+        nv, (none, straight, rough) = _stepped(layout, speed, (None, plain, irregular), 1000.0, n, repeats)
+        rows.append((name, nv, none.min(), straight.min(), rough.min(), rough / straight, rough / none))
     return rows
 
 
