@@ -545,9 +545,9 @@ def _irregular_plots(run: Run, wheelset_series) -> list[Plot]:
     the car body's floor accelerations above each bogie and at its centre, and the continuous comfort
     N_C laterally (rail_mj.analysis.ride)."""
     from rail_mj.analysis.ride import WB, WD, continuous_comfort
-    from rail_mj.vehicle.rails import ALIGNMENT, LEVEL, Rails
+    from rail_mj.vehicle.rails import ALIGNMENT, LEVEL
 
-    rails = Rails.of(run.vehicle.model)
+    rails = run.rails
     if rails is None:
         return []
     at = rails.at(run.wheelset_station)

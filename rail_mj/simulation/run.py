@@ -94,7 +94,7 @@ class Run:
         speed = self.speeds[:, None]
         rates[..., 1] += speed * self.wheelset_curvature
         y, psi, gauge = self.y, self.psi, None
-        rails = Rails.of(self.vehicle.model)
+        rails = self.rails
         if rails is not None:  # on an irregular track each wheelset relative to its rails, as the callback has it
             y, psi, rates[..., 0], gauge = rails.relative(self.wheelset_station, y, psi, rates[..., 0], speed)
         loads = self.axle_loads
@@ -188,7 +188,7 @@ class Run:
             cols += [self.wheelset_curvature[:, i] for i in range(self.n_wheelsets)]
             names += [(f"cant{i + 1}", "m") for i in range(self.n_wheelsets)]
             cols += [cant[:, i] for i in range(self.n_wheelsets)]
-        rails = Rails.of(self.vehicle.model)
+        rails = self.rails
         if rails is not None:  # on irregular track: the rails under each wheelset, the floor's accelerations
             at = rails.at(self.wheelset_station)
             for name, entry, factor in (
@@ -226,6 +226,11 @@ class Run:
 
         names, cols = self.columns()
         return pd.DataFrame({f"{name}_{unit}" if unit else name: col for (name, unit), col in zip(names, cols)})
+
+    @functools.cached_property
+    def rails(self) -> Rails | None:
+        """The rails under the wheelsets of an irregular track (rail_mj.vehicle.rails); None: perfect."""
+        return Rails.of(self.vehicle.model)
 
     @property
     def layout(self) -> Layout:

@@ -228,3 +228,13 @@ def track_part_at(model: mujoco.MjModel, prefix: str) -> tuple[int, int] | None:
         if int(block[k]) == odometer:
             return start, k
     return None
+
+
+def tendon_coefficients(model: mujoco.MjModel, t: int) -> list[tuple[int, float]]:
+    """A fixed tendon's (dof, coefficient) per joint: its length is their sum times the coordinates."""
+    out = []
+    for w in range(model.tendon_adr[t], model.tendon_adr[t] + model.tendon_num[t]):
+        if model.wrap_type[w] != mujoco.mjtWrap.mjWRAP_JOINT:
+            raise ValueError(f"tendon {model.tendon(t).name}: only fixed tendons (on joints) are rail-mj's")
+        out.append((int(model.jnt_dofadr[model.wrap_objid[w]]), float(model.wrap_prm[w])))
+    return out

@@ -26,7 +26,7 @@ from rail_mj.layout import Layout
 from rail_mj.numerics import ODOMETER_MASS, POSES
 from rail_mj.track import SpeedProfile, Track
 from rail_mj.units import GRAVITY
-from rail_mj.vehicle.block import ODOMETER, joint_chain
+from rail_mj.vehicle.block import ODOMETER, joint_chain, tendon_coefficients
 from rail_mj.vehicle.joints import PITCH, ROLL
 
 # Entries of G, the map from the track's geometry to the joints, below this are round-off of
@@ -152,7 +152,7 @@ def track_part(
             continue
         if model.tendon_stiffness[t] == 0.0 and model.tendon_damping[t] == 0.0:
             continue
-        coefficients = _tendon_coefficients(model, t)
+        coefficients = tendon_coefficients(model, t)
         row = sum((c * g[column[dof]] for dof, c in coefficients), np.zeros(jacobian.shape[0]))
         if t in roll:  # an axlebox tendon: its wheelset's cant roll, which no joint takes
             index, on_moment, height = roll[t]
@@ -170,7 +170,7 @@ def track_part(
         tendons, n_tendons = [], 0
         if track.irregularities is not None:
             for t in sorted(roll):
-                coefficients = _tendon_coefficients(model, t)
+                coefficients = tendon_coefficients(model, t)
                 tendons += [float(t), 0.0, float(len(coefficients))]
                 tendons += [v for dof, c in coefficients for v in (float(dof), c)]
                 n_tendons += 1
@@ -238,13 +238,3 @@ def _terms(row: np.ndarray) -> list[float]:
     nonzero = np.nonzero(row)[0]
     assert POSES == 3  # rows are laid out (lateral, heading, roll) per body
     return [float(len(nonzero))] + [v for p in nonzero for v in (float(p), float(row[p]))]
-
-
-def _tendon_coefficients(model: mujoco.MjModel, t: int) -> list[tuple[int, float]]:
-    """A fixed tendon's (dof, coefficient) per joint: its length is their sum times the coordinates."""
-    out = []
-    for w in range(model.tendon_adr[t], model.tendon_adr[t] + model.tendon_num[t]):
-        if model.wrap_type[w] != mujoco.mjtWrap.mjWRAP_JOINT:
-            raise ValueError(f"tendon {model.tendon(t).name}: only fixed tendons (on joints) are rail-mj's")
-        out.append((int(model.jnt_dofadr[model.wrap_objid[w]]), float(model.wrap_prm[w])))
-    return out

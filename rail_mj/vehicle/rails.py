@@ -33,6 +33,7 @@ from rail_mj.layout import Layout
 from rail_mj.numerics import IRREGULAR_AT, IRREGULAR_HEADER, SPLINE
 from rail_mj.track import Track
 from rail_mj.track.irregularities import RAIL_BASE
+from rail_mj.vehicle.block import tendon_coefficients
 
 # The channels' entries in `rails_at`'s result.
 ALIGNMENT, ALIGNMENT_SLOPE, GAUGE, LEVEL, LEVEL_SLOPE, LEVEL_CURVATURE, ROLL, ROLL_SLOPE, ROLL_CURVATURE = range(9)
@@ -64,18 +65,10 @@ def irregular_part(model: mujoco.MjModel, layout: Layout, track: Track, prefix: 
             # The rise shortens a z tendon (on P: 1) as its force pushes the wheelset down; the roll
             # about the centre is the roll about the rail level (on M) less the centre's own sideways
             # move there, -h per radian, through the tendon's coefficient on the wheelset's lateral.
-            on_lateral = _coefficient(model, int(tendon), lateral)
+            on_lateral = dict(tendon_coefficients(model, int(tendon))).get(lateral, 0.0)
             wheelsets += [tendon, -on_load, on_moment + on_lateral * height]
     header = [float(len(coefficients)), x0, step, float(vertical), float(len(names))]
     return np.concatenate([header, coefficients.reshape(-1), wheelsets])
-
-
-def _coefficient(model: mujoco.MjModel, tendon: int, dof: int) -> float:
-    """A fixed tendon's coefficient on the joint of `dof` (0 if it has none)."""
-    for w in range(model.tendon_adr[tendon], model.tendon_adr[tendon] + model.tendon_num[tendon]):
-        if int(model.jnt_dofadr[model.wrap_objid[w]]) == dof:
-            return float(model.wrap_prm[w])
-    return 0.0
 
 
 @numba.njit(cache=True, inline="always")
