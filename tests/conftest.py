@@ -134,3 +134,22 @@ def worn_coach_copy(folder: Path) -> tuple[Path, Path]:
     layout = folder / "coach.toml"
     layout.write_text((worn / "manchester-coach-worn.toml").read_text())
     return layout, wheel
+
+
+def harmonic(x: np.ndarray, t: np.ndarray, omega: float) -> complex:
+    """The complex amplitude c of the component Re(c*exp(i*omega*t)) of samples x(t), least squares
+    (beside a constant)."""
+    basis = np.column_stack([np.cos(omega * t), -np.sin(omega * t), np.ones_like(t)])
+    c, *_ = np.linalg.lstsq(basis, x, rcond=None)
+    return complex(c[0], c[1])
+
+
+def measured_track_file(tmp_path: Path, x: np.ndarray, channels: dict) -> str:
+    """A straight track as long as `x` reaches, its irregularities measured: `channels` (m) at `x`,
+    written as the measured CSV is read (rail_mj.track.irregularities)."""
+    from rail_mj.track.irregularities import channels_csv
+
+    (tmp_path / "measured.csv").write_bytes(channels_csv(x, channels))
+    path = tmp_path / "track.toml"
+    path.write_text(f'[[section]]\nkind = "straight"\nlength = {x[-1]}\n\n[irregularities]\nfile = "measured.csv"\n')
+    return str(path)

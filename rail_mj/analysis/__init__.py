@@ -4,6 +4,7 @@
     en14363.py         EN 14363: the running-instability criterion on Sigma Y, Y/Q, wheel safety,
                        the on-track statistics per section
     ride.py            ride comfort: floor accelerations, EN 12299's weightings, N_MV, Sperling's Wz
+    response.py        the frequency response to track irregularities, and the rms under a spectrum
     curving.py         a run through curves: per curve, angle of attack, guiding force, Y/Q, cant deficiency
     stability.py       eigenvalues, named modes, critical speeds (eigen and time)
     train_modes.py     the names of a train's modes
@@ -39,5 +40,6 @@ _EXPORTS = {
     "nonlinear_critical_speed": "bifurcation",
     "bifurcation": "bifurcation",
     "curves": "curving",
+    "Response": "response",
 }
 __getattr__, __dir__ = _lazy.exports(__name__, _EXPORTS, fallback="motion")

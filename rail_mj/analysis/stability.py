@@ -145,24 +145,7 @@ class Stability:
         """On profiles the contact is linearised at the lateral amplitude `amplitude` (mm;
         default 3, where EN 15302 quotes the equivalent conicity): rail_mj.contact.tables.linearised."""
         self.layout = layout
-        self.amplitude = None
-        contact = contact_model(layout)
-        if isinstance(contact, Profiled):
-            from rail_mj.contact.conicity import MIN_AMPLITUDE, QUOTED_AMPLITUDE
-
-            self.amplitude = QUOTED_AMPLITUDE if amplitude is None else float(amplitude)
-            if not (math.isfinite(self.amplitude) and MIN_AMPLITUDE <= self.amplitude <= LARGEST_AMPLITUDE):
-                raise ValueError(
-                    f"the amplitude must be from {MIN_AMPLITUDE:g} to {LARGEST_AMPLITUDE:g} mm, got {amplitude}"
-                )
-            layout = dataclasses.replace(
-                layout, profiles=dataclasses.replace(contact.profiles, linearised_at=self.amplitude)
-            )
-        elif amplitude is not None:
-            raise ValueError(
-                f"{layout.source}: an amplitude linearises a profiled contact; this layout's "
-                f"wheels are cones, the same at every amplitude"
-            )
+        layout, self.amplitude = linearised_contact(layout, amplitude)
         self.vehicle = Vehicle(layout)
         self._speed_terms: np.ndarray | None = None  # A0, D, G of state_matrix, once fitted
         model = self.vehicle.model
@@ -474,6 +457,29 @@ class Stability:
             outcome="stable",
             amplitude_mm=self.amplitude,
         )
+
+
+def linearised_contact(layout: Layout, amplitude: float | None = None) -> tuple[Layout, float | None]:
+    """`layout` with its contact as a linearisation sees it, and the amplitude (mm) it is linearised
+    at: on profiles at the lateral amplitude `amplitude` (default 3, where EN 15302 quotes the
+    equivalent conicity: rail_mj.contact.tables.linearised); cones are the same at every amplitude
+    (None), and an amplitude given for them is refused."""
+    contact = contact_model(layout)
+    if isinstance(contact, Profiled):
+        from rail_mj.contact.conicity import MIN_AMPLITUDE, QUOTED_AMPLITUDE
+
+        at = QUOTED_AMPLITUDE if amplitude is None else float(amplitude)
+        if not (math.isfinite(at) and MIN_AMPLITUDE <= at <= LARGEST_AMPLITUDE):
+            raise ValueError(
+                f"the amplitude must be from {MIN_AMPLITUDE:g} to {LARGEST_AMPLITUDE:g} mm, got {amplitude}"
+            )
+        return dataclasses.replace(layout, profiles=dataclasses.replace(contact.profiles, linearised_at=at)), at
+    if amplitude is not None:
+        raise ValueError(
+            f"{layout.source}: an amplitude linearises a profiled contact; this layout's "
+            f"wheels are cones, the same at every amplitude"
+        )
+    return layout, None
 
 
 def _aperiodic(mode: Mode) -> Mode:

@@ -7,6 +7,7 @@ stability.py   eigen, critical-speed, root-locus, bifurcation
 studies.py     sweep, map
 contact.py     contact, creep, profile, conicity, contact-geometry
 track.py       track: a track file's irregularities written and drawn
+response.py    response: transfer functions to track irregularities, rms under a spectrum
 main.py        the command group, registering the commands; `main`
 """
 

@@ -16,6 +16,7 @@ stability.py   eigen, critical-speed, root-locus, bifurcation
 studies.py     sweep, map
 contact.py     contact, creep, profile, conicity, contact-geometry
 track.py       track
+response.py    response
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import threading
 
 import click
 
-from rail_mj.cli import contact, curving, run, stability, studies, track
+from rail_mj.cli import contact, curving, response, run, stability, studies, track
 from rail_mj.cli.options import EXIT_BAD_INPUT, EXIT_RUN_FAILED, Failure
 
 # What click itself returns when standard output's reader has gone: the output was cut short.
@@ -58,6 +59,7 @@ COMMANDS = (
     contact.conicity_cmd,
     contact.contact_geometry_cmd,
     track.track_cmd,
+    response.response_cmd,
 )
 for command in COMMANDS:
     cli.add_command(command)

@@ -16,7 +16,9 @@ Example:
 
 from __future__ import annotations
 
+import cmath
 import io
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -456,5 +458,64 @@ def irregularities_png(x, channels: dict, title: str, spec=None, band=None) -> b
             ax_f.legend(loc="lower left", fontsize=8)
     axes[-1][0].set(xlabel="distance along the track (m)")
     axes[-1][1].set(xlabel="spatial frequency (1/m)")
+    fig.suptitle(title)
+    return _png(fig)
+
+
+# The CSV's units as a reader writes them on an axis.
+_SHOWN_UNITS = {"n": "N", "m_per_s2": "m/s²", "m": "m", "rad": "rad", "": "-"}
+
+
+def _shown(unit: str) -> str:
+    """A CSV unit (`n_per_m`, `m_per_s2`) as an axis shows it (N/m, m/s²)."""
+    head, per, tail = unit.partition("_per_m")
+    return _SHOWN_UNITS.get(head, head) + ("/m" if per else "") + tail
+
+
+RESPONSE_COLUMNS = ("frequency_hz", "wavelength_m", "input", "output", "gain", "gain_unit", "phase_deg")
+
+
+def response_csv(frequencies, speed: float, gains: dict, outputs) -> bytes:
+    """Transfer functions as rows of RESPONSE_COLUMNS, one per frequency, input and output: `gains`
+    {input: (frequencies, outputs) complex}, `outputs` their rail_mj.analysis.response.Output; the
+    gain per metre of the input, its phase in degrees (the output's lead over the irregularity
+    under the vehicle's origin)."""
+    buf = io.StringIO()
+    buf.write(",".join(RESPONSE_COLUMNS) + "\n")
+    for channel, h in gains.items():
+        for k, out in enumerate(outputs):
+            for f, g in zip(frequencies, h[:, k]):
+                phase = math.degrees(cmath.phase(g))
+                buf.write(f"{f:.10g},{speed / f:.10g},{channel},{out.name},{abs(g):.10g},{out.gain_unit},{phase:.6g}\n")
+    return buf.getvalue().encode()
+
+
+def response_png(frequencies, speed: float, gains: dict, outputs, title: str, rms: dict | None = None) -> bytes:
+    """|H| against frequency (wavelength on the top axis), a panel per gain unit, a line per output
+    and input; an input with no linear response on an output (|H| nowhere above 1e-9 of the
+    panel's largest) is left out. `rms` {(output name, input): rms}: shown in the legend."""
+    units = list(dict.fromkeys(o.gain_unit for o in outputs))
+    fig, axes = plt.subplots(len(units), 1, figsize=(12, 3.2 * len(units) + 0.8), layout="constrained", squeeze=False)
+    f = np.asarray(frequencies, dtype=float)
+    for ax, unit in zip(axes[:, 0], units):
+        columns = [(k, o) for k, o in enumerate(outputs) if o.gain_unit == unit]
+        top = max(float(np.abs(h[:, k]).max()) for h in gains.values() for k, _ in columns)
+        for k, o in columns:
+            for channel, h in gains.items():
+                g = np.abs(h[:, k])
+                if top > 0.0 and g.max() > 1e-9 * top:
+                    label = f"{o.name} ← {channel}"
+                    if rms is not None and (o.name, channel) in rms:
+                        label += f" (rms {rms[o.name, channel]:.3g} {_shown(o.unit)})"
+                    ax.loglog(f, g, lw=1.0, label=label)
+        ax.set(ylabel=f"|H| ({_shown(unit)})")
+        ax.grid(alpha=0.3, which="both")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        top_axis = ax.secondary_xaxis(
+            "top", functions=(lambda v: speed / np.maximum(v, 1e-12), lambda w: speed / np.maximum(w, 1e-12))
+        )
+        top_axis.set_xlabel("wavelength (m)", fontsize=8)
+    axes[-1, 0].set(xlabel="frequency (Hz)")
     fig.suptitle(title)
     return _png(fig)

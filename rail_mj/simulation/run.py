@@ -350,15 +350,28 @@ class Run:
 
     def floor_accelerations(self) -> Floor | None:
         """The car body's floor accelerations (`Floor`) as an accelerometer fixed to the floor reads
-        them, in the car body's own axes: the second derivative of each floor point's motion (the body's
-        lateral, vertical, roll, pitch and yaw, linear in them as the model's tendons are:
-        rail_mj.vehicle.spatial.point_motion) and, laterally, the part of gravity the body's roll tilts
-        into its floor, g*phi. A planar car body has no roll or vertical motion: lateral only. None if the
-        car body does not move."""
-        if "carbody" not in self.frame_names or len(self.t) < 3:
+        them, in the car body's own axes: the second derivative of each floor point's motion
+        (`floor_motion`) and, laterally, the part of gravity the body's roll tilts into its floor,
+        g*phi. A planar car body has no roll or vertical motion: lateral only. None if the car body
+        does not move."""
+        motion = self.floor_motion()
+        if motion is None or len(self.t) < 3:
+            return None
+        dt = float(self.t[1] - self.t[0])
+        lateral = np.column_stack([second_derivative(u, dt) for u in motion.lateral.T]) + GRAVITY * motion.roll[:, None]
+        vertical = None
+        if motion.vertical is not None:
+            vertical = np.column_stack([second_derivative(u, dt) for u in motion.vertical.T])
+        return Floor(motion.names, 1.0 / dt, lateral, vertical)
+
+    def floor_motion(self) -> FloorMotion | None:
+        """The car body's floor points (above each bogie, then the centre, at the spatial layout's
+        floor height) displaced by its lateral, vertical, roll, pitch and yaw motion, linear in them as
+        the model's tendons are (rail_mj.vehicle.spatial.point_motion): what `floor_accelerations`
+        differentiates. None if the car body does not move."""
+        if "carbody" not in self.frame_names:
             return None
         k = self.frame_names.index("carbody")
-        dt = float(self.t[1] - self.t[0])
         layout = self.layout
         bogies = layout.carbody.bogie_positions if layout.bogie is not None else None
         positions = [*(bogies or ()), 0.0]
@@ -366,15 +379,25 @@ class Run:
         y, yaw = self.frame_y[:, k], self.frame_psi[:, k]
         spatial = layout.spatial
         if spatial is None:
-            lateral = np.column_stack([second_derivative(y + x * yaw, dt) for x in positions])
-            return Floor(names, 1.0 / dt, lateral, None)
+            return FloorMotion(names, np.column_stack([y + x * yaw for x in positions]), None, np.zeros_like(y))
         roll, pitch, bounce = self.frame_roll[:, k], self.frame_pitch[:, k], self.frame_bounce[:, k]
         floor = spatial.carbody_height if spatial.floor_height is None else spatial.floor_height
         rz = floor - spatial.carbody_height
         # A floor point at (x, 0, rz) from the centre of mass: u_y = y + x*yaw - rz*roll, u_z = z - x*pitch.
-        lateral = np.column_stack([second_derivative(y + x * yaw - rz * roll, dt) + GRAVITY * roll for x in positions])
-        vertical = np.column_stack([second_derivative(bounce - x * pitch, dt) for x in positions])
-        return Floor(names, 1.0 / dt, lateral, vertical)
+        lateral = np.column_stack([y + x * yaw - rz * roll for x in positions])
+        vertical = np.column_stack([bounce - x * pitch for x in positions])
+        return FloorMotion(names, lateral, vertical, roll)
+
+
+@dataclasses.dataclass(frozen=True)
+class FloorMotion:
+    """A car body's floor points displaced (samples, points), m, in its own axes: `lateral`, `vertical`
+    (None on a planar vehicle), and the body's `roll` (samples,), rad, which tilts gravity into the floor."""
+
+    names: tuple[str, ...]
+    lateral: np.ndarray
+    vertical: np.ndarray | None
+    roll: np.ndarray
 
 
 @dataclasses.dataclass(frozen=True)

@@ -172,7 +172,7 @@ def band_variance(spec: Spectrum, channel: str, band=DEFAULT_BAND) -> float:
     return float(0.5 * (math.log(hi) - math.log(lo)) * np.sum(weights * spec.density(channel, w) * w))
 
 
-def _grid(length: float, band) -> tuple[float, Array, Array]:
+def line_grid(length: float, band) -> tuple[float, Array, Array]:
     """(L, f, w): the period L (a whole multiple of the longest wavelength, at least `length`),
     the spatial frequencies j/L inside the band (cycles/m) and their trapezoid
     weights (a half at each end of the band), so that Σ w·S_f·Δf is the band integral to second
@@ -195,14 +195,14 @@ def realise(
         its own stream of the one `seed` (the same seed, the same track), faded in over `fade_in` m
     (a raised cosine).
 
-        The spatial frequencies are j/L on a grid of period L (`_grid`), every one inside the band,
+        The spatial frequencies are j/L on a grid of period L (`line_grid`), every one inside the band,
         so that over L the cosines are orthogonal and the variance over L is Σ w·S_f·Δf
         (`realised_variance`). On that grid the sum of cosines is an inverse FFT of L/SPACING points."""
     if not (math.isfinite(length) and length > 0.0):
         raise TrackError(f"irregularities: the track's length must be positive, got {length!r}")
     if not (math.isfinite(scale) and scale >= 0.0):
         raise TrackError(f"irregularities.scale: must be a number >= 0, got {scale!r}")
-    period, f, w = _grid(length, band)
+    period, f, w = line_grid(length, band)
     n = math.ceil(period / SPACING - 1e-9)  # samples a period, at SPACING or a little closer
     step = period / n
     j = np.rint(f * period).astype(int)
@@ -226,7 +226,7 @@ def realise(
 def realised_variance(spec: Spectrum, channel: str, length: float, band=DEFAULT_BAND, scale: float = 1.0) -> float:
     """The variance a realisation of `length` m has over its grid's period, m²: Σ w·S_f·Δf
     (see `realise`), the trapezoid rule of `band_variance`'s integral."""
-    period, f, w = _grid(length, band)
+    period, f, w = line_grid(length, band)
     return float(scale**2 * np.sum(w * 2.0 * np.pi * spec.density(channel, 2.0 * np.pi * f)) / period)
 
 

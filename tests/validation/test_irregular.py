@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 import pytest
-from conftest import DATA, MODELS
+from conftest import DATA, MODELS, harmonic, measured_track_file
 
 from rail_mj import load_layout, simulate
 from rail_mj.contact.creep import ContactParameters, wheelset_forces
 from rail_mj.track import load_track
-from rail_mj.track.irregularities import CHANNELS, channels_csv
+from rail_mj.track.irregularities import CHANNELS
 
 WHEELSET = MODELS / "wheelset" / "wheelset.toml"
 SPATIAL = DATA / "manchester-coach-spatial.toml"
@@ -22,17 +22,7 @@ def measured_track(tmp_path, length: float, step: float = 0.25, **channels) -> s
     """A straight track of `length` m with a measured file of the given channels (functions of x, m)."""
     x = np.arange(0.0, length + step / 2, step)
     values = {c: np.asarray(channels[c](x), float) if c in channels else np.zeros_like(x) for c in CHANNELS}
-    (tmp_path / "measured.csv").write_bytes(channels_csv(x, values))
-    path = tmp_path / "track.toml"
-    path.write_text(f'[[section]]\nkind = "straight"\nlength = {length}\n\n[irregularities]\nfile = "measured.csv"\n')
-    return str(path)
-
-
-def harmonic(x: np.ndarray, t: np.ndarray, omega: float) -> complex:
-    """The complex amplitude of the component exp(i*omega*t) of samples x(t), least squares."""
-    basis = np.column_stack([np.cos(omega * t), -np.sin(omega * t), np.ones_like(t)])
-    c, *_ = np.linalg.lstsq(basis, x, rcond=None)
-    return complex(c[0], c[1])
+    return measured_track_file(tmp_path, x, values)
 
 
 @pytest.mark.parametrize("wavelength", [15.0, 40.0])
