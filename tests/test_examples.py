@@ -26,6 +26,7 @@ STUDIES = [
     ("train-snaking/snaking_figure.py", ["snaking_articulated.png"], True),
     ("stability-curving/tradeoff.py", ["tradeoff.png"], True),
     pytest.param("design-strategies/design_maps.py", ["map_coach.png", "map_wagon.png"], True, marks=pytest.mark.slow),
+    pytest.param("ride-comfort/ride_comfort.py", ["ride_comfort.png"], True, marks=pytest.mark.slow),
     pytest.param("wheel-wear/conicity_figure.py", ["conicity_wear.png"], True, marks=pytest.mark.slow),
     pytest.param("wheel-wear/conicity_stability.py", ["critical_speed_conicity.png"], True, marks=pytest.mark.slow),
     pytest.param(
