@@ -720,7 +720,9 @@ def exaggeration_text(factor: float) -> str:
         return "The 3D view draws every body's motion at its true size."
     return (
         f"The 3D view draws every body's lateral displacement and yaw relative to the track "
-        f"{factor:g} times their size (`--exaggerate`); the plots show true values."
+        f"{factor:g} times their size (`--exaggerate`), and on irregular track the rails' alignment and "
+        f"gauge too (their level and cross level, as the vertical motion, at true size); the plots show "
+        f"true values."
     )
 
 
@@ -927,7 +929,7 @@ def log_vehicle(rec: rr.RecordingStream, run: Run, keep: np.ndarray, indexes, fa
             indexes=indexes,
             columns=rr.Transform3D.columns(translation=pos[:, b], quaternion=quat[:, b]),
         )
-    log_track(rec, run)
+    log_track(rec, run, factor)
 
 
 def _track_frames(track: Track, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -975,11 +977,13 @@ def _matrix(wxyz: np.ndarray) -> np.ndarray:
     return out.reshape(3, 3)
 
 
-def log_track(rec: rr.RecordingStream, run: Run) -> None:
+def log_track(rec: rr.RecordingStream, run: Run, factor: float = 1.0) -> None:
     """The rails and the sleepers under them, along the whole run, logged once; on a curved
-    track (run.track) drawn along it, turned and canted."""
+    track (run.track) drawn along it, turned and canted; on an irregular one each rail where its
+    irregularities put it (`_irregular_rails`), laterally `factor` times, as the vehicle's lateral
+    motion is drawn."""
     if run.track is not None:
-        _log_curved_track(rec, run, run.track)
+        _log_curved_track(rec, run, run.track, factor)
         return
     b = run.layout.wheelset.contact_half_spacing
     start, end = float(run.x[0]) - TRACK_MARGIN, float(run.x[-1]) + TRACK_MARGIN
@@ -1007,13 +1011,38 @@ def log_track(rec: rr.RecordingStream, run: Run) -> None:
     )
 
 
-def _log_curved_track(rec: rr.RecordingStream, run: Run, track: Track) -> None:
+def _irregular_rails(run: Run, s: np.ndarray, factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each rail's (left, right) shift from its place on perfect track at stations `s`, in the track
+    frame, (2, len(s), 3), and the centreline's, (len(s), 3), as the run's irregularities put them
+    (rail_mj.vehicle.rails): laterally the alignment and half the gauge's widening outwards, `factor`
+    times (the wheelsets' lateral motion is drawn so, and they stay on their rails); vertically the
+    level and half the cross level up on the left, at true size, as the vertical motion is drawn.
+    Zero on perfect track."""
+    from rail_mj.track.irregularities import RAIL_BASE
+    from rail_mj.vehicle.rails import ALIGNMENT, GAUGE, LEVEL, ROLL
+
+    shift = np.zeros((2, len(s), 3))
+    rails = run.rails
+    if rails is None:
+        return shift, np.zeros((len(s), 3))
+    at = rails.at(s)
+    for k, side in enumerate((1.0, -1.0)):
+        shift[k, :, 1] = factor * (at[:, ALIGNMENT] + side * at[:, GAUGE] / 2)
+        shift[k, :, 2] = at[:, LEVEL] + side * at[:, ROLL] * RAIL_BASE / 2
+    return shift, shift.mean(axis=0)
+
+
+def _log_curved_track(rec: rr.RecordingStream, run: Run, track: Track, factor: float = 1.0) -> None:
     b = run.layout.wheelset.contact_half_spacing
     reach = np.abs(np.asarray(run.layout.wheelset_x)).max() + TRACK_MARGIN
     start, end = float(run.station[0]) - reach, float(run.station[-1]) + reach
     s = np.arange(math.ceil(start / SLEEPER_SPACING), math.floor(end / SLEEPER_SPACING) + 1) * SLEEPER_SPACING
     origin, rotation = _track_frames(track, s)
-    rails = [origin + rotation @ np.array([0.0, side * b, -0.08]) for side in (1, -1)]
+    shift, centre = _irregular_rails(run, s, factor)
+    rails = [
+        origin + np.einsum("nij,nj->ni", rotation, np.array([0.0, side * b, -0.08]) + shift[k])
+        for k, side in enumerate((1, -1))
+    ]
     rec.log(
         "/world/rails",
         rr.LineStrips3D(rails, radii=RAIL_HEAD_WIDTH / 2, colors=[[190, 190, 200]]),
@@ -1027,7 +1056,7 @@ def _log_curved_track(rec: rr.RecordingStream, run: Run, track: Track) -> None:
     rec.log(
         "/world/sleepers",
         rr.Boxes3D(
-            centers=origin + rotation @ np.array([0.0, 0.0, -0.16 - 0.11]),
+            centers=origin + np.einsum("nij,nj->ni", rotation, np.array([0.0, 0.0, -0.16 - 0.11]) + centre),
             half_sizes=np.tile([0.13, b + 0.5, 0.11], (len(s), 1)),
             quaternions=_xyzw(quat),
             colors=[[110, 100, 90]],

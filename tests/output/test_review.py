@@ -479,3 +479,32 @@ def test_the_command_line_sets_the_exaggeration_and_refuses_one_below_true_size(
     assert "3D view lateral motion and yaw x5" in capsys.readouterr().out
     assert main(["run", bogie, "--speed", "25", "--distance", "5", "--rrd", str(rrd), "--exaggerate", "0.5"]) == 2
     assert "--exaggerate must be auto or a factor from 1" in capsys.readouterr().err
+
+def test_the_3d_view_draws_the_irregular_rails_as_it_draws_the_wheelsets_on_them(tmp_path):
+    """On irregular track each rail is drawn where the run's irregularities put it: laterally the
+    alignment plus half the gauge's widening outwards, exaggerated as the vehicle's lateral motion
+    is (so a wheelset drawn at factor*y sits on rails drawn at factor*a), vertically the level and
+    half the cross level (left up) at true size; the exaggeration's text says so."""
+    from rail_mj.output.recording import EXAGGERATION_PATH
+    from rail_mj.track import track_from_dict
+    from rail_mj.track.irregularities import RAIL_BASE
+    from rail_mj.vehicle.rails import ALIGNMENT, GAUGE, LEVEL, ROLL
+
+    track = track_from_dict(
+        {"section": [{"kind": "straight", "length": 300.0}], "irregularities": {"spectrum": "erri-high", "seed": 4}}
+    )
+    layout = load_layout(MODELS.parent / "tests" / "data" / "manchester-coach-spatial.toml")
+    run = simulate(layout, speed=40.0, distance=100.0, track=track)
+    path = write_recording(run, tmp_path / "irregular.rrd", exaggeration=10.0)
+    rails = next(c for c in RrdReader(str(path)).stream() if c.entity_path == "/world/rails").to_record_batch()
+    left, right = (np.array(p) for p in rails.column("LineStrips3D:strips").to_pylist()[0])
+    at = run.rails.at(left[:, 0].astype(float))
+    b = layout.wheelset.contact_half_spacing
+    assert np.abs(at[:, ALIGNMENT]).max() > 1e-3  # the rails do wander
+    # Rerun keeps positions in float32: 6e-8 m at 1 m from the centreline.
+    np.testing.assert_allclose(left[:, 1] - b, 10.0 * (at[:, ALIGNMENT] + at[:, GAUGE] / 2), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(right[:, 1] + b, 10.0 * (at[:, ALIGNMENT] - at[:, GAUGE] / 2), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(left[:, 2] + 0.08, at[:, LEVEL] + at[:, ROLL] * RAIL_BASE / 2, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(right[:, 2] + 0.08, at[:, LEVEL] - at[:, ROLL] * RAIL_BASE / 2, rtol=0, atol=1e-6)
+    assert "rails' alignment and gauge too" in static_text(path, EXAGGERATION_PATH)
+
