@@ -43,6 +43,14 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   irregularities add at most 15 %).
 
     python benchmarks/benchmark.py --irregular # only the irregularities' cost
+
+- ten kilometres of irregular track (issue 21): the spatial coach on S1002/60E1 over 10 km of
+  ERRI-high track at 55 m/s, `simulate` (its stepping, one thread: CPU time of the process) three
+  times, against the 182 s it simulates (target: at least 20x faster than real time on one core),
+  the same run from the command line as a user runs it (`rail-mj run ... --track`, with its summary,
+  wall and CPU time of the child) and the peak memory of each (ru_maxrss).
+
+    python benchmarks/benchmark.py --ten-km    # only the 10 km run
 """
 
 from __future__ import annotations
@@ -373,6 +381,60 @@ def print_irregular(rows) -> None:
         )
 
 
+def ten_km(speed: float = 55.0, distance: float = 10_000.0, repeats: int = 3):
+    """The spatial coach over 10 km of ERRI-high track: per `simulate` of the repeats its CPU and wall
+    time (s), the simulated time (s) and this process's peak memory (MB) after them; then the command
+    line's wall and CPU time and peak memory (MB), a child process."""
+    import resource
+
+    from rail_mj.track import load_track
+
+    with tempfile.TemporaryDirectory() as folder:
+        five = (ROOT / "models" / "tracks" / "erri-high-5km.toml").read_text()
+        track_file = Path(folder) / "erri-high-10km.toml"
+        track_file.write_text(five.replace("length = 5100.0", f"length = {distance + 100.0}"))
+        track = load_track(track_file)
+        layout = load_layout(SPATIAL)
+        simulate(layout, speed, 100.0, initial_lateral=0.0, track=track)  # compiled and cached
+        runs = []
+        for _ in range(repeats):
+            cpu, wall = time.process_time(), time.perf_counter()
+            run = simulate(layout, speed, distance, initial_lateral=0.0, track=track)
+            runs.append((time.process_time() - cpu, time.perf_counter() - wall, float(run.t[-1])))
+            del run
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        command = [str(Path(sys.executable).parent / "rail-mj"), "run", str(SPATIAL), "--speed", str(speed)]
+        command += ["--distance", str(distance), "--track", str(track_file), "--initial-lateral", "0"]
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        wall = time.perf_counter()
+        subprocess.run(command, check=True, capture_output=True)
+        wall = time.perf_counter() - wall
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cli_cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+        return runs, peak, (wall, cli_cpu, after.ru_maxrss / 1024)
+
+
+def print_ten_km(result) -> None:
+    runs, peak, (wall, cpu, cli_peak) = result
+    simulated = runs[0][2]
+    factors = [t / c for c, _, t in runs]
+    best_cpu, fastest_wall = min(c for c, _, _ in runs), min(w for _, w, _ in runs)
+    print(
+        "| 10 km of ERRI-high track, spatial coach on S1002/60E1 at 55 m/s | CPU | wall "
+        "| faster than real time | peak memory |"
+    )
+    print("|---|---|---|---|---|")
+    print(
+        f"| `simulate`, best of {len(runs)} ({simulated:.0f} s simulated) | {best_cpu:.2f} s | {fastest_wall:.2f} s "
+        f"| {simulated / best_cpu:.1f}x (runs {min(factors):.1f}-{max(factors):.1f}x; target: at least 20x) "
+        f"| {peak:.0f} MB |"
+    )
+    print(
+        f"| `rail-mj run ... --track`, with its summary | {cpu:.2f} s | {wall:.2f} s | {simulated / wall:.1f}x "
+        f"| {cli_peak:.0f} MB |"
+    )
+
+
 def print_curve(rows) -> None:
     print("| one RK4 step with the native creep callback, CPU time | straight | in a 600 m curve | curve / straight |")
     print("|---|---|---|---|")
@@ -392,6 +454,9 @@ def main() -> None:
         return
     if "--irregular" in sys.argv[1:]:
         print_irregular(irregular_cost())
+        return
+    if "--ten-km" in sys.argv[1:]:
+        print_ten_km(ten_km())
         return
     starts = start_up()
     train_step, train_run, train_nv = train_speed()
