@@ -480,6 +480,7 @@ def test_the_command_line_sets_the_exaggeration_and_refuses_one_below_true_size(
     assert main(["run", bogie, "--speed", "25", "--distance", "5", "--rrd", str(rrd), "--exaggerate", "0.5"]) == 2
     assert "--exaggerate must be auto or a factor from 1" in capsys.readouterr().err
 
+
 def test_the_3d_view_draws_the_irregular_rails_as_it_draws_the_wheelsets_on_them(tmp_path):
     """On irregular track each rail is drawn where the run's irregularities put it: laterally the
     alignment plus half the gauge's widening outwards, exaggerated as the vehicle's lateral motion
@@ -507,4 +508,3 @@ def test_the_3d_view_draws_the_irregular_rails_as_it_draws_the_wheelsets_on_them
     np.testing.assert_allclose(left[:, 2] + 0.08, at[:, LEVEL] + at[:, ROLL] * RAIL_BASE / 2, rtol=0, atol=1e-6)
     np.testing.assert_allclose(right[:, 2] + 0.08, at[:, LEVEL] - at[:, ROLL] * RAIL_BASE / 2, rtol=0, atol=1e-6)
     assert "rails' alignment and gauge too" in static_text(path, EXAGGERATION_PATH)
-
