@@ -252,10 +252,13 @@ def atomic_write(path, data: bytes) -> None:
 
 @functools.lru_cache(maxsize=1)
 def sources_digest() -> str:
-    """A hash of every source file of the package: what a kept result was computed by."""
+    """A hash of every source file of the package: what a kept result was computed by (not the
+    modules written into its caches, under __pycache__: rail_mj.simulation.native's cfunc)."""
     here = Path(__file__).resolve().parent
     digest = hashlib.sha256()
     for source in sorted(here.rglob("*.py")):
+        if "__pycache__" in source.relative_to(here).parts:
+            continue
         digest.update(source.relative_to(here).as_posix().encode() + source.read_bytes())
     return digest.hexdigest()[:16]
 

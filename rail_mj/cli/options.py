@@ -68,14 +68,31 @@ def tables_of(path: str) -> set[str]:
 
 
 def layout_of(path: str) -> Layout:
-    """The checked layout; its warnings, one line each, on stderr."""
+    """The checked layout; its warnings, one line each, on stderr (and on a terminal, before the
+    first command of an installation, that it compiles: `compiling_note`)."""
     try:
         layout = load_layout(path)
     except LayoutError as e:
         raise Failure(str(e), EXIT_BAD_INPUT) from None
     for warning in layout.warnings:
         warn(warning)
+    note = compiling_note() if sys.stderr.isatty() else None
+    if note is not None:
+        click.echo(f"rail-mj: {note}", err=True)
     return layout
+
+
+def compiling_note() -> str | None:
+    """What to tell a user whose command will compile the contact law and the native callback
+    first (numba's cache for these sources is empty: a new installation, or edited sources),
+    else None. Said on a terminal only: pipes and tests read stderr for errors and warnings."""
+    folder = os.environ.get("NUMBA_CACHE_DIR")
+    if folder is None:  # rail_mj sets it on import (rail_mj._numba_cache_dir); else numba's default
+        return None
+    path = Path(folder)
+    if path.is_dir() and any(path.rglob("*.nbi")):
+        return None
+    return "compiling the contact law and the native callback, once for this installation (10 to 20 s)"
 
 
 def track_of(path: str | None):

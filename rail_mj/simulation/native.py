@@ -430,16 +430,59 @@ def callback():
     return _CALLBACK[1]
 
 
-def _compile():
-    """The cfunc and its ctypes pointer. The offsets are constants of this process's
-    MuJoCo, so the cfunc itself is not cached on disk (the law it calls is)."""
-    offsets = _offsets()
+# The cfunc's module, written with this MuJoCo's offsets as literals (see `_compile`).
+_CFUNC_SOURCE = """# Written by rail_mj.simulation.native for MuJoCo {version}: its struct offsets as constants.
+import numba
+from numba import types
 
+from rail_mj.simulation.native import _apply
+
+
+@numba.cfunc(types.void(types.voidptr, types.voidptr), nopython=True, cache=True)
+def passive(model, data):
+    _apply(model, data, {offsets})
+"""
+
+
+def _compile():
+    """The cfunc and its ctypes pointer. The offsets are constants of this process's MuJoCo,
+    which numba would freeze into a cfunc without saying so in its cache's key: so they are
+    written as literals into a module of their own, named by them and by MuJoCo's version, in
+    the package's cache folder (named by its sources: rail_mj.files.cache_folder), and numba
+    caches that module's cfunc on disk like the law it calls (0.25 s to load it, against 0.7 s
+    to compile it in every process). Where no folder can be written, it is compiled here."""
+    import hashlib
+    import importlib.util
+    import sys
+
+    from rail_mj import files
+
+    offsets = _offsets()
+    pointer = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
+    source = _CFUNC_SOURCE.format(version=mujoco.__version__, offsets=", ".join(str(o) for o in offsets))
+    key = hashlib.sha256(source.encode()).hexdigest()[:16]
+    name = f"rail_mj_passive_{key}"
+    path = files.cache_folder("native") / f"{name}.py"
+    try:
+        if not path.is_file() or path.read_text() != source:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            files.atomic_write(path, source.encode())
+    except OSError:  # nowhere to keep it: compiled in this process, as the law's cache would be
+        return _compile_here(offsets, pointer)
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # numba's cache finds the cfunc's module by its name
+    spec.loader.exec_module(module)
+    return module.passive, pointer(module.passive.address)
+
+
+def _compile_here(offsets, pointer):
     @numba.cfunc(types.void(types.voidptr, types.voidptr), nopython=True)
     def passive(model, data):
         _apply(model, data, *offsets)
 
-    return passive, ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(passive.address)
+    return passive, pointer(passive.address)
 
 
 _users = 0  # blocks inside `installed`, in every thread

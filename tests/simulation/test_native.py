@@ -93,3 +93,34 @@ def test_struct_offsets_are_checked_against_the_live_arrays(monkeypatch):
     monkeypatch.setitem(native._LAYOUTS, "mjData", shifted)
     with pytest.raises(native.NativeError, match=r"mjData\.qvel is not where"):
         native._offsets()
+
+
+def test_the_callback_is_kept_compiled_in_a_module_named_by_mujocos_offsets(tmp_path):
+    """The cfunc's module in the cache folder holds this MuJoCo's struct offsets as literals (its
+    name a hash of its text), so numba's on-disk cache of it cannot serve another MuJoCo's; a
+    second process loads it instead of compiling it."""
+    import subprocess
+    import sys
+
+    from rail_mj import files
+    from rail_mj.simulation import native
+
+    native.callback()
+    modules = sorted(files.cache_folder("native").glob("rail_mj_passive_*.py"))
+    assert modules
+    offsets = ", ".join(str(o) for o in native._offsets())
+    text = [m.read_text() for m in modules]
+    assert any(f"_apply(model, data, {offsets})" in t and mujoco.__version__ in t for t in text)
+    code = "from rail_mj.simulation import native; native.callback(); c = native._CALLBACK[0]; print(c.cache_hits)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "1"  # loaded from numba's cache, not compiled
+
+
+def test_a_first_command_on_a_terminal_is_told_it_compiles(tmp_path, monkeypatch):
+    from rail_mj.cli.options import compiling_note
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    assert "compiling" in compiling_note()
+    (tmp_path / "numba" / "x").mkdir(parents=True)
+    (tmp_path / "numba" / "x" / "law.nbi").write_bytes(b"")
+    assert compiling_note() is None
