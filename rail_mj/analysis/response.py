@@ -46,10 +46,10 @@ import math
 import mujoco
 import numpy as np
 
-from rail_mj.analysis.stability import linearised_contact
+from rail_mj.analysis.stability import NEUTRAL, linearised_contact
 from rail_mj.layout import Layout
 from rail_mj.numerics import IRREGULAR_HEADER, SPLINE
-from rail_mj.simulation.linear import FD_STEP
+from rail_mj.simulation.linear import FD_STEP, modal_roots
 from rail_mj.simulation.run import Run
 from rail_mj.track import Track
 from rail_mj.track.irregularities import (
@@ -150,8 +150,10 @@ class Response:
 
     `inputs`: the channels the vehicle takes (a planar one the lateral ones); `outputs`: the names of
     what responds, in order; `transfer(channel, frequencies)` the complex gains (frequencies, outputs)
-    per metre of the channel; `rms(spectrum, band)` the stochastic rms of each output. See the module's
-    docstring for the example.
+    per metre of the channel; `variance(spectrum, band)` each channel's share of every output's
+    variance under a spectrum, `realised_variance` the same over one realisation's lines. A vehicle
+    linearised above its critical speed has no steady response: both refuse it (`growth`). See the
+    module's docstring for the example.
     """
 
     def __init__(self, layout: Layout, speed: float, amplitude: float | None = None):
@@ -159,9 +161,17 @@ class Response:
             raise ValueError(f"speed must be a positive number, got {speed}")
         self.layout, self.speed = layout, float(speed)
         layout, self.amplitude = linearised_contact(layout, amplitude)
-        self.inputs = CHANNELS if layout.spatial is not None and layout.spatial.gravity else LATERAL_CHANNELS
+        if layout.spatial is not None and not layout.spatial.gravity:
+            raise ValueError(
+                f"{layout.source}: a spatial vehicle without gravity takes no irregularities (its wheel loads, "
+                f"which the rails' level and cross level change, come from its suspension's weight): set "
+                f"[spatial] gravity = true"
+            )
+        self.inputs = CHANNELS if layout.spatial is not None else LATERAL_CHANNELS
         reach = np.asarray(layout.wheelset_x, dtype=float)
-        self._start = PROBE_MARGIN - float(reach.min())  # the vehicle's origin on the probe track, m
+        # The vehicle's origin on the probe track, m: half an interval off the knots for a wheelset
+        # at a whole number of intervals from it, so that no rounding picks its neighbour's.
+        self._start = PROBE_MARGIN + PROBE_STEP / 2 - float(reach.min())
         length = self._start + float(reach.max()) + PROBE_MARGIN
         x = np.arange(0.0, length + PROBE_STEP / 2, PROBE_STEP)
         zero = tuple(0.0 for _ in x)
@@ -170,6 +180,7 @@ class Response:
         model = self.vehicle.model
         set_speed(model, self.speed)
         self.model, self.data = model, mujoco.MjData(model)
+        self._growth: float | None = None
         self._linearise()
 
     # --- the linearisation --------------------------------------------------
@@ -234,6 +245,9 @@ class Response:
     def _linearise(self) -> None:
         model, h = self.model, FD_STEP
         nv = model.nv
+        # Slides and hinges only (rail_mj.vehicle.joints): qpos and qvel share their indices, which
+        # the floor's C2, acting on qpos's differences, takes for q''.
+        assert model.nq == nv, "a vehicle with ball or free joints"
         qpos0, qvel0 = self._centre()
         states = []
         for j in range(2 * nv):
@@ -250,7 +264,6 @@ class Response:
         self.A = A
         self.C0 = ((plain[0::2] - plain[1::2]) / (2 * h)).T
         self.C2 = ((twice[0::2] - twice[1::2]) / (2 * h)).T
-        # qpos and qvel share their indices on these joints (slides and hinges): C2 acts on qpos's.
         self.C2 = self.C2[:, :nv]
         # The inputs, each wheelset's rails entry by entry, through the probe's spline.
         rails = Rails.of(model)
@@ -280,6 +293,24 @@ class Response:
             (acc_plus, plus), (acc_minus, minus) = samples
             self.B[nv:, column] = (acc_plus - acc_minus) / (2 * h)
             self.D[:, column] = (plus - minus) / (2 * h)
+
+    @property
+    def growth(self) -> float:
+        """The largest real part of the linearisation's modal roots, 1/s (rigid-body and pure-integrator
+        roots left out, rail_mj.simulation.linear.modal_roots): above zero the vehicle hunts at this
+        speed, and a harmonic track has no steady response to give."""
+        if self._growth is None:
+            roots = modal_roots(self.A)
+            # Within round-off of the imaginary axis a root is neutral (an undamped mode), not growing.
+            self._growth = float(np.max(np.where(np.abs(roots.real) <= NEUTRAL * np.abs(roots), 0.0, roots.real)))
+        return self._growth
+
+    def _check_stable(self) -> None:
+        if self.growth > 0.0:
+            raise ValueError(
+                f"{self.layout.source}: unstable at {self.speed:g} m/s (a mode grows at {self.growth:.3g} 1/s: "
+                f"the critical speed is below it), so no steady response to the track exists: take a lower speed"
+            )
 
     @staticmethod
     def _interval(rails: Rails, s: float) -> tuple[int, float]:
@@ -326,6 +357,7 @@ class Response:
         f = np.atleast_1d(np.asarray(frequencies, dtype=float))
         if not (np.all(np.isfinite(f)) and np.all(f > 0.0)):
             raise ValueError("frequencies must be positive numbers")
+        self._check_stable()
         omega = 2.0 * np.pi * f
         u = self._drive(channel, omega / self.speed)
         n = self.A.shape[0]

@@ -26,9 +26,13 @@ from rail_mj.studies.span import FREQUENCIES
 # and (a spatial vehicle) its left wheel's load, and the car body's floor accelerations; the trailing
 # wheelsets see the same rails later and answer alike (`--outputs all` for every one).
 DEFAULT_OUTPUTS = ("y1", "sum_y1", "q_left1", "floor_*")
-# An input's response this small against the largest of its output (relative) is none: the
-# symmetric vehicle about its centred state answers a gauge change only in second order.
+# An input's response this small against the largest of its output (relative) is none: on cones a
+# symmetric vehicle about its centred state answers a gauge change only in second order, and level
+# moves nothing sideways (on profiles each wheel's forces do answer both, linearly).
 NO_RESPONSE = 1e-9
+# m/s: below this the creep damping (the creep forces' rate terms over V) makes the linearisation
+# stiff beyond any use; a run there is refused too (rail_mj.simulation.timestep).
+MIN_SPEED = 1.0
 
 
 def _names(option: str, text: str | None) -> list[str] | None:
@@ -98,7 +102,8 @@ def _spectrum(spectrum_name, wavelengths, scale, track):
     "--outputs",
     help="Responses, names or patterns separated by commas, as a run's CSV names them (y1, psi2, sum_y*, "
     "q_left1, y_over_q_*, y_carbody, roll_carbody) and floor_lateral_<point>, floor_vertical_<point> "
-    "(bogie1, bogie2, centre); 'all' for every one  [default: y1,sum_y1,q_left1,floor_*]",
+    "(bogie1, bogie2, centre; not for trains, whose runs have none either); 'all' for every one  "
+    "[default: y1,sum_y1,q_left1,floor_*]",
 )
 @click.option(
     "--frequencies",
@@ -151,11 +156,17 @@ def response_cmd(
     the vehicle's centre."""
     lay = layout_of(layout)
     check_speed("--speed", speed)
+    if speed < MIN_SPEED:
+        raise Failure(f"--speed must be at least {MIN_SPEED:g} m/s for a response, got {speed:g}", EXIT_BAD_INPUT)
     freqs = span_of("--frequencies", frequencies, FREQUENCIES).values()
     channels = _names("--inputs", inputs)
+    if channels is not None:
+        channels = list(dict.fromkeys(channels))  # each once, in the order given
     patterns = _names("--outputs", outputs)
     stochastic = _spectrum(spectrum_name, wavelengths, scale, track)
     csv_path = csv_beside(out, csv_path, "the plot and the data")
+    if as_json and uses_stdout(out, csv_path):
+        raise Failure("--json prints to standard output: write -o and --csv to files", EXIT_BAD_INPUT)
     check_outputs(layout, [("-o", out), ("--csv", csv_path)])
     check_profile_outputs(lay, [("-o", out), ("--csv", csv_path)])
     if track is not None:
@@ -169,8 +180,15 @@ def response_cmd(
             raise Failure(f"--inputs: {c!r} is no channel: one of {', '.join(CHANNELS)}", EXIT_BAD_INPUT)
     try:
         response = Response(lay, speed, amplitude)
-    except ValueError as e:
-        raise Failure(f"--amplitude: {e}" if amplitude is not None else str(e), EXIT_BAD_INPUT) from None
+    except ValueError as e:  # the amplitude is not for this contact, or the vehicle takes no track
+        raise Failure(
+            f"--amplitude: {e}" if amplitude is not None and "amplitude" in str(e) else str(e), EXIT_BAD_INPUT
+        ) from None
+    if response.growth > 0.0:
+        try:
+            response.transfer(response.inputs[0], freqs[:1])
+        except ValueError as e:  # unstable: no steady response
+            raise Failure(str(e), EXIT_BAD_INPUT) from None
     channels = channels or list(response.inputs)
     for c in channels:
         if c not in response.inputs:

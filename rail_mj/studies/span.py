@@ -9,7 +9,7 @@ AMPLITUDES  `conicity --amplitudes`: 0 < A <= B mm, one amplitude only as A:A:1
 GRID        `sweep --grid`, `map --x/--y`: any finite A != B, or A:B:N:log for A, B > 0
 SWEEP       the speeds given to `rail_mj.studies.sweep.sweep` through the Python API
 SEARCH      the range a critical speed is searched over: A < B with N >= 2 scan points
-FREQUENCIES `response --frequencies`: 0 < A < B Hz with N >= 2, geometric (`:log`) or even
+FREQUENCIES `response --frequencies`: 0.001 <= A < B <= 1000 Hz, N >= 2, geometric (`:log`) or even
 
 The first rule a span breaks is its one-line error (`SpanError`), naming the option.
 The messages are those each option gave before they shared this type: tests and users'
@@ -200,8 +200,8 @@ FREQUENCIES = Rules(
     "{option} must be A:B:N or A:B:N:log (from A to B Hz in N steps), got {text!r}",
     (
         Rule(
-            lambda s: _finite(s) and 0 < s.a < s.b and 2 <= s.n <= MAX_POINTS,
-            "{option} A:B:N needs 0 < A < B and 2 <= N <= 100000, got {text!r}",
+            lambda s: _finite(s) and 1e-3 <= s.a < s.b <= 1e3 and 2 <= s.n <= MAX_POINTS,
+            "{option} A:B:N needs 0.001 <= A < B <= 1000 Hz and 2 <= N <= 100000, got {text!r}",
         ),
     ),
     log=True,

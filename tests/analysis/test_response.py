@@ -185,3 +185,20 @@ def test_inputs_and_outputs_a_vehicle_does_not_have_are_refused():
     ]
     with pytest.raises(ValueError, match="frequencies must be positive"):
         response.transfer("alignment", [0.0])
+
+
+def test_above_the_critical_speed_there_is_no_steady_response():
+    """The planar coach's eigen critical speed is 79.3 m/s (README): at 40 m/s every mode decays, at
+    150 m/s one grows, and a transfer function there, the response of a system that does not settle,
+    is refused."""
+    from rail_mj.analysis.stability import Stability
+
+    layout = load_layout(COACH)
+    assert Response(layout, 40.0).growth < 0.0
+    fast = Response(layout, 150.0)
+    assert fast.growth == pytest.approx(Stability(layout).max_real_part(150.0), rel=1e-6)
+    assert fast.growth > 0.0
+    with pytest.raises(ValueError, match="unstable at 150 m/s"):
+        fast.transfer("alignment", [1.0])
+    with pytest.raises(ValueError, match="unstable at 150 m/s"):
+        fast.variance(SPECTRA["erri-low"])
