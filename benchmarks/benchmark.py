@@ -51,6 +51,15 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   wall and CPU time of the child) and the peak memory of each (ru_maxrss).
 
     python benchmarks/benchmark.py --ten-km    # only the 10 km run
+
+- the batch against the numba peer, every ratio from interleaved samples (issue 19): one RK4 step
+  of the numba peer, of a coach in a model of eight bare and with the native callback, all three
+  from a moving state (2 s past the 2 mm start), in turn, CPU time of the calling thread, eleven
+  turns, each turn's ratios and their spread; the 64-speed sweep from the command line as a user
+  runs it (`rail-mj sweep`, a new process) against the peer's batch (a new process too), in turn,
+  wall and CPU time and peak memory of each child; FASTSIM against Polach on one 1 km run, in turn.
+
+    python benchmarks/benchmark.py --batch     # only the interleaved batch figures
 """
 
 from __future__ import annotations
@@ -435,6 +444,150 @@ def print_ten_km(result) -> None:
     )
 
 
+def interleaved_steps(layout, n: int = 3000, repeats: int = 11):
+    """Per turn, in order: the numba peer's RK4 step, a coach's bare step in a model of PACK coaches and
+    the same with the native creep callback, each from a moving state (2 s past the 2 mm start) and
+    timed in CPU time of the calling thread, s. Arrays (turns, 3)."""
+    from rail_mj.simulation.stepping import Pack, Running, stepping
+
+    vehicle = peer_numba.coach()
+    arrays = peer_numba._arrays(vehicle)
+    rows = np.zeros((n + 1, vehicle.wheelsets.size))
+    moving = peer_numba.initial_state(vehicle, 0.002)
+    peer_numba._run(arrays, peer_numba.SPEED, moving, peer_numba.TIMESTEP, 2000, 2000, rows[:2], rows[:2].copy())
+    runs = [Running(k, prepare(Request(layout, v, 1000.0, 0.002))) for k, v in enumerate(np.linspace(20, 100, PACK))]
+    pack = Pack(runs)
+    model, data = pack.model, pack.data
+    mujoco.mj_setState(model, data, pack.state, pack.STATE)
+    with native.installed():
+        mujoco.mj_step(model, data, nstep=2000)
+    state = np.empty(mujoco.mj_stateSize(model, pack.STATE))
+    mujoco.mj_getState(model, data, state, pack.STATE)
+
+    def peer() -> float:
+        start = moving.copy()
+        started = time.thread_time()
+        peer_numba._run(arrays, peer_numba.SPEED, start, peer_numba.TIMESTEP, n, 1, rows, rows.copy())
+        return (time.thread_time() - started) / n
+
+    def coach() -> float:
+        mujoco.mj_setState(model, data, state, pack.STATE)
+        started = time.thread_time()
+        mujoco.mj_step(model, data, nstep=n)
+        return (time.thread_time() - started) / n / PACK
+
+    peer()
+    out = []
+    with stepping():
+        for _ in range(repeats):
+            bare = coach()
+            with native.installed():
+                fast = coach()
+            out.append((peer(), bare, fast))
+    return np.array(out)
+
+
+def _child(command: list[str]) -> tuple[float, float, float]:
+    """A new process's wall and CPU time (s) and peak memory (MB), its own (os.wait4)."""
+    import os
+
+    wall = time.perf_counter()
+    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(child.pid, 0)
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode != 0:
+        raise RuntimeError(f"{command[:3]} failed: {child.stderr.read().decode()[-300:] if child.stderr else ''}")
+    return time.perf_counter() - wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
+
+
+def interleaved_batches(turns: int = 3):
+    """The 64-speed sweep from the command line and the numba peer's batch, each a new process, in
+    turn: per turn (wall, CPU s, peak MB) of each."""
+    rail_mj = str(Path(sys.executable).parent / "rail-mj")
+    peer = [sys.executable, "-c", f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+            "import peer_numba; peer_numba.time_batch(repeats=1)"]  # fmt: skip
+    out = []
+    with tempfile.TemporaryDirectory() as folder:
+        table = Path(folder) / "sweep.csv"
+        sweep = [rail_mj, "sweep", str(COACH), "--speeds", "20:100:64", "--distance", "1000", "-o", str(table)]
+        _child(sweep[:4] + ["20:100:2", "--distance", "50", "-o", str(table)])  # compiled and warm
+        table.unlink()
+        _child(peer)
+        for _ in range(turns):
+            ours = _child(sweep)
+            table.unlink()
+            out.append((ours, _child(peer)))
+    return out
+
+
+def fastsim_cost(repeats: int = 3):
+    """One coach run of 1 km at 60 m/s with Polach's law and with FASTSIM, in turn: CPU s of each, per turn."""
+    import tomllib
+
+    data = tomllib.loads(COACH.read_text())
+    # Both on the same Hertz ellipses, which FASTSIM needs (README's [contact] example: rail crown 0.30 m).
+    data["contact"] = {"young_modulus": 210e9, "poisson_ratio": 0.28, "rail_transverse_radius": 0.30}
+    laws = {}
+    for law in ("polach", "fastsim"):
+        creep = {"law": law, "friction": data["creep"]["friction"]}
+        laws[law] = layout_from_dict({**data, "creep": creep}, source=f"coach with {law}")
+        simulate(laws[law], 60.0, 20.0, 0.002)
+    out = []
+    for _ in range(repeats):
+        turn = []
+        for law in ("polach", "fastsim"):
+            started = time.process_time()
+            simulate(laws[law], 60.0, 1000.0, 0.002)
+            turn.append(time.process_time() - started)
+        out.append(tuple(turn))
+    return np.array(out)
+
+
+def print_batch() -> None:
+    import resource
+
+    steps = interleaved_steps(load_layout(COACH))
+    print(
+        "| one RK4 step of the coach from a moving state, CPU time, 11 turns | best µs "
+        "| per turn / the peer's: median (min-max) |"
+    )
+    print("|---|---|---|")
+    names = (
+        "the numba peer's whole step (creep law included)",
+        "a coach in a model of 8, bare MuJoCo",
+        "a coach in a model of 8, native creep callback",
+    )
+    for k, name in enumerate(names):
+        ratio = steps[:, k] / steps[:, 0]
+        spread = f"{np.median(ratio):.2f} ({ratio.min():.2f}-{ratio.max():.2f})"
+        print(f"| {name} | {steps[:, k].min() * 1e6:.2f} | {spread} |")
+    print(f"(this process's peak memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB)")
+    print()
+    turns = interleaved_batches()
+    print(
+        "| 64 speeds 20-100 m/s, 1 km each, both cores, a new process each, per vehicle-km "
+        "| wall s, best (range) | CPU s, best (range) | peak memory |"
+    )
+    print("|---|---|---|---|")
+    names = ("`rail-mj sweep` (runs and summary rows, start-up included)", "the numba RK4 peer's batch, as written")
+    for k, name in enumerate(names):
+        wall = [t[k][0] / VEHICLE_KM for t in turns]
+        cpu = [t[k][1] / VEHICLE_KM for t in turns]
+        peak = max(t[k][2] for t in turns)
+        cells = f"{min(wall):.3f} ({min(wall):.3f}-{max(wall):.3f}) | {min(cpu):.3f} ({min(cpu):.3f}-{max(cpu):.3f})"
+        print(f"| {name} | {cells} | {peak:.0f} MB |")
+    wall = [t[0][0] / t[1][0] for t in turns]
+    cpu = [t[0][1] / t[1][1] for t in turns]
+    print(f"| sweep / peer, per turn | {min(wall):.2f}-{max(wall):.2f}x | {min(cpu):.2f}-{max(cpu):.2f}x | |")
+    print()
+    laws = fastsim_cost()
+    ratio = laws[:, 1] / laws[:, 0]
+    print("| one coach run, 1 km at 60 m/s, CPU | Polach | FASTSIM | FASTSIM / Polach, per turn |")
+    print("|---|---|---|---|")
+    best_of = f"{laws[:, 0].min():.2f} s | {laws[:, 1].min():.2f} s"
+    print(f"| best of {len(laws)} | {best_of} | {ratio.min():.1f}-{ratio.max():.1f}x |")
+
+
 def print_curve(rows) -> None:
     print("| one RK4 step with the native creep callback, CPU time | straight | in a 600 m curve | curve / straight |")
     print("|---|---|---|---|")
@@ -454,6 +607,9 @@ def main() -> None:
         return
     if "--irregular" in sys.argv[1:]:
         print_irregular(irregular_cost())
+        return
+    if "--batch" in sys.argv[1:]:
+        print_batch()
         return
     if "--ten-km" in sys.argv[1:]:
         print_ten_km(ten_km())
