@@ -60,6 +60,12 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   wall and CPU time and peak memory of each child; FASTSIM against Polach on one 1 km run, in turn.
 
     python benchmarks/benchmark.py --batch     # only the interleaved batch figures
+
+- scaling (issue 19): a coach's step in models of 1 to 16 coaches, and a train's step at 1 to 10
+  cars, every model in turn from a moving state, CPU time of the calling thread, best of seven turns;
+  16 coach runs on one thread and on two.
+
+    python benchmarks/benchmark.py --scaling   # only the scaling figures
 """
 
 from __future__ import annotations
@@ -186,8 +192,8 @@ def start_up() -> list[tuple[str, float]]:
         ]
 
 
-def ten_car_train():
-    """models/two-coaches lengthened to ten coaches, each coupled to the next alike."""
+def ten_car_train(n: int = 10):
+    """models/two-coaches lengthened to `n` coaches (ten unless told), each coupled to the next alike."""
     import tomllib
 
     from rail_mj.layout import layout_from_dict
@@ -195,13 +201,12 @@ def ten_car_train():
     data = tomllib.loads((COACH.parent.parent / "two-coaches" / "two-coaches.toml").read_text())
     pitch = data["car"][0]["position"] - data["car"][1]["position"]
     axle = data["train"]["bogie_positions"][0] - data["car"][0]["position"]  # a bogie from its body's centre
-    n = 10
     centres = [(n - 1) * pitch / 2 - k * pitch for k in range(n)]
-    data["name"] = "ten-coaches"
+    data["name"] = f"{n}-coaches"
     data["train"]["bogie_positions"] = [c + s for c in centres for s in (axle, -axle)]
     data["car"] = [{**data["car"][0], "position": c, "bogies": [2 * k + 1, 2 * k + 2]} for k, c in enumerate(centres)]
     data["coupling"] = [{**data["coupling"][0], "cars": [k + 1, k + 2]} for k in range(n - 1)]
-    return layout_from_dict(data, "ten-coaches (benchmarks/benchmark.py)")
+    return layout_from_dict(data, f"{n} coaches (benchmarks/benchmark.py)")
 
 
 def train_speed(n: int = 3000) -> tuple[float, float, int]:
@@ -588,6 +593,69 @@ def print_batch() -> None:
     print(f"| best of {len(laws)} | {best_of} | {ratio.min():.1f}-{ratio.max():.1f}x |")
 
 
+def _moving_pack(layouts, speeds):
+    """A model of the runs of `layouts` at `speeds` (the runner's packing), 1 s past their 2 mm start."""
+    from rail_mj.simulation.stepping import Pack, Running
+
+    runs = [Running(k, prepare(Request(lay, v, 1000.0, 0.002))) for k, (lay, v) in enumerate(zip(layouts, speeds))]
+    pack = Pack(runs)
+    mujoco.mj_setState(pack.model, pack.data, pack.state, pack.STATE)
+    with native.installed():
+        mujoco.mj_step(pack.model, pack.data, nstep=1000)
+    state = np.empty(mujoco.mj_stateSize(pack.model, pack.STATE))
+    mujoco.mj_getState(pack.model, pack.data, state, pack.STATE)
+    return pack, state
+
+
+def scaling(n: int = 2000, repeats: int = 7):
+    """What a step costs as a model holds more vehicles, as a train grows, and what threads give:
+    (packs: [(vehicles, CPU s per vehicle-step, best)], trains: [(cars, dof, CPU s per step, per car)],
+    threads: [(threads, wall s, CPU s)] of 16 coach runs of 500 m)."""
+    from rail_mj.simulation.stepping import stepping
+
+    coach = load_layout(COACH)
+    sizes = (1, 2, 4, 8, 16)
+    packs = {k: _moving_pack([coach] * k, np.linspace(30.0, 70.0, k)) for k in sizes}
+    cars = (1, 2, 5, 10)
+    trains = {c: _moving_pack([coach if c == 1 else ten_car_train(c)], [50.0]) for c in cars}
+    cost: dict = {("pack", k): [] for k in sizes} | {("train", c): [] for c in cars}
+    with stepping(), native.installed():
+        for _ in range(repeats):  # every model in turn, each turn
+            for key, (pack, state) in [(("pack", k), packs[k]) for k in sizes] + [
+                (("train", c), trains[c]) for c in cars
+            ]:
+                mujoco.mj_setState(pack.model, pack.data, state, pack.STATE)
+                cost[key].append(cpu_per_step(pack.model, pack.data, n))
+    pack_rows = [(k, min(cost["pack", k]) / k) for k in sizes]
+    train_rows = [(c, trains[c][0].model.nv, min(cost["train", c])) for c in cars]
+    requests = [Request(coach, v, 500.0, 0.002) for v in np.linspace(30.0, 70.0, 16)]
+    simulate_many(requests[:2], threads=1)
+    thread_rows = []
+    for threads in (1, 2):
+        wall, cpu = time.perf_counter(), time.process_time()
+        simulate_many(requests, threads=threads)
+        thread_rows.append((threads, time.perf_counter() - wall, time.process_time() - cpu))
+    return pack_rows, train_rows, thread_rows
+
+
+def print_scaling(result) -> None:
+    packs, trains, threads = result
+    print("| coaches stepped in one model (30-70 m/s, moving) | CPU per coach-step | against one alone |")
+    print("|---|---|---|")
+    for k, per in packs:
+        print(f"| {k} | {per * 1e6:.2f} µs | {per / packs[0][1]:.2f}x |")
+    print()
+    print("| a train of coaches (models/two-coaches' coach and coupling) | dof | CPU per step | per car |")
+    print("|---|---|---|---|")
+    for c, nv, step in trains:
+        print(f"| {c} car{'s' if c > 1 else ''} | {nv} | {step * 1e6:.1f} µs | {step / c * 1e6:.1f} µs |")
+    print()
+    print("| 16 coach runs of 500 m (30-70 m/s), `simulate_many` | wall | CPU | speed-up |")
+    print("|---|---|---|---|")
+    for t, wall, cpu in threads:
+        print(f"| {t} thread{'s' if t > 1 else ''} | {wall:.2f} s | {cpu:.2f} s | {threads[0][1] / wall:.2f}x |")
+
+
 def print_curve(rows) -> None:
     print("| one RK4 step with the native creep callback, CPU time | straight | in a 600 m curve | curve / straight |")
     print("|---|---|---|---|")
@@ -607,6 +675,9 @@ def main() -> None:
         return
     if "--irregular" in sys.argv[1:]:
         print_irregular(irregular_cost())
+        return
+    if "--scaling" in sys.argv[1:]:
+        print_scaling(scaling())
         return
     if "--batch" in sys.argv[1:]:
         print_batch()
