@@ -305,7 +305,8 @@ class Response:
             self._growth = float(np.max(np.where(np.abs(roots.real) <= NEUTRAL * np.abs(roots), 0.0, roots.real)))
         return self._growth
 
-    def _check_stable(self) -> None:
+    def check_stable(self) -> None:
+        """ValueError, in one line, if the vehicle is unstable at its speed (`growth` above zero)."""
         if self.growth > 0.0:
             raise ValueError(
                 f"{self.layout.source}: unstable at {self.speed:g} m/s (a mode grows at {self.growth:.3g} 1/s: "
@@ -357,7 +358,7 @@ class Response:
         f = np.atleast_1d(np.asarray(frequencies, dtype=float))
         if not (np.all(np.isfinite(f)) and np.all(f > 0.0)):
             raise ValueError("frequencies must be positive numbers")
-        self._check_stable()
+        self.check_stable()
         omega = 2.0 * np.pi * f
         u = self._drive(channel, omega / self.speed)
         n = self.A.shape[0]

@@ -184,11 +184,10 @@ def response_cmd(
         raise Failure(
             f"--amplitude: {e}" if amplitude is not None and "amplitude" in str(e) else str(e), EXIT_BAD_INPUT
         ) from None
-    if response.growth > 0.0:
-        try:
-            response.transfer(response.inputs[0], freqs[:1])
-        except ValueError as e:  # unstable: no steady response
-            raise Failure(str(e), EXIT_BAD_INPUT) from None
+    try:
+        response.check_stable()
+    except ValueError as e:  # above the critical speed: no steady response
+        raise Failure(str(e), EXIT_BAD_INPUT) from None
     channels = channels or list(response.inputs)
     for c in channels:
         if c not in response.inputs:
