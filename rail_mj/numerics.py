@@ -68,24 +68,25 @@ VEHICLE_HEADER = 7
 SPEED = 0  # offset of the speed within a vehicle's entries
 TRACK_AT = 6  # offset of the track part's offset within a vehicle's entries
 
-# The track part: the odometer body (a slide along x whose position is the distance along the
-# track of the vehicle's origin; -1: straight track, and the counts are 0), the gravity (m/s^2)
-# that the cant turns into the track plane, the number of the track's breakpoints, of the
-# bodies the curve loads, of the joints its geometry deflects and of the tendons it deflects,
-# the odometer's dof and the number of points of the run's speed profile (0: the speed is the
-# vehicle's constant one). Then per speed point SPEED_POINT entries, the odometer's station (m)
-# and the speed there (m/s), linear between them (rail_mj.track.speed); per breakpoint
-# (curvature and cant linear between them) BREAKPOINT entries: x (m), curvature (1/m), cant (m),
-# heading (rad: the integral of the curvature from x = 0) and its
-# integral (m); per body: body, x in the vehicle (m), height of its centre of mass above the
-# rail (m; 0 in a planar model, whose bodies have no height), mass (kg), yaw inertia (kg m^2),
-# then the joints from it to the world as a wheelset's; per joint: its dof, stiffness and damping, the number of
-# terms, then (pose, coefficient) per term, where pose 3*b + k is body b's lateral offset
-# (k = 0), heading (1) or cant roll (2) that the track gives it; per tendon: tendon, its
-# length's terms as a joint's (an axlebox tendon's include its wheelset's cant roll, which no
-# joint takes: rail_mj.vehicle.curve), then the dofs it acts on: count, then (dof, coefficient).
-# The header's last entry is where the irregularity part starts, from the track part's first entry
-# (0: a perfect track, no part).
+# The track part: the odometer body (a slide along x whose position is the distance along the track
+# of the vehicle's origin; -1: straight track, and the counts are 0), the gravity (m/s^2) that the
+# cant turns into the track plane, the number of the track's breakpoints, of the bodies the curve
+# loads, of the joints its geometry deflects and of the tendons it deflects, the odometer's dof and
+# the number of points of the run's speed profile (0: the speed is the vehicle's constant one). Then
+# per speed point SPEED_POINT entries, the odometer's station (m) and the speed there (m/s), linear
+# between them (rail_mj.track.speed); per breakpoint (curvature and cant linear between them)
+# BREAKPOINT entries: x (m), curvature (1/m), cant (m), heading (rad: the integral of the curvature
+# from x = 0) and its integral (m); then the entries' index: where each body's, joint's and tendon's
+# entry starts and where the last ends, from the part's first entry (so that the callback reads
+# entries of different lengths without walking them one after another); then per body: body, x in
+# the vehicle (m), height of its centre of mass above the rail (m; 0 in a planar model, whose bodies
+# have no height), mass (kg), yaw inertia (kg m^2), then the joints from it to the world as a
+# wheelset's; per joint: its dof, stiffness and damping, the number of terms, then (pose,
+# coefficient) per term, where pose 3*b + k is body b's lateral offset (k = 0), heading (1) or cant
+# roll (2) that the track gives it; per tendon: tendon, its length's terms as a joint's (an axlebox
+# tendon's include its wheelset's cant roll, which no joint takes: rail_mj.vehicle.curve), then the
+# dofs it acts on: count, then (dof, coefficient). The header's last entry is where the irregularity
+# part starts, from the track part's first entry (0: a perfect track, no part).
 TRACK_HEADER = 9
 IRREGULAR_AT = 8  # offset of the irregularity part's offset within the track part
 # The irregularity part (rail_mj.vehicle.rails): the number of spline intervals m, the first
@@ -118,15 +119,11 @@ def vehicle_starts(data: np.ndarray) -> list[int]:
 
 def track_part_size(data: np.ndarray, k: int) -> int:
     """The number of entries of the track part starting at `k`."""
+    if data[k] < 0:  # straight track: the header alone
+        return TRACK_HEADER
     breakpoints, bodies, joints, tendons = (int(v) for v in data[k + 2 : k + 6])
-    e = k + TRACK_HEADER + SPEED_POINT * int(data[k + 7]) + BREAKPOINT * breakpoints
-    for _ in range(bodies):
-        e += 6 + 3 * int(data[e + 5])
-    for _ in range(joints):
-        e += 4 + 2 * int(data[e + 3])
-    for _ in range(tendons):
-        e += 2 + 2 * int(data[e + 1])
-        e += 1 + 2 * int(data[e])
+    index = k + TRACK_HEADER + SPEED_POINT * int(data[k + 7]) + BREAKPOINT * breakpoints
+    e = k + int(data[index + bodies + joints + tendons])
     if int(data[k + IRREGULAR_AT]):
         e = k + int(data[k + IRREGULAR_AT])
         intervals, wheelsets = int(data[e]), int(data[e + 4])

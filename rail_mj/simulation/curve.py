@@ -31,8 +31,8 @@ import math
 
 import numba
 
-from rail_mj.numerics import BREAKPOINT, ODOMETER_MASS, POSES, SPEED_POINT, TRACK_HEADER
-from rail_mj.vehicle.poses import LOADS, breakpoints_at, table_of, track_at
+from rail_mj.numerics import ODOMETER_MASS, POSES, SPEED_POINT, TRACK_HEADER
+from rail_mj.vehicle.poses import LOADS, breakpoints_at, entry_at, last_at_or_before, track_at
 
 
 @numba.njit(cache=True)
@@ -73,14 +73,8 @@ def profiled_speed(block, k, s, qvel, force):
     elif s >= block[p + SPEED_POINT * (n - 1)]:
         target, gradient = block[p + SPEED_POINT * (n - 1) + 1], 0.0
     else:
-        lo, hi = 0, n - 1  # bisect: a slow ramp has hundreds of points
-        while hi - lo > 1:
-            mid = (lo + hi) // 2
-            if block[p + SPEED_POINT * mid] <= s:
-                lo = mid
-            else:
-                hi = mid
-        a, b = p + SPEED_POINT * lo, p + SPEED_POINT * hi
+        lo = last_at_or_before(block, p, SPEED_POINT, n, s)  # a slow ramp has hundreds of points
+        a, b = p + SPEED_POINT * lo, p + SPEED_POINT * (lo + 1)
         gradient = (block[b + 1] - block[a + 1]) / (block[b] - block[a])
         target = block[a + 1] + gradient * (s - block[a])
     force[dof] += ODOMETER_MASS * (speed * gradient + (target - speed) / PROFILE_RELAXATION)
@@ -90,11 +84,18 @@ def profiled_speed(block, k, s, qvel, force):
 @numba.njit(cache=True)
 def curvature_at(block, k, s):
     """The curvature at `s` of the track part at `k`."""
-    return track_at(table_of(block, k), s)[0]
+    return track_at(block, breakpoints_at(block, k), int(block[k + 2]), s, -1)[0]
+
+
+@numba.njit(cache=True, inline="always")
+def body_loads(scratch, nb, i):
+    """Body `i`'s curve loads (fy, fz, mz) in curve_state's `scratch` of `nb` bodies."""
+    loads = 2 * POSES * nb + LOADS * i
+    return scratch[loads], scratch[loads + 1], scratch[loads + 2]
 
 
 @numba.njit(cache=True)
-def _push(force, chain, count, xpos, xanchor, xaxis, body, fy, fz, mz):
+def push_load(force, chain, count, xpos, xanchor, xaxis, body, fy, fz, mz):
     """Add J^T (F, M) for a force F = (0, fy, fz) at `body`'s origin (its centre of mass: rail-mj
     puts every body's there) and a moment M = (0, 0, mz), over the joints `chain`."""
     px, py, pz = xpos[3 * body], xpos[3 * body + 1], xpos[3 * body + 2]
@@ -122,7 +123,7 @@ def _spring(stiffness, low, high, length):
 def add_curve_forces(
     block,
     k,
-    e,
+    pushed,
     scratch,
     xpos,
     xanchor,
@@ -137,36 +138,36 @@ def add_curve_forces(
     force,
 ):
     """Add the curve's forces (see the module) of the vehicle whose track part starts at `k`,
-    its bodies' poses, rates and loads in `scratch` and their entries ending at `e`
-    (rail_mj.vehicle.poses.curve_state), its tendons' model lengths and rates `length`,
-    `velocity` and their real ones, shifted (rail_mj.vehicle.poses.add_tendon_shifts); where the
-    part ends."""
+    its bodies' poses, rates and loads in `scratch` (rail_mj.vehicle.poses.curve_state), its
+    tendons' model lengths and rates `length`, `velocity` and their real ones, shifted
+    (rail_mj.vehicle.poses.add_tendon_shifts); the loads of its first `pushed` bodies (its
+    wheelsets) the caller has pushed with their contact forces. Where the part's entries end."""
     nb, nr, nt = int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
-    rates, loads = POSES * nb, 2 * POSES * nb
-    b = breakpoints_at(block, k) + BREAKPOINT * int(block[k + 2])  # the bodies' entries
-    for i in range(nb):
+    rates = POSES * nb
+    for i in range(pushed, nb):
+        b = entry_at(block, k, i)
         body, count = int(block[b]), int(block[b + 5])
         chain = numba.carray(block, (b + 6 + 3 * count,))[b + 6 :]
-        b += 6 + 3 * count
-        fy, fz, mz = scratch[loads + LOADS * i], scratch[loads + LOADS * i + 1], scratch[loads + LOADS * i + 2]
-        _push(force, chain, count, xpos, xanchor, xaxis, body, fy, fz, mz)
-    for _ in range(nr):
-        dof, k_joint, c_joint, terms = int(block[e]), block[e + 1], block[e + 2], int(block[e + 3])
-        q, q_rate = 0.0, 0.0
+        fy, fz, mz = body_loads(scratch, nb, i)
+        push_load(force, chain, count, xpos, xanchor, xaxis, body, fy, fz, mz)
+    for i in range(nr):  # the joints' and linear tendons' pre-deflections, folded per dof
+        e = entry_at(block, k, nb + i)
+        dof, terms = int(block[e]), int(block[e + 1])
+        f = 0.0
         for c in range(terms):
-            p, coefficient = int(block[e + 4 + 2 * c]), block[e + 5 + 2 * c]
-            q += coefficient * scratch[p]
-            q_rate += coefficient * scratch[rates + p]
-        force[dof] -= k_joint * q + c_joint * q_rate
-        e += 4 + 2 * terms
-    for _ in range(nt):
-        t = int(block[e])
+            p = int(block[e + 2 + 3 * c])
+            f += block[e + 3 + 3 * c] * scratch[p] + block[e + 4 + 3 * c] * scratch[rates + p]
+        force[dof] += f
+    for i in range(nt):  # the rest: each from its real length and its model length
+        e = entry_at(block, k, nb + nr + i)
         e += 2 + 2 * int(block[e + 1])
+        dofs = int(block[e])
+        if dofs == 0:
+            continue  # folded above: listed for its shift alone
+        t = int(block[entry_at(block, k, nb + nr + i)])
         low, high = springlength[2 * t], springlength[2 * t + 1]
         extra = _spring(stiffness[t], low, high, shifted[t]) - _spring(stiffness[t], low, high, length[t])
         extra -= damping[t] * (shifted_rate[t] - velocity[t])
-        dofs = int(block[e])
         for c in range(dofs):
             force[int(block[e + 1 + 2 * c])] += block[e + 2 + 2 * c] * extra
-        e += 1 + 2 * dofs
-    return e
+    return entry_at(block, k, nb + nr + nt)

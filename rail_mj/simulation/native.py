@@ -50,7 +50,7 @@ from numba.extending import intrinsic
 
 from rail_mj.contact.creep import profiled_contact, wheelset_contact
 from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, TRACK_AT, TRACK_HEADER, VEHICLE_HEADER
-from rail_mj.simulation.curve import add_curve_forces, curvature_at, odometer, profiled_speed
+from rail_mj.simulation.curve import add_curve_forces, body_loads, curvature_at, odometer, profiled_speed, push_load
 from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-exported: a native model's speed)
 from rail_mj.vehicle.poses import add_tendon_shifts, curve_state, scratch_size
 from rail_mj.vehicle.rails import (
@@ -267,16 +267,17 @@ def _apply(
         # The tendons' real deflections and rates: on a curve their model lengths plus their shifts
         # (rail_mj.vehicle.poses), copies for this call; on straight track the model's own.
         lengths, velocities = numba.carray(length, ntendon), numba.carray(velocity, ntendon)
-        scratch, bodies_end = lengths[:0], 0
+        scratch, bodies = lengths[:0], 0
         if curved:  # one allocation a call: the bodies' poses, then the tendons' real lengths and rates
             size = scratch_size(block, track)
             buffer = np.empty(size + 2 * ntendon)
             scratch = buffer[:size]
-            bodies_end = curve_state(block, track, speed, s_ref, scratch)
+            curve_state(block, track, speed, s_ref, scratch)
+            bodies = int(block[track + 3])
             lengths, velocities = buffer[size : size + ntendon], buffer[size + ntendon :]
             for t in range(ntendon):
                 lengths[t], velocities[t] = length[t], velocity[t]
-            add_tendon_shifts(block, track, bodies_end, scratch, lengths, velocities)
+            add_tendon_shifts(block, track, scratch, lengths, velocities)
         # An irregular track (rail_mj.vehicle.rails): each wheelset on the rails at its own station.
         rails = irregular_at(block, track) if curved else 0
         vertical = rails != 0 and block[rails + 3] != 0.0
@@ -322,8 +323,14 @@ def _apply(
                     load += mass * speed * speed * r[LEVEL_CURVATURE]
                     moment -= roll_inertia * speed * speed * r[ROLL_CURVATURE]
                 w = next_wheelset(block, w)
-            if speed <= 0.0:
-                continue  # no speed set: no rolling, no creep
+            if curved and bodies:  # its curve loads, which add_curve_forces leaves to this loop
+                cfy, cfz, cmz = body_loads(scratch, bodies, i)
+            else:
+                cfy = cfz = cmz = 0.0
+            if speed <= 0.0:  # no speed set: no rolling, no creep; the curve's loads alone
+                if cfy != 0.0 or cfz != 0.0 or cmz != 0.0:
+                    push_load(force, chain, count, xpos, xanchor, xaxis, body, cfy, cfz, cmz)
+                continue
             y = xpos[3 * body + 1]
             psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
@@ -378,6 +385,9 @@ def _apply(
                 fy += push
             if f[9] != 0.0:  # the gyroscopic yaw moment (as the kernel adds it)
                 mz += f[9]
+            if curved and bodies:  # with the body's curve loads, in one pass over its joints
+                push_load(force, chain, count, xpos, xanchor, xaxis, body, fy + cfy, cfz, mz + cmz)
+                continue
             px, pz = xpos[3 * body], xpos[3 * body + 2]
             for c in range(count):
                 j, dof, hinge = int(chain[3 * c]), int(chain[3 * c + 1]), chain[3 * c + 2]
@@ -397,7 +407,7 @@ def _apply(
             k = add_curve_forces(
                 block,
                 track,
-                bodies_end,
+                n,
                 scratch,
                 xpos,
                 xanchor,

@@ -14,7 +14,8 @@ callback (rail_mj.simulation.curve) from what this module writes into the block:
 - the map from the track's geometry at each body (its lateral offset from the reference
   tangent, its heading and its cant roll) to the model's joint coordinates, from the model's
   own body Jacobians: the geometric pre-deflection of every joint spring and, through each
-  tendon's joint coefficients, of every tendon.
+  tendon's joint coefficients, of every tendon; the linear ones' forces summed per dof, and the
+  tendons whose real lengths the wheel loads read, or whose forces are not linear, listed.
 """
 
 from __future__ import annotations
@@ -98,6 +99,10 @@ def track_part(
         for b in range(1, model.nbody)
         if model.body(b).name.startswith(prefix) and b != odometer and joint_chain(model, b)
     ]
+    # The wheelsets first, in order: the callback adds their curve loads to their contact forces
+    # and pushes both through their joint chains at once (rail_mj.simulation.native).
+    wheelsets = [model.body(f"{prefix}wheelset{i + 1}").id for i in range(layout.n_wheelsets)]
+    own = wheelsets + [b for b in own if b not in wheelsets]
     dofs = sorted({int(model.jnt_dofadr[j]) for b in own for j in _own_joints(model, b)})
     # J: each body's lateral offset, yaw and roll (rows) from the joint coordinates (columns).
     jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
@@ -114,23 +119,36 @@ def track_part(
 
     part: list[float] = [float(odometer), GRAVITY if gravity else 0.0]
     table = breakpoints(track)
-    bodies: list[float] = []
+    bodies: list[list[float]] = []  # entries, each a list
     for b in own:
         chain = joint_chain(model, b)
         height = float(data.xipos[b, 2]) if spatial else 0.0
         # Principal axes along the track's (rail_mj.vehicle.joints): the yaw inertia is the third.
         inertia = float(model.body_inertia[b, 2])
-        bodies += [
-            float(b),
-            float(data.xipos[b, 0]),
-            height,
-            float(model.body_mass[b]),
-            inertia,
-            len(chain) / 3,
-            *chain,
-        ]
-    joints: list[float] = []
-    n_joints = 0
+        bodies.append(
+            [
+                float(b),
+                float(data.xipos[b, 0]),
+                height,
+                float(model.body_mass[b]),
+                inertia,
+                len(chain) / 3,
+                *chain,
+            ]
+        )
+    # The dofs' rows: the pre-deflection forces of the joint springs and of every linear tendon
+    # (no deadband) folded into one linear map from the poses and their rates to each dof, on
+    # pose p: -(k*G[p]) summed over the elements (k a joint's stiffness, or a tendon's times its
+    # coefficient on the dof), on its rate the same with the dampings.
+    on_pose: dict[int, np.ndarray] = {}
+    on_rate: dict[int, np.ndarray] = {}
+
+    def fold(dof: int, row: np.ndarray, stiffness: float, damping: float) -> None:
+        on_pose.setdefault(dof, np.zeros(jacobian.shape[0]))
+        on_rate.setdefault(dof, np.zeros(jacobian.shape[0]))
+        on_pose[dof] -= stiffness * row
+        on_rate[dof] -= damping * row
+
     for dof in dofs:
         joint = int(model.dof_jntid[dof])
         stiffness, damping = float(model.jnt_stiffness[joint]), float(model.dof_damping[dof])
@@ -142,11 +160,13 @@ def track_part(
             stiffness = 0.0
         if (stiffness == 0.0 and damping == 0.0) or not np.any(g[column[dof]]):
             continue  # nothing to deflect, or the track moves it not
-        joints += [float(dof), stiffness, damping, *_terms(g[column[dof]])]
-        n_joints += 1
+        fold(dof, g[column[dof]], stiffness, damping)
     roll = _wheelset_roll(model, layout, prefix, own, data)
-    tendons: list[float] = []
-    n_tendons = 0
+    read = _tendons_read(model, layout, prefix)
+    # The tendons listed: those whose real lengths the wheel loads and shear couples read (shifted
+    # for them), and those whose forces are not linear in the shift, with the dofs they act on: a
+    # deadband's, and on irregular rails the axlebox tendons', which the rails deflect as well.
+    tendons: list[list[float]] = []
     for t in range(model.ntendon):
         if not model.tendon(t).name.startswith(prefix):
             continue
@@ -158,26 +178,42 @@ def track_part(
             index, on_moment, height = roll[t]
             row[POSES * index + 2] += on_moment + row[POSES * index] * height
             row[np.abs(row) < ROUND_OFF] = 0.0
-        tendons += [float(t), *_terms(row), float(len(coefficients))]
-        tendons += [v for dof, c in coefficients for v in (float(dof), c)]
-        n_tendons += 1
-    n_bodies = len(own)
+        low, high = model.tendon_lengthspring[t]
+        linear = low == high and not (track.irregularities is not None and t in roll)
+        if linear:
+            for dof, c in coefficients:
+                fold(dof, row, c * float(model.tendon_stiffness[t]), c * float(model.tendon_damping[t]))
+            if t in read:
+                tendons.append([float(t), *_terms(row), 0.0])
+        else:
+            dof_terms = [v for dof, c in coefficients for v in (float(dof), c)]
+            tendons.append([float(t), *_terms(row), float(len(coefficients)), *dof_terms])
+    joints: list[list[float]] = []
+    for dof in sorted(on_pose):
+        pose, rate = on_pose[dof], on_rate[dof]
+        terms = np.nonzero((pose != 0.0) | (rate != 0.0))[0]
+        if len(terms):
+            joints.append([float(dof), float(len(terms)), *(v for p in terms for v in (float(p), pose[p], rate[p]))])
     if _straight_and_level(track):
         # The track's geometry moves no body and loads none (every pose and load above is zero): the
         # callback skips them. On irregular rails the axlebox tendons stay listed, with no terms, for
         # the forces of the rails' deflections of them (rail_mj.vehicle.rails).
-        bodies, joints, n_bodies, n_joints = [], [], 0, 0
-        tendons, n_tendons = [], 0
+        bodies, joints, tendons = [], [], []
         if track.irregularities is not None:
             for t in sorted(roll):
                 coefficients = tendon_coefficients(model, t)
-                tendons += [float(t), 0.0, float(len(coefficients))]
-                tendons += [v for dof, c in coefficients for v in (float(dof), c)]
-                n_tendons += 1
-    part += [float(len(table)), float(n_bodies), float(n_joints), float(n_tendons)]
+                dof_terms = [v for dof, c in coefficients for v in (float(dof), c)]
+                tendons.append([float(t), 0.0, float(len(coefficients)), *dof_terms])
+    part += [float(len(table)), float(len(bodies)), float(len(joints)), float(len(tendons))]
     points = [] if profile is None else profile.block()
     part += [float(model.joint(prefix + ODOMETER).dofadr[0]), float(len(points) // 2)]
-    body = np.concatenate([points, table.reshape(-1), bodies, joints, tendons])
+    # The entries' index (rail_mj.numerics): where each body's, joint's and tendon's entry starts and
+    # where the last ends, from the part's first entry, so that the callback reads them independently.
+    entries = [*bodies, *joints, *tendons]
+    first = len(part) + 1 + len(points) + table.size + len(entries) + 1
+    starts = first + np.cumsum([0] + [len(entry) for entry in entries])
+    flat = [v for entry in entries for v in entry]
+    body = np.concatenate([points, table.reshape(-1), starts.astype(np.float64), flat])
     if track.irregularities is None:
         return np.concatenate([part, [0.0], body])
     from rail_mj.vehicle.rails import irregular_part
@@ -185,6 +221,23 @@ def track_part(
     # Where the irregularity part starts, from the track part's first entry (rail_mj.numerics).
     offset = len(part) + 1 + len(body)
     return np.concatenate([part, [float(offset)], body, irregular_part(model, layout, track, prefix)])
+
+
+def _tendons_read(model: mujoco.MjModel, layout: Layout, prefix: str) -> set[int]:
+    """The tendons whose lengths the wheel loads and the frames' shear couples read
+    (rail_mj.vehicle.loads): the callback shifts their copies on a curve."""
+    from rail_mj.vehicle.loads import AxleLoads, ShearCouples
+
+    read: set[int] = set()
+    loads = AxleLoads.of(model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)], prefix)
+    if loads is not None:
+        for i in range(layout.n_wheelsets):
+            read.update(int(t) for t in loads.rows(model, i, prefix)[:, 0])
+            read.update(int(t) for t in loads.shear_rows(model, i, prefix).reshape(-1))
+    couples = ShearCouples.of(model, prefix)
+    if couples is not None:
+        read.update(int(t) for t in couples.rows(model, prefix)[:, :3].reshape(-1))
+    return read
 
 
 def _straight_and_level(track: Track) -> bool:

@@ -28,37 +28,63 @@ LOADS = 3  # per body, after the poses and rates in the scratch: fy, fz, mz
 
 
 @numba.njit(cache=True)
-def track_at(table, s):
-    """(curvature, cant, heading, heading's integral, cant's slope, curvature's slope) at
-    distance `s` from the breakpoints `table` (rows: x, curvature, cant, heading, heading's
-    integral), curvature and cant linear between breakpoints and held beyond the ends."""
-    m = table.shape[0]
-    if s <= table[0, 0]:
-        t = s - table[0, 0]
-        k = table[0, 1]
-        return k, table[0, 2], table[0, 3] + k * t, table[0, 4] + table[0, 3] * t + 0.5 * k * t * t, 0.0, 0.0
-    if s >= table[m - 1, 0]:
-        t = s - table[m - 1, 0]
-        k = table[m - 1, 1]
-        heading, integral = table[m - 1, 3], table[m - 1, 4]
-        return k, table[m - 1, 2], heading + k * t, integral + heading * t + 0.5 * k * t * t, 0.0, 0.0
-    lo, hi = 0, m - 1  # the last breakpoint at or before s: table[lo, 0] <= s < table[hi, 0]
+def last_at_or_before(block, start, stride, n, s):
+    """The last of `n` rows of `stride` entries at `start` whose first entry (ascending) is at
+    or before `s`, the first row's at or before it and the last's after it: a bisection."""
+    lo, hi = 0, n - 1
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if table[mid, 0] <= s:
+        if block[start + stride * mid] <= s:
             lo = mid
         else:
             hi = mid
-    i = lo
-    length = table[i + 1, 0] - table[i, 0]
-    t = s - table[i, 0]
-    k0, dk = table[i, 1], table[i + 1, 1] - table[i, 1]
-    slope = (table[i + 1, 2] - table[i, 2]) / length
-    heading0 = table[i, 3]
-    curvature = k0 + dk * t / length
-    heading = heading0 + k0 * t + dk * t * t / (2.0 * length)
-    integral = table[i, 4] + heading0 * t + 0.5 * k0 * t * t + dk * t * t * t / (6.0 * length)
-    return curvature, table[i, 2] + slope * t, heading, integral, slope, dk / length
+    return lo
+
+
+@numba.njit(cache=True)
+def track_at(block, start, m, s, hint):
+    """(curvature, cant, heading, heading's integral, cant's slope, curvature's slope, interval)
+    at distance `s` from the `m` breakpoints at `start` in `block` (rows of BREAKPOINT: x,
+    curvature, cant, heading, heading's integral), curvature and cant linear between breakpoints
+    and held beyond the ends; `hint`, an interval to try before searching (the reference's: a
+    vehicle's bodies are metres apart, breakpoints mostly hundreds), -1 beyond the ends.
+
+    Read through the pointer, not as a (m, BREAKPOINT) view: a view costs more than the lookup.
+    Where curvature or cant is constant between two breakpoints (a curve's constant part, a
+    straight) their ramps' divisions are left out: they would add exact zeros."""
+    if s <= block[start]:
+        t = s - block[start]
+        k = block[start + 1]
+        heading, integral = block[start + 3], block[start + 4]
+        return k, block[start + 2], heading + k * t, integral + heading * t + 0.5 * k * t * t, 0.0, 0.0, -1
+    last = start + BREAKPOINT * (m - 1)
+    if s >= block[last]:
+        t = s - block[last]
+        k = block[last + 1]
+        heading, integral = block[last + 3], block[last + 4]
+        return k, block[last + 2], heading + k * t, integral + heading * t + 0.5 * k * t * t, 0.0, 0.0, -1
+    if 0 <= hint < m - 1 and block[start + BREAKPOINT * hint] <= s < block[start + BREAKPOINT * (hint + 1)]:
+        i = hint
+    else:
+        i = last_at_or_before(block, start, BREAKPOINT, m, s)
+    p = start + BREAKPOINT * i
+    q = p + BREAKPOINT
+    length = block[q] - block[p]
+    t = s - block[p]
+    k0, dk = block[p + 1], block[q + 1] - block[p + 1]
+    heading0, integral0 = block[p + 3], block[p + 4]
+    # The ramps' terms are exact zeros where dk (or the cant's step) is 0: + 0.0 keeps their sum's bits.
+    if dk == 0.0:
+        curvature, curvature_slope = k0 + 0.0, 0.0
+        heading = heading0 + k0 * t + 0.0
+        integral = integral0 + heading0 * t + 0.5 * k0 * t * t + 0.0
+    else:
+        curvature, curvature_slope = k0 + dk * t / length, dk / length
+        heading = heading0 + k0 * t + dk * t * t / (2.0 * length)
+        integral = integral0 + heading0 * t + 0.5 * k0 * t * t + dk * t * t * t / (6.0 * length)
+    rise = block[q + 2] - block[p + 2]
+    slope = rise / length if rise != 0.0 else 0.0
+    return curvature, block[p + 2] + slope * t, heading, integral, slope, curvature_slope, i
 
 
 @numba.njit(cache=True, inline="always")
@@ -68,11 +94,10 @@ def breakpoints_at(block, k):
 
 
 @numba.njit(cache=True, inline="always")
-def table_of(block, k):
-    """The breakpoints of the track part at `k` (`block` a pointer, as the callback has it)."""
-    m = int(block[k + 2])
-    start = breakpoints_at(block, k)
-    return numba.carray(block, (start + BREAKPOINT * m,))[start:].reshape((m, BREAKPOINT))
+def entry_at(block, k, i):
+    """Where entry `i` of the track part at `k` starts (bodies, then joints, then tendons, then
+    one past the last: the index after its breakpoints, rail_mj.numerics)."""
+    return k + int(block[breakpoints_at(block, k) + BREAKPOINT * int(block[k + 2]) + i])
 
 
 @numba.njit(cache=True, inline="always")
@@ -86,25 +111,33 @@ def curve_state(block, k, speed, s_ref, scratch):
     """The track part at `k` with the vehicle's origin at station `s_ref`: fill `scratch`
     (`scratch_size`, the caller's: nothing is shared between threads) with each body's pose
     (POSES per body: lateral offset, heading, cant roll), their rates, then its curve loads (fy,
-    fz, mz: rail_mj.simulation.curve); where the bodies' entries end."""
+    fz, mz: rail_mj.simulation.curve)."""
     gravity = block[k + 1]
     m, nb = int(block[k + 2]), int(block[k + 3])
-    table = table_of(block, k)
-    e = breakpoints_at(block, k) + BREAKPOINT * m
-    k_ref, cant_ref, h_ref, i_ref, slope_ref, _ = track_at(table, s_ref)
+    start = breakpoints_at(block, k)
+    k_ref, cant_ref, h_ref, i_ref, slope_ref, _, interval = track_at(block, start, m, s_ref, -1)
     # The reference: the track plane at the vehicle's origin, which the model's world is.
     theta_ref = math.asin(cant_ref / CANT_BASE)
-    theta_rate_ref = speed * slope_ref / (CANT_BASE * math.cos(theta_ref))
+    theta_rate_ref = speed * slope_ref
+    if slope_ref != 0.0:
+        theta_rate_ref /= CANT_BASE * math.cos(theta_ref)
+    # The cant's angle, sine and cosine at the last cant met: on a constant cant (a curve's body,
+    # a straight) every body has the reference's, and the transcendentals are taken once a call.
+    last_cant, sine = cant_ref, cant_ref / CANT_BASE
+    cosine, theta = math.sqrt(1.0 - sine * sine), theta_ref
     rates, loads = POSES * nb, 2 * POSES * nb
     for b in range(nb):
+        e = entry_at(block, k, b)
         x, height, mass, yaw_inertia = block[e + 1], block[e + 2], block[e + 3], block[e + 4]
-        e += 6 + 3 * int(block[e + 5])
-        curvature, cant, heading, integral, slope, curvature_slope = track_at(table, s_ref + x)
-        # sin and cos of the cant angle from the cant itself: one transcendental a body, not four.
-        sine = cant / CANT_BASE
-        cosine = math.sqrt(1.0 - sine * sine)
-        theta = math.asin(sine)
-        theta_rate = speed * slope / (CANT_BASE * cosine)
+        curvature, cant, heading, integral, slope, curvature_slope, _ = track_at(block, start, m, s_ref + x, interval)
+        if cant != last_cant:
+            # sin and cos of the cant angle from the cant itself: one transcendental a body, not four.
+            last_cant, sine = cant, cant / CANT_BASE
+            cosine = math.sqrt(1.0 - sine * sine)
+            theta = math.asin(sine)
+        theta_rate = speed * slope
+        if slope != 0.0:
+            theta_rate /= CANT_BASE * cosine
         # Off the reference tangent: the integral of the heading's change from the reference;
         # the track plane here rolled from the reference's (the right rail up: about +x,
         # -theta) about the rail-level centreline, which moves a centre of mass at `height`.
@@ -121,30 +154,25 @@ def curve_state(block, k, speed, s_ref, scratch):
         # Along a transition the track's heading turns faster and faster under the body: in the
         # track-following frame, the frame's angular acceleration V^2*k' as a yaw moment.
         scratch[loads + LOADS * b + 2] = -yaw_inertia * speed * speed * curvature_slope
-    return e
 
 
 @numba.njit(cache=True)
-def add_tendon_shifts(block, k, e, scratch, length, velocity):
-    """Add to each tendon of the track part at `k` its shift and its rate (`e`: where the
-    bodies' entries end, `scratch`: curve_state's) in `length` and `velocity` (arrays by
-    tendon id, the model's lengths and rates copied)."""
+def add_tendon_shifts(block, k, scratch, length, velocity):
+    """Add to each tendon of the track part at `k` its shift and its rate (`scratch`:
+    curve_state's) in `length` and `velocity` (arrays by tendon id, the model's lengths and
+    rates copied)."""
     nb, nr, nt = int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
     rates = POSES * nb
-    for _ in range(nr):
-        e += 4 + 2 * int(block[e + 3])
-    for _ in range(nt):
+    for i in range(nt):
+        e = entry_at(block, k, nb + nr + i)
         t, terms = int(block[e]), int(block[e + 1])
-        e += 2
         shift, shift_rate = 0.0, 0.0
         for c in range(terms):
-            p, coefficient = int(block[e + 2 * c]), block[e + 1 + 2 * c]
+            p, coefficient = int(block[e + 2 + 2 * c]), block[e + 3 + 2 * c]
             shift += coefficient * scratch[p]
             shift_rate += coefficient * scratch[rates + p]
-        e += 2 * terms
         length[t] += shift
         velocity[t] += shift_rate
-        e += 1 + 2 * int(block[e])
 
 
 @intrinsic
@@ -166,5 +194,5 @@ def tendon_shifts(data, k, speeds, stations, lengths, rates):
     block = _pointer(data)
     scratch = np.empty(scratch_size(block, k))
     for i in range(stations.shape[0]):
-        e = curve_state(block, k, speeds[i], stations[i], scratch)
-        add_tendon_shifts(block, k, e, scratch, lengths[i], rates[i])
+        curve_state(block, k, speeds[i], stations[i], scratch)
+        add_tendon_shifts(block, k, scratch, lengths[i], rates[i])
