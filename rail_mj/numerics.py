@@ -105,6 +105,16 @@ SPEED_POINT = 2
 # for MuJoCo; a speed profile drives it with the force ODOMETER_MASS * V * dV/ds.
 ODOMETER_MASS = 1.0
 POSES = 3  # per body: lateral offset, heading, roll
+LOADS = 3  # per body, after the poses and rates in the curve's scratch: fy, fz, mz
+# The native callback's scratch, in mjData.userdata (its size, `userdata_size`, set by the model's
+# builder): the tendons' real lengths, then their real rates (ntendon each), copies made once a call
+# on a curve; then per vehicle on a curve its cache of what the track's geometry gives it at one
+# station and speed (a pure function of the two, so that a hit changes no bit): CACHE_KEY entries (1
+# once filled, the model's address, the station and the speed it was filled at), the bodies' poses,
+# rates and loads ((2*POSES + LOADS) per body: rail_mj.vehicle.poses.curve_state), each listed
+# tendon's shift and its rate, each dof row's force. RK4 evaluates at each station twice (its second
+# and third stages, and its fourth and the next step's first), so half the calls find it filled.
+CACHE_KEY = 4
 
 
 def vehicle_starts(data: np.ndarray) -> list[int]:
@@ -115,6 +125,21 @@ def vehicle_starts(data: np.ndarray) -> list[int]:
         k += int(data[k + TRACK_AT])
         k += track_part_size(data, k)
     return starts
+
+
+def cache_size(data: np.ndarray, k: int) -> int:
+    """The size of the callback's cache for the track part at `k` (0: straight track, none)."""
+    if data[k] < 0:
+        return 0
+    bodies, joints, tendons = (int(v) for v in data[k + 3 : k + 6])
+    return CACHE_KEY + (2 * POSES + LOADS) * bodies + 2 * tendons + joints
+
+
+def userdata_size(data: np.ndarray, ntendon: int) -> int:
+    """The mjData.userdata the native callback uses as scratch for the block `data` of a model
+    with `ntendon` tendons: 0 where every vehicle is on straight track."""
+    caches = [cache_size(data, k + int(data[k + TRACK_AT])) for k in vehicle_starts(data)]
+    return 2 * ntendon + sum(caches) if any(caches) else 0
 
 
 def track_part_size(data: np.ndarray, k: int) -> int:

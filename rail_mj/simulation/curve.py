@@ -31,8 +31,8 @@ import math
 
 import numba
 
-from rail_mj.numerics import ODOMETER_MASS, POSES, SPEED_POINT, TRACK_HEADER
-from rail_mj.vehicle.poses import LOADS, breakpoints_at, entry_at, last_at_or_before, track_at
+from rail_mj.numerics import LOADS, ODOMETER_MASS, POSES, SPEED_POINT, TRACK_HEADER
+from rail_mj.vehicle.poses import breakpoints_at, entries_at, entry_at, last_at_or_before, track_at
 
 
 @numba.njit(cache=True)
@@ -120,11 +120,30 @@ def _spring(stiffness, low, high, length):
 
 
 @numba.njit(cache=True)
+def folded_forces(block, k, scratch, out):
+    """Each dof row's force (`out`, in the rows' order) of the track part at `k`: the joints' and
+    linear tendons' geometric pre-deflections, folded per dof (rail_mj.vehicle.curve), from
+    curve_state's `scratch`. A function of the station and speed alone, as the scratch is."""
+    nb, nr = int(block[k + 3]), int(block[k + 4])
+    rates = POSES * nb
+    index = entries_at(block, k) + nb
+    for i in range(nr):
+        e = k + int(block[index + i])
+        terms = int(block[e + 1])
+        f = 0.0
+        for c in range(terms):
+            p = int(block[e + 2 + 3 * c])
+            f += block[e + 3 + 3 * c] * scratch[p] + block[e + 4 + 3 * c] * scratch[rates + p]
+        out[i] = f
+
+
+@numba.njit(cache=True)
 def add_curve_forces(
     block,
     k,
     pushed,
     scratch,
+    folded,
     xpos,
     xanchor,
     xaxis,
@@ -138,26 +157,21 @@ def add_curve_forces(
     force,
 ):
     """Add the curve's forces (see the module) of the vehicle whose track part starts at `k`,
-    its bodies' poses, rates and loads in `scratch` (rail_mj.vehicle.poses.curve_state), its
-    tendons' model lengths and rates `length`, `velocity` and their real ones, shifted
-    (rail_mj.vehicle.poses.add_tendon_shifts); the loads of its first `pushed` bodies (its
-    wheelsets) the caller has pushed with their contact forces. Where the part's entries end."""
+    its bodies' poses, rates and loads in `scratch` (rail_mj.vehicle.poses.curve_state), its dof
+    rows' forces `folded` (`folded_forces`), its tendons' model lengths and rates `length`,
+    `velocity` and their real ones, shifted (rail_mj.vehicle.poses.apply_shifts); the loads of
+    its first `pushed` bodies (its wheelsets) the caller has pushed with their contact forces.
+    Where the part's entries end."""
     nb, nr, nt = int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
-    rates = POSES * nb
     for i in range(pushed, nb):
         b = entry_at(block, k, i)
         body, count = int(block[b]), int(block[b + 5])
         chain = numba.carray(block, (b + 6 + 3 * count,))[b + 6 :]
         fy, fz, mz = body_loads(scratch, nb, i)
         push_load(force, chain, count, xpos, xanchor, xaxis, body, fy, fz, mz)
+    index = entries_at(block, k) + nb
     for i in range(nr):  # the joints' and linear tendons' pre-deflections, folded per dof
-        e = entry_at(block, k, nb + i)
-        dof, terms = int(block[e]), int(block[e + 1])
-        f = 0.0
-        for c in range(terms):
-            p = int(block[e + 2 + 3 * c])
-            f += block[e + 3 + 3 * c] * scratch[p] + block[e + 4 + 3 * c] * scratch[rates + p]
-        force[dof] += f
+        force[int(block[k + int(block[index + i])])] += folded[i]
     for i in range(nt):  # the rest: each from its real length and its model length
         e = entry_at(block, k, nb + nr + i)
         e += 2 + 2 * int(block[e + 1])

@@ -49,10 +49,28 @@ from numba import types
 from numba.extending import intrinsic
 
 from rail_mj.contact.creep import profiled_contact, wheelset_contact
-from rail_mj.numerics import COLUMNS, COUPLE, LOADS_HEADER, MAGIC, ROWS, TRACK_AT, TRACK_HEADER, VEHICLE_HEADER
-from rail_mj.simulation.curve import add_curve_forces, body_loads, curvature_at, odometer, profiled_speed, push_load
+from rail_mj.numerics import (
+    CACHE_KEY,
+    COLUMNS,
+    COUPLE,
+    LOADS_HEADER,
+    MAGIC,
+    ROWS,
+    TRACK_AT,
+    TRACK_HEADER,
+    VEHICLE_HEADER,
+)
+from rail_mj.simulation.curve import (
+    add_curve_forces,
+    body_loads,
+    curvature_at,
+    folded_forces,
+    odometer,
+    profiled_speed,
+    push_load,
+)
 from rail_mj.vehicle.block import NativeError, set_speed  # noqa: F401  (re-exported: a native model's speed)
-from rail_mj.vehicle.poses import add_tendon_shifts, curve_state, scratch_size
+from rail_mj.vehicle.poses import apply_shifts, cache_size, curve_state, scratch_size, tendon_shifts_into
 from rail_mj.vehicle.rails import (
     ALIGNMENT,
     ALIGNMENT_SLOPE,
@@ -124,8 +142,16 @@ def _struct(name: str, structs) -> type[ctypes.Structure]:
 
 
 # What the callback reads: model sizes and the numeric data; data arrays it reads and writes.
-MODEL_FIELDS = ("nnumeric", "ntendon", "numeric_data", "tendon_stiffness", "tendon_damping", "tendon_lengthspring")
-DATA_FIELDS = ("qvel", "xpos", "xmat", "xanchor", "xaxis", "ten_length", "ten_velocity", "qfrc_passive")
+MODEL_FIELDS = (
+    "nnumeric",
+    "ntendon",
+    "nuserdata",
+    "numeric_data",
+    "tendon_stiffness",
+    "tendon_damping",
+    "tendon_lengthspring",
+)
+DATA_FIELDS = ("qvel", "xpos", "xmat", "xanchor", "xaxis", "userdata", "ten_length", "ten_velocity", "qfrc_passive")
 
 
 def _offsets() -> tuple[int, ...]:
@@ -142,7 +168,7 @@ def _offsets() -> tuple[int, ...]:
             f"({e}); use the Python callback (rail_mj.simulation.callback)"
         ) from None
     model = mujoco.MjModel.from_xml_string(
-        '<mujoco><custom><numeric name="probe" data="1 2 3"/></custom><worldbody><body>'
+        '<mujoco><size nuserdata="2"/><custom><numeric name="probe" data="1 2 3"/></custom><worldbody><body>'
         '<joint name="j" type="hinge"/><geom size="0.1"/></body></worldbody>'
         '<tendon><fixed stiffness="1"><joint joint="j" coef="1"/></fixed></tendon></mujoco>'
     )
@@ -173,6 +199,17 @@ def _size_at(typingctx, base, offset):
     def codegen(context, builder, sig, args):
         field = builder.gep(builder.bitcast(args[0], ir.IntType(8).as_pointer()), [args[1]])
         return builder.load(builder.bitcast(field, ir.IntType(64).as_pointer()))
+
+    return signature, codegen
+
+
+@intrinsic
+def _address(typingctx, base):
+    """A struct's address as an integer (the key of a vehicle's cache: the model it was filled for)."""
+    signature = types.int64(types.voidptr)
+
+    def codegen(context, builder, sig, args):
+        return builder.ptrtoint(args[0], ir.IntType(64))
 
     return signature, codegen
 
@@ -221,6 +258,7 @@ def _apply(
     data,
     off_nnumeric,
     off_ntendon,
+    off_nuserdata,
     off_numeric,
     off_stiffness,
     off_damping,
@@ -230,6 +268,7 @@ def _apply(
     off_xmat,
     off_xanchor,
     off_xaxis,
+    off_userdata,
     off_length,
     off_velocity,
     off_force,
@@ -252,6 +291,9 @@ def _apply(
     springlength = _pointer_at(model, off_springlength)
     length, velocity = _pointer_at(data, off_length), _pointer_at(data, off_velocity)
     ntendon = _size_at(model, off_ntendon)
+    nuserdata, userdata = _size_at(model, off_nuserdata), _pointer_at(data, off_userdata)
+    cached = 2 * ntendon  # where the next vehicle's cache starts in userdata, after the copies
+    address = float(_address(model))
     k = 2
     for _ in range(int(block[1])):
         speed, n = block[k], int(block[k + 1])
@@ -267,17 +309,35 @@ def _apply(
         # The tendons' real deflections and rates: on a curve their model lengths plus their shifts
         # (rail_mj.vehicle.poses), copies for this call; on straight track the model's own.
         lengths, velocities = numba.carray(length, ntendon), numba.carray(velocity, ntendon)
-        scratch, bodies = lengths[:0], 0
-        if curved:  # one allocation a call: the bodies' poses, then the tendons' real lengths and rates
-            size = scratch_size(block, track)
-            buffer = np.empty(size + 2 * ntendon)
-            scratch = buffer[:size]
-            curve_state(block, track, speed, s_ref, scratch)
+        scratch, folded, bodies = lengths[:0], lengths[:0], 0
+        if curved:
+            # What the track's geometry gives the vehicle at this station and speed, in its cache in
+            # mjData.userdata (rail_mj.numerics), filled where the key differs: a pure function of
+            # the two, so that a hit changes no bit. A model not sized for it (built elsewhere): a
+            # buffer for this call.
+            size, nt = scratch_size(block, track), int(block[track + 5])
+            extent = cache_size(block, track)
+            if cached + extent <= nuserdata:
+                cache = numba.carray(userdata, (cached + extent,))[cached:]
+                copies = numba.carray(userdata, (2 * ntendon,))
+                cached += extent
+            else:
+                buffer = np.empty(extent + 2 * ntendon)
+                cache, copies = buffer[:extent], buffer[extent:]
+                cache[0] = 0.0
+            scratch = cache[CACHE_KEY : CACHE_KEY + size]
+            shifts = cache[CACHE_KEY + size : CACHE_KEY + size + 2 * nt]
+            folded = cache[CACHE_KEY + size + 2 * nt :]
+            if not (cache[0] == 1.0 and cache[1] == address and cache[2] == s_ref and cache[3] == speed):
+                curve_state(block, track, speed, s_ref, scratch)
+                tendon_shifts_into(block, track, scratch, shifts)
+                folded_forces(block, track, scratch, folded)
+                cache[0], cache[1], cache[2], cache[3] = 1.0, address, s_ref, speed
             bodies = int(block[track + 3])
-            lengths, velocities = buffer[size : size + ntendon], buffer[size + ntendon :]
+            lengths, velocities = copies[:ntendon], copies[ntendon:]
             for t in range(ntendon):
                 lengths[t], velocities[t] = length[t], velocity[t]
-            add_tendon_shifts(block, track, scratch, lengths, velocities)
+            apply_shifts(block, track, shifts, lengths, velocities)
         # An irregular track (rail_mj.vehicle.rails): each wheelset on the rails at its own station.
         rails = irregular_at(block, track) if curved else 0
         vertical = rails != 0 and block[rails + 3] != 0.0
@@ -409,6 +469,7 @@ def _apply(
                 track,
                 n,
                 scratch,
+                folded,
                 xpos,
                 xanchor,
                 xaxis,

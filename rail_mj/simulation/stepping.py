@@ -24,6 +24,7 @@ import numpy as np
 from mujoco import rollout
 
 from rail_mj.layout.kinds import Profiled, contact_model
+from rail_mj.numerics import userdata_size
 from rail_mj.simulation import native
 from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.simulation.run import Derailed, Request, Run, SimulationError
@@ -278,6 +279,7 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
             child.delete(geom)
         for mesh in list(child.meshes):
             child.delete(mesh)
+        child.nuserdata = 0  # the pack's own, for all of them: set below
         parent.attach(child, prefix=f"v{k}/", frame=parent.worldbody.add_frame())
     layout = vehicles[0].layout
     model = compile_spec(parent, layout)
@@ -302,7 +304,9 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
                 track_part=part,
             )
         )
-    native_numeric.data = block.block(entries).tolist()
+    native = block.block(entries)
+    native_numeric.data = native.tolist()
+    parent.nuserdata = userdata_size(native, model.ntendon)  # the callback's scratch on a curve
     model = compile_spec(parent, layout)
     places = []
     for k, vehicle in enumerate(vehicles):

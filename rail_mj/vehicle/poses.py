@@ -21,10 +21,8 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-from rail_mj.numerics import BREAKPOINT, POSES, SPEED_POINT, TRACK_HEADER
+from rail_mj.numerics import BREAKPOINT, CACHE_KEY, LOADS, POSES, SPEED_POINT, TRACK_HEADER
 from rail_mj.track.geometry import CANT_BASE
-
-LOADS = 3  # per body, after the poses and rates in the scratch: fy, fz, mz
 
 
 @numba.njit(cache=True)
@@ -94,10 +92,24 @@ def breakpoints_at(block, k):
 
 
 @numba.njit(cache=True, inline="always")
+def entries_at(block, k):
+    """Where the entries' index of the track part at `k` starts, after its breakpoints: where
+    each body's, joint's and tendon's entry starts, then one past the last (rail_mj.numerics)."""
+    return breakpoints_at(block, k) + BREAKPOINT * int(block[k + 2])
+
+
+@numba.njit(cache=True, inline="always")
 def entry_at(block, k, i):
     """Where entry `i` of the track part at `k` starts (bodies, then joints, then tendons, then
-    one past the last: the index after its breakpoints, rail_mj.numerics)."""
-    return k + int(block[breakpoints_at(block, k) + BREAKPOINT * int(block[k + 2]) + i])
+    one past the last)."""
+    return k + int(block[entries_at(block, k) + i])
+
+
+@numba.njit(cache=True, inline="always")
+def cache_size(block, k):
+    """The size of the callback's cache for the track part at `k` (rail_mj.numerics.cache_size)."""
+    nb, nr, nt = int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
+    return CACHE_KEY + (2 * POSES + LOADS) * nb + 2 * nt + nr
 
 
 @numba.njit(cache=True, inline="always")
@@ -123,12 +135,36 @@ def curve_state(block, k, speed, s_ref, scratch):
         theta_rate_ref /= CANT_BASE * math.cos(theta_ref)
     # The cant's angle, sine and cosine at the last cant met: on a constant cant (a curve's body,
     # a straight) every body has the reference's, and the transcendentals are taken once a call.
-    last_cant, sine = cant_ref, cant_ref / CANT_BASE
-    cosine, theta = math.sqrt(1.0 - sine * sine), theta_ref
+    sine_ref = cant_ref / CANT_BASE
+    cosine_ref = math.sqrt(1.0 - sine_ref * sine_ref)
+    last_cant, sine, cosine, theta = cant_ref, sine_ref, cosine_ref, theta_ref
     rates, loads = POSES * nb, 2 * POSES * nb
+    # Steady: the reference between two breakpoints of equal curvature and cant (a curve's constant
+    # part, a straight), where every body between the same two has its pose in closed form.
+    steady, low, high = False, 0.0, 0.0
+    if interval >= 0:
+        p = start + BREAKPOINT * interval
+        q = p + BREAKPOINT
+        steady = block[q + 1] == block[p + 1] and block[q + 2] == block[p + 2]
+        low, high = block[p], block[q]
     for b in range(nb):
         e = entry_at(block, k, b)
         x, height, mass, yaw_inertia = block[e + 1], block[e + 2], block[e + 3], block[e + 4]
+        if steady and low <= s_ref + x < high:
+            # On a constant curvature k the body at x off the reference lies k*x^2/2 off its tangent,
+            # turned by k*x, in the same plane, and none of them changes as the vehicle runs: the
+            # general form's difference of the heading's integrals, to its round-off.
+            scratch[POSES * b] = 0.5 * k_ref * x * x
+            scratch[POSES * b + 1] = k_ref * x
+            scratch[POSES * b + 2] = 0.0
+            scratch[rates + POSES * b] = 0.0
+            scratch[rates + POSES * b + 1] = 0.0
+            scratch[rates + POSES * b + 2] = 0.0
+            centripetal = speed * speed * k_ref
+            scratch[loads + LOADS * b] = -mass * (centripetal * cosine_ref - gravity * sine_ref)
+            scratch[loads + LOADS * b + 1] = -mass * (gravity * cosine_ref + centripetal * sine_ref - gravity)
+            scratch[loads + LOADS * b + 2] = 0.0
+            continue
         curvature, cant, heading, integral, slope, curvature_slope, _ = track_at(block, start, m, s_ref + x, interval)
         if cant != last_cant:
             # sin and cos of the cant angle from the cant itself: one transcendental a body, not four.
@@ -157,22 +193,33 @@ def curve_state(block, k, speed, s_ref, scratch):
 
 
 @numba.njit(cache=True)
-def add_tendon_shifts(block, k, scratch, length, velocity):
-    """Add to each tendon of the track part at `k` its shift and its rate (`scratch`:
-    curve_state's) in `length` and `velocity` (arrays by tendon id, the model's lengths and
-    rates copied)."""
+def tendon_shifts_into(block, k, scratch, shifts):
+    """Each listed tendon's shift and its rate (`shifts`, 2 per tendon in the order listed) of the
+    track part at `k`, from curve_state's `scratch`."""
     nb, nr, nt = int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
     rates = POSES * nb
+    index = entries_at(block, k) + nb + nr
     for i in range(nt):
-        e = entry_at(block, k, nb + nr + i)
-        t, terms = int(block[e]), int(block[e + 1])
+        e = k + int(block[index + i])
+        terms = int(block[e + 1])
         shift, shift_rate = 0.0, 0.0
         for c in range(terms):
             p, coefficient = int(block[e + 2 + 2 * c]), block[e + 3 + 2 * c]
             shift += coefficient * scratch[p]
             shift_rate += coefficient * scratch[rates + p]
-        length[t] += shift
-        velocity[t] += shift_rate
+        shifts[2 * i], shifts[2 * i + 1] = shift, shift_rate
+
+
+@numba.njit(cache=True)
+def apply_shifts(block, k, shifts, length, velocity):
+    """Add the listed tendons' `shifts` (tendon_shifts_into's) to `length` and `velocity`
+    (arrays by tendon id, the model's lengths and rates copied)."""
+    nb, nr, nt = int(block[k + 3]), int(block[k + 4]), int(block[k + 5])
+    index = entries_at(block, k) + nb + nr
+    for i in range(nt):
+        t = int(block[k + int(block[index + i])])
+        length[t] += shifts[2 * i]
+        velocity[t] += shifts[2 * i + 1]
 
 
 @intrinsic
@@ -193,6 +240,8 @@ def tendon_shifts(data, k, speeds, stations, lengths, rates):
     the track part at `k` of the native block `data` (the model's first numeric, as an array)."""
     block = _pointer(data)
     scratch = np.empty(scratch_size(block, k))
+    shifts = np.empty(2 * int(block[k + 5]))
     for i in range(stations.shape[0]):
         curve_state(block, k, speeds[i], stations[i], scratch)
-        add_tendon_shifts(block, k, scratch, lengths[i], rates[i])
+        tendon_shifts_into(block, k, scratch, shifts)
+        apply_shifts(block, k, shifts, lengths[i], rates[i])

@@ -162,6 +162,7 @@ def compiled(
     """The vehicle's spec and compiled model, its native block filled in: the block lists
     bodies, joints and dofs by the ids the compiler gave them, so it is written after a
     first compile (a millisecond or two) and the model compiled again."""
+    from rail_mj.numerics import userdata_size
     from rail_mj.vehicle import block  # numba (the contact law's module): only once a model is built
 
     spec = build_spec(layout, track)
@@ -180,7 +181,9 @@ def compiled(
         from rail_mj.vehicle.curve import track_part
 
         part = track_part(model, layout, track, profile=profile)
-    spec.numerics[0].data = block.block_for(model, layout.n_wheelsets, part).tolist()
+    native = block.block_for(model, layout.n_wheelsets, part)
+    spec.numerics[0].data = native.tolist()
+    spec.nuserdata = userdata_size(native, model.ntendon)  # the callback's scratch on a curve
     add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
     add_load_sensors(spec, model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)])
     return spec, compile_spec(spec, layout)
