@@ -7,7 +7,7 @@ import ctypes
 import mujoco
 import numpy as np
 import pytest
-from conftest import SHIPPED, assert_callbacks_agree
+from conftest import DATA, MODELS, SHIPPED, assert_callbacks_agree
 from mujoco import rollout
 
 from rail_mj.layout import load_layout
@@ -124,3 +124,46 @@ def test_a_first_command_on_a_terminal_is_told_it_compiles(tmp_path, monkeypatch
     (tmp_path / "numba" / "x").mkdir(parents=True)
     (tmp_path / "numba" / "x" / "law.nbi").write_bytes(b"")
     assert compiling_note() is None
+
+
+@pytest.mark.parametrize(
+    "layout_path", [MODELS / "manchester-coach" / "manchester-coach.toml", DATA / "manchester-coach-spatial.toml"]
+)
+def test_the_curve_cache_changes_no_bit(layout_path):
+    """On a curve the callback keeps what the track's geometry gives a vehicle at one station and
+    speed in mjData.userdata (rail_mj.numerics.CACHE_KEY): a run with it and the same model without
+    room for it (every call computing afresh) follow the same trajectory bit for bit, through the
+    transition into the curve (the cache's entries change at every step there) and, after a reset,
+    again (a reset clears its key, as it zeroes userdata)."""
+    from rail_mj.track import load_track
+
+    track = load_track(MODELS / "tracks" / "curve-600.toml")
+    vehicle = Vehicle(load_layout(layout_path), track)
+    cached = vehicle.model
+    assert cached.nuserdata > 2 * cached.ntendon  # the copies, then the vehicle's cache
+    spec = vehicle.spec.copy()
+    spec.nuserdata = 0
+    afresh = spec.compile()
+    native.set_speed(cached, 40.0)
+    native.set_speed(afresh, 40.0)
+    odometer = cached.joint("odometer")
+    trajectories = []
+    with native.installed():
+        for model in (cached, afresh):
+            data = mujoco.MjData(model)
+            runs = []
+            for _ in range(2):
+                mujoco.mj_resetData(model, data)
+                data.qpos[vehicle.root_lateral_dofs] = 0.002
+                data.qpos[odometer.qposadr[0]] = 180.0  # 20 m before the transition
+                data.qvel[odometer.dofadr[0]] = 40.0
+                states = []
+                for _ in range(10):
+                    mujoco.mj_step(model, data, nstep=100)  # 4 m a sample, into the transition
+                    states.append(np.concatenate([data.qpos, data.qvel, data.qfrc_passive]))
+                runs.append(np.array(states))
+            trajectories.append(runs)
+    (with_cache, again), (without, _) = trajectories
+    assert np.array_equal(with_cache, without)
+    assert np.array_equal(with_cache, again)
+    assert np.ptp(with_cache[:, vehicle.root_lateral_dofs[0]]) > 1e-4  # the vehicle moved: not a trivial match
