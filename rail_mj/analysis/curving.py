@@ -95,8 +95,9 @@ def _finite_max(values: np.ndarray) -> float | None:
 # The curve the steady state is solved on: long, so that every body is on its constant part,
 # the vehicle's origin in its middle.
 STEADY_LENGTH = 10_000.0  # m
-# The curve's share at each step of the continuation from straight track (steady_state).
-CONTINUATION = (0.25, 0.5, 0.75, 1.0)
+# The continuation from straight track (steady_state), in shares of the curve:
+CONTINUATION_STEP = 0.25  # of the curve's curvature and cant, a continuation step at most
+CONTINUATION_FINEST = 1.0 / 64.0  # and at least
 # The state is steady when no joint accelerates more than this (m/s^2 or rad/s^2): round-off
 # of the forces (N on tonnes) is a thousand times below it.
 STEADY_TOLERANCE = 1e-7
@@ -115,16 +116,24 @@ def steady_state(layout: Layout, radius: float, speed: float, cant: float = 0.0)
     (a vehicle pushed off its rails, or a curve it cannot take)."""
     guess: np.ndarray | None = None
     # Continuation in the curve (curvature and cant together, from straight track): on profiles
-    # the contact steps onto the flange, and Newton's method takes the step from nearby only.
-    for share in CONTINUATION:
+    # the contact steps onto the flange, and Newton's method takes the step from nearby only. A
+    # step that fails is halved (where the flange takes over, the path bends sharply), down to
+    # CONTINUATION_FINEST of the curve.
+    reached, step = 0.0, CONTINUATION_STEP
+    while reached < 1.0:
+        share = min(1.0, reached + step)
         vehicle, data, solution, residual = _solve(layout, radius / share, cant * share, speed, guess)
-        if not residual < STEADY_TOLERANCE:
+        if residual < STEADY_TOLERANCE:
+            guess, reached = solution.x, share
+            step = min(CONTINUATION_STEP, 2.0 * step)
+            continue
+        if step / 2.0 < CONTINUATION_FINEST:
             raise CurvingError(
                 f"{layout.source}: no steady state on a {radius:g} m curve with {cant * MM_PER_M:g} mm cant at "
                 f"{speed:g} m/s: the solver stopped {residual:.2g} m/s^2 from it on the way, at a "
                 f"{radius / share:.4g} m curve ({' '.join(solution.message.split())})"
             )
-        guess = solution.x
+        step /= 2.0
     model = vehicle.model
     readings = data.sensordata[None, :]
     pos, quat = np.zeros((1, model.nbody, 3)), np.zeros((1, model.nbody, 4))

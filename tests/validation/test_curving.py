@@ -317,6 +317,24 @@ def test_the_flanging_wheel_of_the_s1002_coach_dissipates_most():
     assert outer > 2 * inner
 
 
+def test_the_s1002_coach_s_steady_state_is_found_at_every_speed_through_its_flange_contact():
+    """In a 300 m curve with 100 mm cant the S1002 coach's leading wheelset is on its flange from
+    15 m/s up; at 20 m/s the continuation from straight track used to stop where the flange takes
+    over (a fixed step of a quarter of the curve) while 18 and 22 m/s were solved: a failed step
+    is now halved. The state is continuous in the speed: every wheelset's offset and guiding force
+    at 20 m/s lie between those at 18 and 22 m/s, and the flange holds the leading one at the same
+    offset to 0.1 mm (-6.21 and -6.22 mm measured)."""
+    from rail_mj.analysis.curving import steady_curving
+    from rail_mj.layout import load_layout
+
+    layout = load_layout(MODELS / "manchester-coach-s1002" / "manchester-coach-s1002.toml")
+    low, middle, high = (steady_curving(layout, 300.0, v, 0.1)["wheelsets"] for v in (18.0, 20.0, 22.0))
+    for a, b, c in zip(low, middle, high):
+        for key in ("lateral_m", "guiding_force_n"):
+            assert min(a[key], c[key]) <= b[key] <= max(a[key], c[key])
+    assert abs(middle[0]["lateral_m"] - low[0]["lateral_m"]) < 1e-4
+
+
 @pytest.mark.parametrize(
     ("name", "radius", "speed", "cant"),
     [("bogie", 600.0, 20.0, 0.0), ("manchester-coach-s1002", 300.0, 15.0, 0.1)],
