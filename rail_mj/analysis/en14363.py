@@ -9,10 +9,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rail_mj.analysis.filters import butterworth_sos, periodogram, sosfiltfilt
+
 if TYPE_CHECKING:
     from rail_mj.simulation.run import Run
-
-# scipy.signal takes most of a second to import: it is imported where it is used.
 
 # EN 14363's limit on the derailment quotient Y/Q of a wheel, for curve radii of 250 m and more
 # (tangent track included); the quotient itself is the one Nadal's formula bounds.
@@ -51,9 +51,7 @@ def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:
 def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
     """The frequency (Hz) of the highest peak of the signals' summed periodogram (samples
     along axis 0, evenly spaced), leaving out the mean: the instability frequency f0."""
-    from scipy.signal import periodogram
-
-    freq, power = periodogram(signal, fs=1.0 / (t[1] - t[0]), axis=0)
+    freq, power = periodogram(signal, fs=1.0 / (t[1] - t[0]))
     power = power.reshape(len(freq), -1).sum(axis=1)
     return float(freq[1:][np.argmax(power[1:])])
 
@@ -61,17 +59,15 @@ def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
 def band_pass(t: np.ndarray, signal: np.ndarray, f0: float) -> np.ndarray:
     """EN 14363's filter: f0 +/- 2 Hz (a low-pass at f0 + 2 Hz where f0 <= 2 Hz, for slow
     car-body instabilities), Butterworth, without phase shift. Samples along axis 0."""
-    from scipy.signal import butter, sosfiltfilt
-
     fs = 1.0 / (t[1] - t[0])
     high = min(f0 + HUNTING_BAND, 0.45 * fs)
     # An f0 past the filter's top (only for samples far sparser than a run's) keeps the
     # low-pass: the band cannot be resolved there.
     if f0 > HUNTING_BAND and f0 - HUNTING_BAND < high:
-        sos = butter(FILTER_ORDER, [f0 - HUNTING_BAND, high], btype="bandpass", fs=fs, output="sos")
+        sos = butterworth_sos(FILTER_ORDER, (f0 - HUNTING_BAND, high), fs)
     else:
-        sos = butter(FILTER_ORDER, high, btype="lowpass", fs=fs, output="sos")
-    return sosfiltfilt(sos, signal, axis=0)
+        sos = butterworth_sos(FILTER_ORDER, high, fs)
+    return sosfiltfilt(sos, signal)
 
 
 def curving_part(run: Run, signal: np.ndarray, stations: np.ndarray | None = None) -> np.ndarray:

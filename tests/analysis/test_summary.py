@@ -139,3 +139,18 @@ def test_the_freight_wagons_windows_show_in_a_run_sweep():
     assert [r["growth_rate_per_s"] > 0 for r in rows] == [True, False, True]
     assert rows[0]["frequency_hz"] == pytest.approx(0.35, abs=0.01)  # the car body's mode
     assert summarise(table)["brackets"][0]["unstable_m_per_s"] == [[10.0, 10.0], [90.0, 90.0]]
+
+
+def test_local_maxima_are_scipy_find_peaks():
+    """The summary's own peak finder (scipy.signal costs half a second to import) picks the
+    samples scipy.signal.find_peaks does, flat tops and ends included: signals rounded to
+    half-units so that plateaus of every length occur."""
+    from scipy.signal import find_peaks
+
+    from rail_mj.analysis.motion import local_maxima
+
+    rng = np.random.default_rng(19)
+    for n in (0, 1, 2, 3, 4, 7, 60, 2000):
+        for _ in range(50):
+            s = np.round(2.0 * rng.normal(size=n)) / 2.0
+            assert np.array_equal(local_maxima(s), find_peaks(s)[0])
