@@ -10,6 +10,7 @@
     train_modes.py     the names of a train's modes
     spatial_modes.py   the names of a spatial vehicle's modes
     bifurcation.py     limit cycles: the nonlinear critical speed and the bifurcation diagram
+    filters.py         Butterworth band-pass (zero phase) and periodogram, compiled, held to scipy.signal's
 
 The names of rail-mj 0.1's `rail_mj.analysis` (`summary`, ...) are still found here.
 """
