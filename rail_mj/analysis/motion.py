@@ -22,6 +22,7 @@ from rail_mj.layout.kinds import contact_model
 if TYPE_CHECKING:
     from rail_mj.simulation.run import Run
 
+
 def local_maxima(s: np.ndarray) -> np.ndarray:
     """Indices of the local maxima of s, as scipy.signal.find_peaks(s) without conditions
     gives them: a sample higher than its left neighbour and not lower than the right, a flat
@@ -281,6 +282,9 @@ def summary(run: Run) -> dict:
         "distance_m": float(run.x[-1]),
         "duration_s": float(run.t[-1]),
         "timestep_s": run.timestep,
+        # Seconds between the samples the run kept (and the summary read): every step or
+        # millisecond, unless the run was asked to keep fewer (Request.sample_interval, --sample-rate).
+        "sample_interval_s": float(run.t[1] - run.t[0]) if len(run.t) > 1 else None,
         "wheelsets": wheelsets,
         "frames": frames,
         "decayed": all(b["decayed"] for _, b in bodies),

@@ -95,6 +95,26 @@ def compiling_note() -> str | None:
     return "compiling the contact law and the native callback, once for this installation (10 to 20 s)"
 
 
+def positive_rate(text: str, option: str, words: str) -> float:
+    """A positive, finite number of samples per second from `option`'s text, or a one-line
+    refusal naming the `words` it also takes."""
+    try:
+        rate = float(text)
+    except ValueError:
+        rate = math.nan
+    if not (math.isfinite(rate) and rate > 0):
+        raise Failure(
+            f"{option} must be {words} or a positive number of samples per second, got {text!r}", EXIT_BAD_INPUT
+        )
+    return rate
+
+
+def sample_interval_of(text: str) -> float | None:
+    """--sample-rate: None (full: every millisecond, rail_mj.simulation.stepping.SAMPLE_INTERVAL)
+    or 1/rate s, or a one-line refusal."""
+    return None if text == "full" else 1.0 / positive_rate(text, "--sample-rate", "full")
+
+
 def track_of(path: str | None):
     """The checked track of --track (rail_mj.track), its warnings on stderr; None without one."""
     if path is None:

@@ -133,16 +133,16 @@ class _Queue:
     def cancelled(self) -> bool:
         return self._stop.is_set()
 
-    def take(self, n: int, timestep: float | None = None) -> list[tuple[int, Prepared]]:
-        """Up to n runs of `timestep`, the longest first. Without a timestep: the first run
-        waiting's, and n of them if n will come (it waits for them)."""
+    def take(self, n: int, cadence: tuple[float, int] | None = None) -> list[tuple[int, Prepared]]:
+        """Up to n runs of `cadence` (timestep and steps between samples), the longest first.
+        Without one: the first run waiting's, and n of them if n will come (it waits for them)."""
         with self._ready:
             while True:
                 if self.cancelled or n <= 0:
                     return []
-                dt = timestep if timestep is not None or not self._items else self._items[0][1].timestep
-                chosen = [item for item in self._items if item[1].timestep == dt][:n]
-                if timestep is not None or self._closed or len(chosen) == n:
+                like = cadence if cadence is not None or not self._items else self._items[0][1].cadence
+                chosen = [item for item in self._items if item[1].cadence == like][:n]
+                if cadence is not None or self._closed or len(chosen) == n:
                     break
                 self._ready.wait(0.1)
             for item in chosen:
@@ -150,14 +150,14 @@ class _Queue:
             return chosen
 
     def take_like(self, prepared: Prepared) -> tuple[int, Prepared] | None:
-        """The longest run that can take the place of `prepared` in its model: its timestep,
+        """The longest run that can take the place of `prepared` in its model: its cadence,
         an equal layout, an equal track and speed profile (so an equal vehicle: both are in its
         model, with its odometer), the speed alone differing."""
         with self._ready:
             for item in self._items:
                 request = item[1].request
                 if (
-                    item[1].timestep == prepared.timestep
+                    item[1].cadence == prepared.cadence
                     and _same(request.layout, prepared.request.layout)
                     and request.track == prepared.request.track
                     and request.profile == prepared.request.profile

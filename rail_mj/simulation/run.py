@@ -41,6 +41,11 @@ class Request:
     track: Track | None = None  # None: straight track
     # The speed along the track (rail_mj.track.speed), `speed` its value at the start; None: constant.
     profile: SpeedProfile | None = None
+    # Seconds between the samples the run keeps (rounded to whole steps); None: every millisecond
+    # (rail_mj.simulation.stepping.SAMPLE_INTERVAL). The steps are the same either way: a sample
+    # kept is the one a full record has at that time, bit for bit. Fewer samples are a long run's
+    # way to fit in memory; what is read from them is not low-passed first (README, Speed: memory).
+    sample_interval: float | None = None
 
 
 class SimulationError(RuntimeError):

@@ -57,6 +57,9 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
             f"initial lateral {request.initial_lateral} m puts the wheels off the rails "
             f"(|y| must be below {DERAILMENT_LATERAL} m)"
         )
+    interval = request.sample_interval
+    if interval is not None and not (math.isfinite(interval) and interval > 0):
+        raise ValueError(f"sample interval must be a positive number of seconds, got {interval}")
     if request.state is not None and not (len(request.state) == 2 and all(np.ndim(v) == 1 for v in request.state)):
         raise ValueError("state must be (qpos, qvel), a run's final_state")
     track, profile = request.track, request.profile
@@ -164,6 +167,7 @@ def simulate(
     state: tuple[np.ndarray, np.ndarray] | None = None,
     python_callback: bool = False,
     track: Track | None = None,
+    sample_interval: float | None = None,
 ) -> Run:
     """Run `layout` at `speed` (m/s, or a `SpeedProfile` of the speed along the track) for
     `distance` (m) from a disturbed start.
@@ -176,12 +180,18 @@ def simulate(
     cannot be done or diverges. The creep forces come from the native callback
     (rail_mj.simulation.native); `python_callback` uses the Python one (rail_mj.simulation.callback) instead.
     `track`: a curved or canted track (rail_mj.track) the vehicle's centre runs along from its
-    start; None: straight track.
+    start; None: straight track. `sample_interval`: seconds between the samples kept (whole
+    steps; None: every millisecond), for a long run whose every sample would not fit in memory;
+    the steps are the same, and a sample kept is the full record's at its time, bit for bit.
     """
     if isinstance(speed, SpeedProfile):
-        request = Request(layout, float(speed.at(0.0)), distance, initial_lateral, initial_yaw, state, track, speed)
+        request = Request(
+            layout, float(speed.at(0.0)), distance, initial_lateral, initial_yaw, state, track, speed, sample_interval
+        )
     else:
-        request = Request(layout, speed, distance, initial_lateral, initial_yaw, state, track)
+        request = Request(
+            layout, speed, distance, initial_lateral, initial_yaw, state, track, sample_interval=sample_interval
+        )
     prepared = prepare(request, python_callback)
     result = step_alone(prepared, derailment_lateral, progress)
     if isinstance(result, SimulationError):

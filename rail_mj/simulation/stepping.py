@@ -52,7 +52,7 @@ class Waiting(Protocol):
     @property
     def cancelled(self) -> bool: ...
 
-    def take(self, n: int, timestep: float | None = None) -> list[tuple[int, Prepared]]: ...
+    def take(self, n: int, cadence: tuple[float, int] | None = None) -> list[tuple[int, Prepared]]: ...
 
     def take_like(self, prepared: Prepared) -> tuple[int, Prepared] | None: ...
 
@@ -74,6 +74,18 @@ class Prepared:
         return min(lateral, self.table_end)
 
     @functools.cached_property
+    def every(self) -> int:
+        """Steps between the samples the run keeps: its request's sample interval (or
+        SAMPLE_INTERVAL) in whole steps, at least one."""
+        interval = self.request.sample_interval
+        return max(1, round((SAMPLE_INTERVAL if interval is None else interval) / self.timestep))
+
+    @property
+    def cadence(self) -> tuple[float, int]:
+        """What the runs of one pack share: the timestep, and the steps between kept samples."""
+        return self.timestep, self.every
+
+    @functools.cached_property
     def rails(self) -> Rails | None:
         """The rails under the wheelsets of an irregular track (rail_mj.vehicle.rails); None: perfect."""
         return Rails.of(self.vehicle.model)
@@ -91,7 +103,7 @@ class Running:
 
     def __init__(self, index: int, prepared: Prepared):
         self.index, self.prepared = index, prepared
-        self.every = max(1, round(SAMPLE_INTERVAL / prepared.timestep))
+        self.every = prepared.every
         self.count = -(-prepared.n_steps // self.every) + 1  # samples: the last at or past the distance
         self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, self.count)
         self.done = 0  # samples recorded
@@ -389,7 +401,7 @@ def drive(
         if not going or (queue is not None and queue.cancelled):
             return later
         runs = [r for _, r in going]
-        every, dt = runs[0].every, runs[0].prepared.timestep
+        every = runs[0].every
         count = min(CHECK_EVERY, max(r.count - r.done for r in runs))
         started = time.perf_counter()
         start = pack.state
@@ -428,7 +440,7 @@ def drive(
             progress(min(first + count, runs[0].count - 1) / max(runs[0].count - 1, 1))
         empty = len(pack.runs) - len(pack.going())
         if queue is not None and empty and 2 * empty >= len(pack.runs):
-            repacked = _repacked(pack, queue, dt)
+            repacked = _repacked(pack, queue, runs[0].prepared.cadence)
             if repacked is None:
                 return later
             pack = repacked
@@ -468,13 +480,13 @@ def _refill(pack: Pack, ended: list[tuple[int, Running]], queue: Waiting | None)
         pack.start(m)
 
 
-def _repacked(pack: Pack, queue: Waiting, timestep: float) -> Pack | None:
+def _repacked(pack: Pack, queue: Waiting, cadence: tuple[float, int]) -> Pack | None:
     """Half the places empty: the runs going continue in a new model, with runs waiting
     (None when there are none of either)."""
     keep = pack.going()
     for m, run in keep:
         run.state = pack.state_of(m, pack.state)
-    items = queue.take(PACK - len(keep), timestep)
+    items = queue.take(PACK - len(keep), cadence)
     runs = [run for _, run in keep] + [Running(k, p) for k, p in items]
     return Pack(runs) if runs else None
 
