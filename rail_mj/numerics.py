@@ -47,10 +47,10 @@ NUMERIC_COUPLES = "rail_mj/couples"
 
 # --- the native block: the first numeric, "rail_mj/native" -------------------------------
 
-# The block's first number, "this is rail-mj's native block, version 6": six significant
+# The block's first number, "this is rail-mj's native block, version 8": six significant
 # figures, as MuJoCo's MJCF writer keeps them. Version 5 added the track part (below), version 6
-# its speed profile, version 7 its irregularities.
-MAGIC = 7043.07
+# its speed profile, version 7 its irregularities, version 8 the springs.
+MAGIC = 7043.08
 # Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
 # of rows of its profile contact table (0: coned wheels), where its track part starts (from
 # the vehicle's first entry), then the contact parameters (ContactParameters.table,
@@ -61,7 +61,10 @@ MAGIC = 7043.07
 # (rail_mj.vehicle.loads): count, then (tendon, on P, on M); count 0: the wheels carry the
 # static load; then its shear couples: count, then (z tendon, y tendon). After the wheelsets,
 # the frames' shear couples (rail_mj.vehicle.loads.ShearCouples): count, then (z, y, x tendon,
-# roll dof, pitch dof). Last, the track part (docs/track.md, rail_mj.vehicle.curve).
+# roll dof, pitch dof); then the springs the callback adds itself where the stepped model has no
+# tendons for them (rail_mj.vehicle.block.spring_rows): count, then per spring its stiffness,
+# damping and number of terms, and (dof, coefficient) per term. Last, the track part (docs/track.md,
+# rail_mj.vehicle.curve).
 LOADS_HEADER = 5
 COUPLE = 5
 VEHICLE_HEADER = 7

@@ -151,7 +151,18 @@ MODEL_FIELDS = (
     "tendon_damping",
     "tendon_lengthspring",
 )
-DATA_FIELDS = ("qvel", "xpos", "xmat", "xanchor", "xaxis", "userdata", "ten_length", "ten_velocity", "qfrc_passive")
+DATA_FIELDS = (
+    "qvel",
+    "qpos",
+    "xpos",
+    "xmat",
+    "xanchor",
+    "xaxis",
+    "userdata",
+    "ten_length",
+    "ten_velocity",
+    "qfrc_passive",
+)
 
 
 def _offsets() -> tuple[int, ...]:
@@ -264,6 +275,7 @@ def _apply(
     off_damping,
     off_springlength,
     off_qvel,
+    off_qpos,
     off_xpos,
     off_xmat,
     off_xanchor,
@@ -281,7 +293,7 @@ def _apply(
     block = _pointer_at(model, off_numeric)
     if block[0] != MAGIC:
         return
-    qvel = _pointer_at(data, off_qvel)
+    qpos, qvel = _pointer_at(data, off_qpos), _pointer_at(data, off_qvel)
     xpos = _pointer_at(data, off_xpos)
     xmat = _pointer_at(data, off_xmat)
     xanchor = _pointer_at(data, off_xanchor)
@@ -463,6 +475,21 @@ def _apply(
             load = _tendon_force(stiffness, damping, springlength, lengths, velocities, int(block[e]))
             force[int(block[e + 3])] -= load * lengths[int(block[e + 1])]
             force[int(block[e + 4])] += load * lengths[int(block[e + 2])]
+        k += 1 + COUPLE * couples
+        springs = int(block[k])
+        k += 1
+        for _ in range(springs):  # linear springs and dampers on the coordinates (a stepped flat model's)
+            ks, cs, terms = block[k], block[k + 1], int(block[k + 2])
+            k += 3
+            deflection = rate = 0.0
+            for c in range(terms):
+                dof, coef = int(block[k + 2 * c]), block[k + 2 * c + 1]
+                deflection += coef * qpos[dof]
+                rate += coef * qvel[dof]
+            f = -ks * deflection - cs * rate
+            for c in range(terms):
+                force[int(block[k + 2 * c])] += block[k + 2 * c + 1] * f
+            k += 2 * terms
         if curved:
             k = add_curve_forces(
                 block,

@@ -191,8 +191,8 @@ class Pack:
         started = time.perf_counter()
         self.runs: list[Running | None] = list(runs)
         self.alone = alone  # the run's own vehicle model (drawn shapes and all), as `simulate` steps it
-        if alone:
-            vehicle = runs[0].prepared.vehicle
+        vehicle = runs[0].prepared.vehicle
+        if alone and (runs[0].prepared.forces is not None or not vehicle.springs_in_callback):
             self.model, self.places = vehicle.model, [_Place.whole(vehicle)]
         else:
             self.model, self.places = _pack(
@@ -283,14 +283,18 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     parent.option.disableflags = first.option.disableflags
     native_numeric = parent.add_numeric(name=NUMERIC_NATIVE, data=[0.0])  # first: the block
     for k, vehicle in enumerate(vehicles):
-        child = vehicle.spec.copy()
         # The drawn shapes touch nothing and weigh nothing, yet MuJoCo places each one at
         # every stage of every step (a fifth of a coach's step): a packed model goes without
-        # them, and each Run keeps its own vehicle's, for its recording.
-        for geom in list(child.geoms):
-            child.delete(geom)
-        for mesh in list(child.meshes):
-            child.delete(mesh)
+        # them, and each Run keeps its own vehicle's, for its recording. A train's tendons go
+        # too: its suspension is summed in the callback (block.spring_rows).
+        if vehicle.springs_in_callback:
+            child = vehicle.stepping_spec.copy()
+        else:
+            child = vehicle.spec.copy()
+            for geom in list(child.geoms):
+                child.delete(geom)
+            for mesh in list(child.meshes):
+                child.delete(mesh)
         child.nuserdata = 0  # the pack's own, for all of them: set below
         parent.attach(child, prefix=f"v{k}/", frame=parent.worldbody.add_frame())
     layout = vehicles[0].layout
@@ -314,6 +318,7 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
                 prefix=f"v{k}/",
                 couples=ShearCouples.of(vehicle.model),
                 track_part=part,
+                springs=block.spring_rows(vehicle.model, model, f"v{k}/") if vehicle.springs_in_callback else (),
             )
         )
     native = block.block(entries)

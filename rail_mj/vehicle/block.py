@@ -99,6 +99,7 @@ def vehicle_block(
     prefix: str = "",
     couples=None,
     track_part: np.ndarray | None = None,
+    springs=(),
 ) -> np.ndarray:
     """One vehicle's entries of the block: see VEHICLE_HEADER. `loads`: its AxleLoads
     (rail_mj.vehicle.loads), its tendons named in `model` under `prefix`; None: static loads.
@@ -133,6 +134,9 @@ def vehicle_block(
         entries += [float(len(pairs))] + list(pairs.reshape(-1))
     rows = couples.rows(model, prefix) if couples is not None else np.zeros((0, COUPLE))
     entries += [float(len(rows))] + list(rows.reshape(-1))
+    entries += [float(len(springs))]
+    for stiffness, damping, terms in springs:
+        entries += [stiffness, damping, float(len(terms))] + [v for dof, coef in terms for v in (float(dof), coef)]
     entries[TRACK_AT] = float(len(entries))
     entries += list(STRAIGHT if track_part is None else track_part)
     return np.asarray(entries, dtype=np.float64)
@@ -228,6 +232,26 @@ def track_part_at(model: mujoco.MjModel, prefix: str) -> tuple[int, int] | None:
         if int(block[k]) == odometer:
             return start, k
     return None
+
+
+def spring_rows(own: mujoco.MjModel, model: mujoco.MjModel, prefix: str = "") -> list[tuple[float, float, list]]:
+    """The tendons of `own` (a vehicle's model, each a linear spring and damper on its joints,
+    centred at zero length) as the block's springs on the coordinates of `model`, where the
+    vehicle is attached under `prefix`: (stiffness, damping, [(dof, coefficient), ...]) each.
+    The callback reads a spring's deflection from qpos at its dof: slide and hinge joints only,
+    whose qpos and qvel entries coincide."""
+    rows = []
+    for t in range(own.ntendon):
+        if np.any(own.tendon_lengthspring[t] != 0.0):
+            raise NativeError(f"tendon {own.tendon(t).name}: not centred at zero length, not a block spring")
+        terms = []
+        for dof, coef in tendon_coefficients(own, t):
+            joint = model.joint(prefix + own.joint(int(own.dof_jntid[dof])).name)
+            if int(joint.qposadr[0]) != int(joint.dofadr[0]) or int(model.jnt_type[joint.id]) not in (_SLIDE, _HINGE):
+                raise NativeError(f"joint {joint.name}: a block spring's joints are slides and hinges, qpos at qvel")
+            terms.append((int(joint.dofadr[0]), coef))
+        rows.append((float(own.tendon_stiffness[t]), float(own.tendon_damping[t]), terms))
+    return rows
 
 
 def tendon_coefficients(model: mujoco.MjModel, t: int) -> list[tuple[int, float]]:

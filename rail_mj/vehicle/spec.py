@@ -212,6 +212,31 @@ class Vehicle:
         self.wheelset_ids = np.array([self.model.body(n).id for n in self.wheelset_names], dtype=np.int64)
 
     @property
+    def springs_in_callback(self) -> bool:
+        """Whether the model that steps this vehicle (rail_mj.simulation.stepping) leaves its
+        suspension to the native callback: a flat train on straight track, whose every tendon is
+        a linear spring and damper on its joints. MuJoCo's tendon stages cost a train's step
+        more than the same forces summed in the callback (docs/trains.md); its own model, and
+        its MJCF, keep the tendons."""
+        return self.track is None and isinstance(vehicle_kind(self.layout), TrainOfCars)
+
+    @functools.cached_property
+    def stepping_spec(self) -> mujoco.MjSpec:
+        """The spec a model that steps this vehicle attaches when `springs_in_callback`: its own
+        without the drawn shapes and the tendons. Written out and read back without them: MjSpec
+        deletes one element at a time in time growing with the spec (half a second for a ten-car
+        train's 460 shapes, against 25 ms for this); every number in the spec is already in the
+        MJCF's six figures (rail_mj.vehicle.rounding) and the block is rebuilt by the pack."""
+        import xml.etree.ElementTree as ElementTree
+
+        root = ElementTree.fromstring(self.spec.to_xml())
+        for parent in root.iter():
+            for child in list(parent):
+                if child.tag in ("geom", "mesh") or parent.tag == "tendon":
+                    parent.remove(child)
+        return mujoco.MjSpec.from_string(ElementTree.tostring(root, encoding="unicode"))
+
+    @property
     def n_wheelsets(self) -> int:
         return len(self.wheelset_names)
 

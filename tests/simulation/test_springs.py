@@ -1,0 +1,81 @@
+"""The block's springs: a flat train on straight track is stepped without its tendons, its
+suspension summed in the native callback (rail_mj.vehicle.block.spring_rows)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+from conftest import MODELS, passive_forces
+
+from rail_mj.layout import load_layout
+from rail_mj.simulation import native
+from rail_mj.simulation.run import Request
+from rail_mj.simulation.runner import prepare, simulate
+from rail_mj.simulation.stepping import Pack, Running
+from rail_mj.vehicle import block
+from rail_mj.vehicle.block import NativeError
+from rail_mj.vehicle.spec import Vehicle
+
+TRAIN = MODELS / "two-coaches" / "two-coaches.toml"
+
+
+def _stepped(layout, speed: float) -> Pack:
+    return Pack([Running(0, prepare(Request(layout, speed, 100.0, 0.002)))], alone=True)
+
+
+def test_a_train_is_stepped_without_tendons_and_feels_the_same_forces():
+    """At random states the stepped model's qfrc_passive (creep forces and the block's springs,
+    all from the callback) is the train's own model's (MuJoCo's tendon springs and dampers
+    plus the callback's creep forces) to 1e-12 of its largest entry: one formula, -k L - c dL/dt
+    with L the tendon's sum of coefficients times coordinates, summed in another order."""
+    layout = load_layout(TRAIN)
+    own = Vehicle(layout)
+    pack = _stepped(layout, 47.0)
+    stepped = pack.model
+    assert own.model.ntendon > 0 and stepped.ntendon == 0 and stepped.nv == own.model.nv
+    native.set_speed(own.model, 47.0)
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        qpos, qvel = rng.normal(scale=0.005, size=own.model.nq), rng.normal(scale=0.1, size=own.model.nv)
+        reference = passive_forces(own.model, native.callback(), qpos, qvel)
+        mine = np.zeros(stepped.nv)
+        mine[pack.places[0].qvel] = passive_forces(stepped, native.callback(), qpos, qvel)[pack.places[0].qvel]
+        scale = np.max(np.abs(reference))
+        assert scale > 0
+        np.testing.assert_allclose(mine, reference, rtol=0, atol=1e-12 * scale)
+
+
+def test_a_train_run_follows_its_tendon_model_to_round_off(monkeypatch):
+    """The two coaches at 60 m/s over 300 m from the 2 mm start, stepped with the springs in the
+    callback and (the property turned off) with MuJoCo's tendons: the same trajectory to
+    1e-15 m (round-off of sums taken in another order; 1.2e-18 m measured over 1 km)."""
+    layout = load_layout(TRAIN)
+    fast = simulate(layout, 60.0, 300.0)
+    monkeypatch.setattr(Vehicle, "springs_in_callback", property(lambda self: False))
+    slow = simulate(layout, 60.0, 300.0)
+    assert np.max(np.abs(fast.y)) > 1e-4  # it moves
+    np.testing.assert_allclose(fast.y, slow.y, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(fast.psi, slow.psi, rtol=0, atol=1e-15)
+
+
+def test_only_a_train_on_straight_track_leaves_its_springs_to_the_callback():
+    """A nested planar vehicle has no tendons to leave; a spatial one's carry its wheel loads and
+    bump stops, read by MuJoCo's sensors: both keep their own model's form."""
+    assert Vehicle(load_layout(TRAIN)).springs_in_callback
+    for name in ("manchester-coach", "manchester-coach-spatial"):
+        assert not Vehicle(load_layout(MODELS / name / f"{name}.toml")).springs_in_callback
+
+
+def test_a_tendon_that_is_not_a_centred_linear_spring_is_refused():
+    """spring_rows reads a tendon as -k L - c dL/dt about L = 0: a spring length elsewhere (or a
+    deadband) would be another force, so it is refused by name, not summed wrongly."""
+    spec = mujoco.MjSpec()
+    body = spec.worldbody.add_body(name="b")
+    body.add_joint(name="j", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
+    body.add_geom(size=[0.1, 0, 0])
+    tendon = spec.add_tendon(name="t", stiffness=[1.0, 0, 0], springlength=[0.1, 0.1])
+    tendon.wrap_joint("j", 1.0)
+    model = spec.compile()
+    with pytest.raises(NativeError, match="tendon t: not centred"):
+        block.spring_rows(model, model)
