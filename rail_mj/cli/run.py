@@ -122,7 +122,8 @@ def _check_generated(path: str, layout: Layout, out_dir: str) -> None:
     show_default=True,
     help="Samples per second the run keeps for its summary, CSV and recording: full (one a millisecond, "
     "0.6 kB each for a coach) or fewer, for a run too long for memory. The steps are the same; the "
-    "summary reads the samples kept as they are, without a low-pass first.",
+    "summary reads the samples kept as they are, without a low-pass first. At least ten intervals a "
+    "run: it ends at the first kept sample at or past --distance.",
 )
 @click.option("--out", type=click.Path(dir_okay=False), help="Write the samples as CSV here.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")

@@ -39,6 +39,9 @@ from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.spec import Vehicle
 
 MAX_STEPS = 50_000_000  # about half an hour of stepping: beyond this, refuse
+# Sample intervals a thinned run keeps at least: it ends at the first kept sample at or past its
+# distance, so at most a tenth further.
+MIN_INTERVALS = 10
 
 
 def prepare(request: Request, python_callback: bool = False) -> Prepared:
@@ -107,7 +110,17 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
             f"of {dt:.2g} s, {steps:.3g} steps (limit {MAX_STEPS:.0e}); raise --speed or "
             f"shorten --distance"
         )
-    return Prepared(request, vehicle, dt, math.ceil(steps), forces, time.perf_counter() - started)
+    prepared = Prepared(request, vehicle, dt, math.ceil(steps), forces)
+    interval = request.sample_interval
+    if interval is not None and (interval > duration / MIN_INTERVALS or prepared.every * dt > duration / MIN_INTERVALS):
+        # The samples are evenly spaced (the filters and spectra of the analysis need it) and the
+        # run ends at the first at or past the distance: a long interval would carry it far beyond.
+        raise ValueError(
+            f"sample interval {request.sample_interval:.3g} s is longer than a tenth of the run "
+            f"({duration:.3g} s): keep at least {MIN_INTERVALS} intervals (a higher --sample-rate)"
+        )
+    prepared.seconds = time.perf_counter() - started
+    return prepared
 
 
 def _timestep(vehicle: Vehicle, python_callback: bool, speed: float, request: Request) -> float:
@@ -182,7 +195,8 @@ def simulate(
     `track`: a curved or canted track (rail_mj.track) the vehicle's centre runs along from its
     start; None: straight track. `sample_interval`: seconds between the samples kept (whole
     steps; None: every millisecond), for a long run whose every sample would not fit in memory;
-    the steps are the same, and a sample kept is the full record's at its time, bit for bit.
+    the steps are the same, and a sample kept is the full record's at its time, bit for bit;
+    evenly spaced, at least MIN_INTERVALS of them, the last at or past `distance`.
     """
     if isinstance(speed, SpeedProfile):
         request = Request(

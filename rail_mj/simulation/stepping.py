@@ -1,11 +1,13 @@
 """MuJoCo stepped in chunks: a model holding one run or several (a pack), the checks between
 chunks, and the runs' records.
 
-A run is stepped in its vehicle's own model (`step_alone`: what `simulate` does) or in a pack
-of up to PACK vehicles, each attached under its own name prefix with its own speed in the
+A run is stepped on its own (`step_alone`: what `simulate` does; in its vehicle's own model,
+or a train on straight track in one without its tendons, Vehicle.springs_in_callback) or in a
+pack of up to PACK vehicles, each attached under its own name prefix with its own speed in the
 native block (rail_mj.simulation.batch fills and refills the packs from its queue). Either
-way `drive` steps it in chunks of CHECK_EVERY samples (`mujoco.rollout`), reads every body's
-pose from MuJoCo's sensors, and stops it where it diverges or leaves the rails, saying why.
+way `drive` steps it in chunks of CHECK_EVERY samples' steps at SAMPLE_INTERVAL (`mujoco.rollout`), reads
+every body's pose from MuJoCo's sensors at the samples it keeps, and stops it where it
+diverges or leaves the rails, saying why.
 """
 
 from __future__ import annotations
@@ -38,7 +40,10 @@ from rail_mj.vehicle.rails import Rails
 from rail_mj.vehicle.spec import Vehicle
 
 SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
-CHECK_EVERY = 500  # samples between divergence checks (and progress reports)
+# Samples at SAMPLE_INTERVAL between divergence checks (and progress reports): a chunk is this
+# many samples' steps whatever the run keeps, so that a thinned run is checked as often and its
+# chunk's buffers (every step's state and sensors) stay as small.
+CHECK_EVERY = 500
 
 # Vehicles a model when runs are stepped together: a coach's step in a model of eight
 # costs two thirds of its step alone (no drawn shapes, MuJoCo's overheads shared) and far
@@ -81,6 +86,11 @@ class Prepared:
         return max(1, round((SAMPLE_INTERVAL if interval is None else interval) / self.timestep))
 
     @property
+    def chunk(self) -> int:
+        """Steps in a chunk: CHECK_EVERY samples at SAMPLE_INTERVAL."""
+        return CHECK_EVERY * max(1, round(SAMPLE_INTERVAL / self.timestep))
+
+    @property
     def cadence(self) -> tuple[float, int]:
         """What the runs of one pack share: the timestep, and the steps between kept samples."""
         return self.timestep, self.every
@@ -105,8 +115,10 @@ class Running:
         self.index, self.prepared = index, prepared
         self.every = prepared.every
         self.count = -(-prepared.n_steps // self.every) + 1  # samples: the last at or past the distance
+        self.last = (self.count - 1) * self.every  # the step of the last sample
         self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, self.count)
         self.done = 0  # samples recorded
+        self.stepped = 0  # steps taken
         self.state = prepared.request.state
         self.seconds = prepared.seconds  # and its share of the time of the models it was stepped in
 
@@ -190,7 +202,9 @@ class Pack:
     def __init__(self, runs: list[Running], alone: bool = False):
         started = time.perf_counter()
         self.runs: list[Running | None] = list(runs)
-        self.alone = alone  # the run's own vehicle model (drawn shapes and all), as `simulate` steps it
+        # As `simulate` steps it: in its own vehicle's model (drawn shapes and all), or a train on
+        # straight track in a model of its own without tendons (its springs in the callback).
+        self.alone = alone
         vehicle = runs[0].prepared.vehicle
         if alone and (runs[0].prepared.forces is not None or not vehicle.springs_in_callback):
             self.model, self.places = vehicle.model, [_Place.whole(vehicle)]
@@ -368,7 +382,8 @@ class Roller:
 
 
 def step_alone(prepared: Prepared, derailment_lateral: float, progress=None) -> Run | SimulationError:
-    """One run on its own, in its vehicle's own model: what `simulate` steps."""
+    """One run on its own (its vehicle's own model, or a train's without tendons): what
+    `simulate` steps."""
     outcome = []
     forces = prepared.forces
     with installed(forces) if forces else native.installed(), stepping():
@@ -392,13 +407,14 @@ def drive(
 ) -> list[Callable[[], Derailed]]:
     """Step `pack` until its runs have covered their distances (and those that take their
     places from `queue`), telling `done(k, result, seconds)` each result. MuJoCo steps in
-    chunks of CHECK_EVERY samples (`mujoco.rollout`) and measures every body with its
+    chunks of `Prepared.chunk` steps (`mujoco.rollout`) and measures every body with its
     sensors. A step's sensor values are those of the state it started from (sensors are
     computed in the forward pass, before integration), so step j's record is the sample
-    at step j. Every run starts at the start of a chunk, so each meets the same chunks and
-    checks as on its own. A run that leaves the rails is stopped there (its place emptied,
-    so that it cannot disturb the others); a numerical failure stops every run still going,
-    and in a pack of several, each is run again on its own. Returns the Derailed results
+    at step j, and a run is stepped one step past its last sample. Every run starts at the
+    start of a chunk, so each meets the same chunks and checks as on its own. A run that
+    leaves the rails is stopped there (its place emptied, so that it cannot disturb the
+    others); a numerical failure stops every run still going, and in a pack of several, each
+    is run again on its own. Returns the Derailed results
     still to make when `forces` (the Python callback) is installed: thunks for the caller."""
     later: list[Callable[[], Derailed]] = []
     while True:
@@ -406,22 +422,24 @@ def drive(
         if not going or (queue is not None and queue.cancelled):
             return later
         runs = [r for _, r in going]
-        every = runs[0].every
-        count = min(CHECK_EVERY, max(r.count - r.done for r in runs))
+        # The steps to the last sample of the run that goes furthest, and one more: a step's
+        # sensors are read before it integrates.
+        steps = min(runs[0].prepared.chunk, max(r.last + 1 - r.stepped for r in runs))
         started = time.perf_counter()
         start = pack.state
-        states, readings = roller(pack.model, pack.data, start, count * every)
-        readings = readings[::every]
+        states, readings = roller(pack.model, pack.data, start, steps)
         pack.state = states[-1].copy()
         pack.share(time.perf_counter() - started)
         warning = _warnings(pack.data)
         if warning or not (np.all(np.isfinite(readings)) and np.all(np.isfinite(pack.state))):
-            _diverged(pack, runs, count, warning, done, derailment_lateral)
+            _diverged(pack, runs, steps, warning, done, derailment_lateral)
             return later
-        first, ended = runs[0].done, []
+        first, ended = runs[0].stepped, []
         for m, r in going:
-            n = min(count, r.count - r.done)
-            mine = r.record(pack.places[m].sensors, readings[:n])
+            # Its samples among this chunk's steps: sample j is at the run's step j*every.
+            kept = np.arange(r.done, min(r.count, -(-(r.stepped + steps) // r.every))) * r.every - r.stepped
+            n = len(kept)
+            mine = r.record(pack.places[m].sensors, readings[kept])
             off = r.left_rails(mine, derailment_lateral)
             if off is not None:
                 j, worst = off
@@ -435,14 +453,15 @@ def drive(
                     later.append(make)
                 ended.append((m, r))
             elif r.done + n == r.count:  # its last sample: the state the run ends in
-                last = n - 1
-                done(r.index, r.run(pack.state_of(m, states[last * every - 1] if last > 0 else start)), r.seconds)
+                last = r.last - r.stepped
+                done(r.index, r.run(pack.state_of(m, states[last - 1] if last > 0 else start)), r.seconds)
                 ended.append((m, r))
             else:
                 r.done += n
+                r.stepped += steps
         _refill(pack, ended, queue)
         if progress is not None:
-            progress(min(first + count, runs[0].count - 1) / max(runs[0].count - 1, 1))
+            progress(min(first + steps, runs[0].last) / max(runs[0].last, 1))
         empty = len(pack.runs) - len(pack.going())
         if queue is not None and empty and 2 * empty >= len(pack.runs):
             repacked = _repacked(pack, queue, runs[0].prepared.cadence)
@@ -451,13 +470,13 @@ def drive(
             pack = repacked
 
 
-def _diverged(pack: Pack, runs: list[Running], count: int, warning: str | None, done, derailment_lateral: float):
-    """Tell each run of a chunk that failed numerically its result: alone, the failure; in a
-    pack of several, the run again on its own (the failure may be another run's)."""
+def _diverged(pack: Pack, runs: list[Running], steps: int, warning: str | None, done, derailment_lateral: float):
+    """Tell each run of a chunk of `steps` that failed numerically its result: alone, the
+    failure; in a pack of several, the run again on its own (the failure may be another run's)."""
     for r in runs:
         if pack.alone:
             dt = r.prepared.timestep
-            at = (min(r.done + count, r.count) - 1) * (r.every * dt)
+            at = min(r.stepped + steps, r.last) * dt
             speed = r.prepared.request.speed
             done(
                 r.index,

@@ -244,6 +244,15 @@ def spring_rows(own: mujoco.MjModel, model: mujoco.MjModel, prefix: str = "") ->
     for t in range(own.ntendon):
         if np.any(own.tendon_lengthspring[t] != 0.0):
             raise NativeError(f"tendon {own.tendon(t).name}: not centred at zero length, not a block spring")
+        # A limit, friction loss or armature makes MuJoCo's constraint or inertia stages act on the
+        # tendon, which the stepped model (without tendons, constraint stages off) would drop.
+        for what, value in (
+            ("limited", own.tendon_limited[t]),
+            ("friction loss", own.tendon_frictionloss[t]),
+            ("armature", own.tendon_armature[t]),
+        ):
+            if value:
+                raise NativeError(f"tendon {own.tendon(t).name}: {what}, not a block spring")
         terms = []
         for dof, coef in tendon_coefficients(own, t):
             joint = model.joint(prefix + own.joint(int(own.dof_jntid[dof])).name)

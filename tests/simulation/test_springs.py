@@ -13,6 +13,7 @@ from rail_mj.simulation import native
 from rail_mj.simulation.run import Request
 from rail_mj.simulation.runner import prepare, simulate
 from rail_mj.simulation.stepping import Pack, Running
+from rail_mj.track import load_track
 from rail_mj.vehicle import block
 from rail_mj.vehicle.block import NativeError
 from rail_mj.vehicle.spec import Vehicle
@@ -61,21 +62,49 @@ def test_a_train_run_follows_its_tendon_model_to_round_off(monkeypatch):
 
 def test_only_a_train_on_straight_track_leaves_its_springs_to_the_callback():
     """A nested planar vehicle has no tendons to leave; a spatial one's carry its wheel loads and
-    bump stops, read by MuJoCo's sensors: both keep their own model's form."""
+    bump stops, read by MuJoCo's sensors: both keep their own model's form. On a curve a train's
+    tendons stay too (its curve stages read them)."""
     assert Vehicle(load_layout(TRAIN)).springs_in_callback
+    assert not Vehicle(load_layout(TRAIN), load_track(MODELS / "tracks" / "curve-600.toml")).springs_in_callback
     for name in ("manchester-coach", "manchester-coach-spatial"):
         assert not Vehicle(load_layout(MODELS / name / f"{name}.toml")).springs_in_callback
+
+
+def _one_tendon(springlength: float = 0.0, **settings) -> mujoco.MjModel:
+    """A body on a slide with a tendon t on it: a spring of 1 N/m at `springlength`, `settings`
+    set on the tendon."""
+    spec = mujoco.MjSpec()
+    body = spec.worldbody.add_body(name="b")
+    body.add_joint(name="j", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
+    body.add_geom(size=[0.1, 0, 0])
+    tendon = spec.add_tendon(name="t", stiffness=[1.0, 0, 0], springlength=[springlength, springlength])
+    tendon.wrap_joint("j", 1.0)
+    for name, value in settings.items():
+        setattr(tendon, name, value)
+    return spec.compile()
 
 
 def test_a_tendon_that_is_not_a_centred_linear_spring_is_refused():
     """spring_rows reads a tendon as -k L - c dL/dt about L = 0: a spring length elsewhere (or a
     deadband) would be another force, so it is refused by name, not summed wrongly."""
-    spec = mujoco.MjSpec()
-    body = spec.worldbody.add_body(name="b")
-    body.add_joint(name="j", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
-    body.add_geom(size=[0.1, 0, 0])
-    tendon = spec.add_tendon(name="t", stiffness=[1.0, 0, 0], springlength=[0.1, 0.1])
-    tendon.wrap_joint("j", 1.0)
-    model = spec.compile()
+    model = _one_tendon(0.1)
     with pytest.raises(NativeError, match="tendon t: not centred"):
+        block.spring_rows(model, model)
+    model = _one_tendon()
+    assert block.spring_rows(model, model) == [(1.0, 0.0, [(0, 1.0)])]
+
+
+@pytest.mark.parametrize(
+    ("settings", "what"),
+    [
+        ({"limited": mujoco.mjtLimited.mjLIMITED_TRUE, "range": [-0.1, 0.1]}, "limited"),
+        ({"frictionloss": 0.5}, "friction loss"),
+        ({"armature": 0.5}, "armature"),
+    ],
+)
+def test_a_tendon_that_makes_a_constraint_or_inertia_is_refused(settings, what):
+    """A limited or friction-loss tendon is a constraint and a tendon's armature an inertia: the
+    stepped model, without tendons and with its constraint stages off, would drop them."""
+    model = _one_tendon(**settings)
+    with pytest.raises(NativeError, match=f"tendon t: {what}, not a block spring"):
         block.spring_rows(model, model)

@@ -12,6 +12,7 @@ from conftest import MODELS
 
 from rail_mj.cli import main
 from rail_mj.layout import load_layout
+from rail_mj.simulation import stepping
 from rail_mj.simulation.batch import simulate_many
 from rail_mj.simulation.run import Request
 from rail_mj.simulation.runner import prepare, simulate
@@ -93,3 +94,46 @@ def test_a_bad_sample_interval_is_refused():
     for bad in (0.0, -1e-3, math.nan, math.inf):
         with pytest.raises(ValueError, match="sample interval must be a positive number"):
             simulate(layout, 50.0, 10.0, sample_interval=bad)
+
+
+def test_a_run_is_stepped_in_chunks_of_steps_whatever_it_keeps(monkeypatch):
+    """A sample a second on the coach's 1 ms step (every 1000th kept): the chunks (each step's
+    state and sensors held in a buffer) are still CHECK_EVERY samples' worth of steps at 1 ms,
+    the divergence checks as often, and the last chunk ends one step past the last sample (a
+    step's sensors are read before it integrates): nothing stepped is thrown away. Its samples
+    are the full record's, and its steps not a whole number of intervals (20.4 s), the run ends
+    at the first kept sample past the distance."""
+    layout = load_layout(COACH)
+    chunks = []
+    call = stepping.Roller.__call__
+
+    def counted(self, model, data, start, nstep):
+        chunks.append(nstep)
+        return call(self, model, data, start, nstep)
+
+    monkeypatch.setattr(stepping.Roller, "__call__", counted)
+    thin = simulate(layout, 50.0, 1020.0, sample_interval=1.0)
+    assert thin.timestep == pytest.approx(1e-3, rel=1e-12)  # the coach's step: a chunk of CHECK_EVERY of them
+    assert max(chunks) == stepping.CHECK_EVERY and sum(chunks) == 21 * 1000 + 1
+    assert len(thin.t) == 22 and thin.x[-1] == pytest.approx(1050.0, rel=1e-12)  # 21 s: past 20.4 s
+    monkeypatch.setattr(stepping.Roller, "__call__", call)
+    full = simulate(layout, 50.0, 1050.0)
+    _is_thinned_from(thin, full)
+
+
+def test_an_interval_too_long_for_the_run_is_refused(tmp_path, capsys):
+    """Ten intervals at least: the run ends at the first kept sample at or past its distance, so
+    at most a tenth further. On the command line, one line and exit 2, nothing written."""
+    layout = load_layout(COACH)
+    with pytest.raises(ValueError, match=r"sample interval 0.2 s is longer than a tenth of the run \(1.2 s\)"):
+        simulate(layout, 50.0, 60.0, sample_interval=0.2)
+    assert len(simulate(layout, 50.0, 60.0, sample_interval=0.12).t) == 11
+    out = tmp_path / "r.csv"
+    for rate in ("5", "1e-6", "1e-300"):
+        assert (
+            main(["run", str(COACH), "--speed", "50", "--distance", "60", "--sample-rate", rate, "--out", str(out)])
+            == 2
+        )
+        (err,) = capsys.readouterr().err.strip().splitlines()
+        assert "is longer than a tenth of the run (1.2 s)" in err
+    assert not out.exists()
