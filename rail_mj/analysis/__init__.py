@@ -1,6 +1,7 @@
 """What runs and linearisations show.
 
     motion.py          amplitude, growth, frequency, flange strikes; the summary of a run
+    streaming.py       a run summarised as it is stepped: a sweep's row without the run's record
     en14363.py         EN 14363: the running-instability criterion on Sigma Y, Y/Q, wheel safety,
                        the on-track statistics per section
     ride.py            ride comfort: floor accelerations, EN 12299's weightings, N_MV, Sperling's Wz

@@ -99,32 +99,51 @@ def hunting_rms(run: Run, guiding: np.ndarray | None = None) -> tuple[float, np.
     guiding = run.guiding_forces() if guiding is None else guiding
     # On a curve, of the forces about their quasi-static part: EN 14363's instability is the
     # oscillation, and a low-pass (f0 <= 2 Hz) would keep the steady guiding force.
-    guiding = guiding - curving_part(run, guiding)
-    f0 = dominant_frequency(run.t, guiding)
-    return f0, sliding_rms(run.x, band_pass(run.t, guiding, f0), HUNTING_WINDOW)
+    return _hunting_rms(run.t, run.x, guiding - curving_part(run, guiding))
+
+
+def _hunting_rms(t: np.ndarray, x: np.ndarray, guiding: np.ndarray) -> tuple[float, np.ndarray]:
+    """`hunting_rms` of the guiding forces at times t and distances x (m)."""
+    f0 = dominant_frequency(t, guiding)
+    return f0, sliding_rms(x, band_pass(t, guiding, f0), HUNTING_WINDOW)
 
 
 def hunting_assessable(run: Run) -> str | None:
     """Why EN 14363's criterion cannot be applied to `run` (None when it can): no wheel
     load, less than one 100 m window, or samples too sparse or too few for the filter."""
-    if run.layout.wheelset.wheel_load is None:
+    return _assessable(run.layout, float(run.x[-1]), len(run.t))
+
+
+def _assessable(layout, distance: float, n_samples: int) -> str | None:
+    if layout.wheelset.wheel_load is None:
         return "no wheel load: give wheelset.wheel_load or a car body with mass"
-    if run.x[-1] < HUNTING_WINDOW:
+    if distance < HUNTING_WINDOW:
         return f"the run is shorter than EN 14363's {HUNTING_WINDOW:g} m window"
     # The zero-phase filter pads each end by 3 x (2 x sections + 1) samples; a run needs
     # a few filter lengths beyond that before its rms means anything.
-    if len(run.t) < 10 * 3 * (2 * FILTER_ORDER + 1):
-        return f"the run has only {len(run.t)} samples, too few for the band-pass filter"
+    if n_samples < 10 * 3 * (2 * FILTER_ORDER + 1):
+        return f"the run has only {n_samples} samples, too few for the band-pass filter"
     return None
 
 
 def hunting(run: Run) -> dict | None:
     """The instability criterion per wheelset; None when it cannot be applied
     (`hunting_assessable` says why)."""
-    wheel_load = run.layout.wheelset.wheel_load
-    if wheel_load is None or hunting_assessable(run) is not None:
+    if hunting_assessable(run) is not None:
         return None
-    f0, rms = hunting_rms(run)
+    return _criterion(run.layout, *hunting_rms(run))
+
+
+def hunting_of(layout, t: np.ndarray, x: np.ndarray, guiding: np.ndarray) -> dict | None:
+    """`hunting` of a run on straight track given as its times, distances and guiding forces
+    (rail_mj.analysis.streaming: a run summarised as it is stepped)."""
+    if _assessable(layout, float(x[-1]), len(t)) is not None:
+        return None
+    return _criterion(layout, *_hunting_rms(t, x, guiding))
+
+
+def _criterion(layout, f0: float, rms: np.ndarray) -> dict | None:
+    wheel_load = layout.wheelset.wheel_load
     if not np.any(np.isfinite(rms)):
         return None
     worst = np.nanmax(rms, axis=0)

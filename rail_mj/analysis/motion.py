@@ -127,6 +127,17 @@ SIGNIFICANT = 0.1
 MOTIONS = ("at rest", "decayed", "decaying", "not oscillating", "sustained", "growing")
 
 
+def late_verdict(late_sigma: float, duration: float) -> str:
+    """A motion that has not decayed, from its growth rate over the late `duration` (s): how
+    much its peaks change over it."""
+    change = math.exp(late_sigma * duration) if not math.isnan(late_sigma) else math.nan
+    if math.isnan(change):
+        return "not oscillating"
+    if abs(change - 1.0) < SUSTAINED_FRACTION:
+        return "sustained"
+    return "growing" if change > 1.0 else "decaying"
+
+
 def _motion(run: Run, about: np.ndarray, late: np.ndarray) -> dict:
     """One coordinate's motion about its curving offsets: whether (and by when, and where) it
     decayed; the growth rate, frequency and wavelength of the whole run or, for a motion that
@@ -143,13 +154,7 @@ def _motion(run: Run, about: np.ndarray, late: np.ndarray) -> dict:
         verdict = "decayed"
     else:
         late_sigma = oscillation(run.t[late], about[late])[1] if np.count_nonzero(late) > 2 else math.nan
-        change = math.exp(late_sigma * (run.t[-1] - run.t[late][0])) if not math.isnan(late_sigma) else math.nan
-        if math.isnan(change):
-            verdict = "not oscillating"
-        elif abs(change - 1.0) < SUSTAINED_FRACTION:
-            verdict = "sustained"
-        else:
-            verdict = "growing" if change > 1.0 else "decaying"
+        verdict = late_verdict(late_sigma, float(run.t[-1] - run.t[late][0]))
     return {
         "decayed": decayed is not None,
         "decayed_by_s": decayed,

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
@@ -46,6 +48,20 @@ class Request:
     # kept is the one a full record has at that time, bit for bit. Fewer samples are a long run's
     # way to fit in memory; what is read from them is not low-passed first (README, Speed: memory).
     sample_interval: float | None = None
+    # Where the run's samples go instead of a record: `stream(n_samples, interval)` makes a Sink,
+    # given the samples a chunk at a time, whose `finish` is the run's result (a sweep's row
+    # needs a few numbers, not every body's pose at every sample). None: a Run of every sample.
+    stream: Callable[[int, float], Sink] | None = dataclasses.field(default=None, compare=False)
+
+
+class Sink(Protocol):
+    """What takes a run's samples as they are stepped (`Request.stream`): `add` is told each
+    chunk's, as a Run of those samples (sample `start` its first; its arrays are reused after the
+    call: keep copies), `finish` the state the run ends in, and returns the run's result."""
+
+    def add(self, piece: Run, start: int) -> None: ...
+
+    def finish(self, final_state: tuple[np.ndarray, np.ndarray]) -> object: ...
 
 
 class SimulationError(RuntimeError):

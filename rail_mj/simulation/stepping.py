@@ -116,7 +116,11 @@ class Running:
         self.every = prepared.every
         self.count = -(-prepared.n_steps // self.every) + 1  # samples: the last at or past the distance
         self.last = (self.count - 1) * self.every  # the step of the last sample
-        self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, self.count)
+        stream = prepared.request.stream
+        self.sink = None if stream is None else stream(self.count, self.every * prepared.timestep)
+        # Streamed, a chunk's samples at a time (at most a chunk's steps over `every`, rounded up).
+        size = self.count if self.sink is None else min(self.count, -(-prepared.chunk // self.every))
+        self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, size)
         self.done = 0  # samples recorded
         self.stepped = 0  # steps taken
         self.state = prepared.request.state
@@ -126,8 +130,10 @@ class Running:
         return np.arange(self.count) * (self.every * self.prepared.timestep)  # exact, unlike data.time
 
     def record(self, sensors, readings: np.ndarray) -> slice:
-        """Put a chunk's sensor readings (a row a sample) after the samples recorded; their slice."""
-        mine = slice(self.done, self.done + len(readings))
+        """Put a chunk's sensor readings (a row a sample) after the samples recorded (streamed:
+        at the start of the chunk's buffers); their slice."""
+        start = self.done if self.sink is None else 0
+        mine = slice(start, start + len(readings))
         self.pos[mine, 0], self.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
         sensors.poses(readings, self.pos[mine], self.quat[mine])
         sensors.rates(readings, self.rates[mine])
@@ -136,7 +142,8 @@ class Running:
 
     def left_rails(self, mine: slice, derailment_lateral: float) -> tuple[int, int] | None:
         """(sample, wheelset) where a wheelset first left the rails among the samples `mine`
-        (|y| past `derailment_lateral`, or the end of the profiles' table), or None."""
+        (|y| past `derailment_lateral`, or the end of the profiles' table), or None; the sample
+        counted from the first of `mine`."""
         vehicle = self.prepared.vehicle
         lateral = np.abs(self.pos[mine][:, vehicle.wheelset_ids, 1])
         rails = self.prepared.rails
@@ -147,15 +154,30 @@ class Running:
         off = np.nonzero(np.max(lateral, axis=1) > self.prepared.derailment(derailment_lateral))[0]
         if not len(off):
             return None
-        return mine.start + off[0], int(np.argmax(lateral[off[0]]))
+        return int(off[0]), int(np.argmax(lateral[off[0]]))
 
-    def run(self, final) -> Run:
+    def run(self, final):
+        """Its result: the Run of every sample, or what its sink makes of them."""
         p = self.prepared
+        if self.sink is not None:
+            return self.sink.finish(final)
         return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads)
 
-    def partial(self, k: int) -> Run:
-        """The Run of its first k samples (what was simulated before a failure)."""
+    def stream(self, mine: slice) -> None:
+        """Give its sink the samples `mine` of the chunk's buffers (nothing if it has none)."""
+        if self.sink is None:
+            return
+        p, n = self.prepared, mine.stop - mine.start
+        t = np.arange(self.done, self.done + n) * (self.every * p.timestep)  # as `t`, bit for bit
+        piece = Run(p.vehicle, p.request.speed, p.timestep, t, self.pos[mine], self.quat[mine], self.rates[mine])
+        piece.axle_loads = self.loads[mine]
+        self.sink.add(piece, self.done)
+
+    def partial(self, k: int) -> Run | None:
+        """The Run of its first k samples (what was simulated before a failure); None streamed."""
         p = self.prepared
+        if self.sink is not None:
+            return None
         return Run(
             p.vehicle,
             p.request.speed,
@@ -442,7 +464,7 @@ def drive(
             mine = r.record(pack.places[m].sensors, readings[kept])
             off = r.left_rails(mine, derailment_lateral)
             if off is not None:
-                j, worst = off
+                j, worst = r.done + off[0], off[1]
 
                 def make(r=r, j=j, worst=worst):
                     return _derailed(r.prepared, worst, j, r.t(), derailment_lateral, forces, r.partial(j + 1))
@@ -452,7 +474,9 @@ def drive(
                 else:
                     later.append(make)
                 ended.append((m, r))
-            elif r.done + n == r.count:  # its last sample: the state the run ends in
+                continue
+            r.stream(mine)
+            if r.done + n == r.count:  # its last sample: the state the run ends in
                 last = r.last - r.stepped
                 done(r.index, r.run(pack.state_of(m, states[last - 1] if last > 0 else start)), r.seconds)
                 ended.append((m, r))

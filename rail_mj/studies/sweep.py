@@ -546,7 +546,16 @@ def run_rows(cases: list[Case], threads: int = 1) -> Iterator[dict]:
     for case in cases:
         try:
             layout = layout_from_dict(case.layout, source=case.source)
-            requests.append(Request(layout, case.run_speed, case.distance, DEFAULT_INITIAL_LATERAL, track=case.track))
+            requests.append(
+                Request(
+                    layout,
+                    case.run_speed,
+                    case.distance,
+                    DEFAULT_INITIAL_LATERAL,
+                    track=case.track,
+                    stream=_stream(case, layout),
+                )
+            )
             owners.append((case, layout))
         except (LayoutError, ValueError):
             yield run_case(case)  # says why its layout is refused
@@ -613,13 +622,27 @@ def _run(case: Case, layout) -> dict:
     return _summarise_run(case, layout, run)
 
 
-def _summarise_run(case: Case, layout, run) -> dict:
-    """The row's results of a run (or raise what the run raised)."""
-    from rail_mj.analysis import summary
+def _stream(case: Case, layout):
+    """How a run case's samples are summarised as it is stepped (rail_mj.analysis.streaming), when
+    its row is all that is kept of it: on straight track, without a recording; else None."""
+    if case.track is not None or case.recording is not None:
+        return None
+    from rail_mj.analysis.streaming import Summarised
 
+    return Summarised.stream(layout, case.run_speed)
+
+
+def _summarise_run(case: Case, layout, run) -> dict:
+    """The row's results of a run, or of what was kept of it as it was stepped (a dict:
+    rail_mj.analysis.streaming); or raise what the run raised."""
     if isinstance(run, Exception):
         raise run
-    result = summary(run)
+    if isinstance(run, dict):
+        result, largest = run, [w["max_abs_lateral_m"] for w in run["wheelsets"]]
+    else:
+        from rail_mj.analysis import summary
+
+        result, largest = summary(run), [float(np.max(np.abs(run.y)))]
     wheelsets = result["wheelsets"]
     lasting = max(wheelsets + result["frames"], key=_lasting)
     hunting = result["hunting"]
@@ -634,7 +657,7 @@ def _summarise_run(case: Case, layout, run) -> dict:
         "frequency_hz": lasting["frequency_hz"],
         "wavelength_m": lasting["wavelength_m"],
         "decayed": result["decayed"],
-        "flange_contact": bool(np.any(np.abs(run.y) > layout.wheelset.flangeway_clearance)),
+        "flange_contact": max(largest) > layout.wheelset.flangeway_clearance,
         "hunting": None if hunting is None else hunting["hunting"],
         "hunting_rms_n": None if hunting is None else max(hunting["max_rms_n"]),
         "hunting_limit_n": None if hunting is None else hunting["limit_n"],

@@ -1,0 +1,252 @@
+"""A run summarised as it is stepped: what a sweep's row reads of a run on straight track, kept
+from its samples a chunk at a time instead of a record of every body's pose at every sample.
+
+A sweep of long runs holds the runs in flight (sixteen on two threads), and a coach's full
+record is 584 bytes a sample: 64 runs of 10 km peaked at 3.2 GB. What the row needs of the
+motion is kept exactly, in a few numbers and events a coordinate (`Coordinate`): the largest
+|value| (over the run, its second half and its last tenth), the samples that can end a decay
+(`decayed_at`), the upward zero crossings and the peaks. EN 14363's instability criterion needs
+the whole run's Sigma Y (its f0 is the peak of the whole run's periodogram, and the band-pass
+runs forwards and backwards), which is kept a sample a wheelset. Everything is the full
+summary's, bit for bit (tests/analysis/test_streaming.py): only the memory changes.
+
+Example:
+
+    >>> from rail_mj import load_layout
+    >>> from rail_mj.simulation.batch import simulate_many
+    >>> from rail_mj.simulation.run import Request
+    >>> layout = load_layout("models/bogie/bogie.toml")
+    >>> (streamed,) = simulate_many([Request(layout, 30.0, 150.0, 0.002, stream=Summarised.stream(layout, 30.0))])
+    >>> streamed["decayed"], len(streamed["wheelsets"])
+    (True, 2)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rail_mj.analysis.en14363 import hunting_of
+from rail_mj.analysis.motion import AT_REST, DECAYED_FRACTION, MOTIONS, SIGNIFICANT, late_verdict
+
+if TYPE_CHECKING:
+    from rail_mj.layout import Layout
+    from rail_mj.simulation.run import Run
+
+
+class Coordinate:
+    """One coordinate's samples (evenly spaced, sample k at t = k*interval) as they come, reduced
+    to what `rail_mj.analysis.motion` reads of them, exactly:
+
+    - the largest |s| over the run, over its second half (t >= t_end/2) and its last tenth
+      (t >= 0.9*t_end);
+    - the strict suffix maxima of |s| (each sample larger than every later one) above
+      DECAYED_FRACTION of the largest so far: the last sample above any fraction of the final
+      largest is the last of these above it (`decayed_at`);
+    - the upward zero crossings, interpolated as `motion._crossings` does;
+    - every peak and trough as `motion.local_maxima` finds them, with the two moves around it
+      (the sample before its rise, the sample its fall starts from), which say whether it is a
+      peak of a window of the run too.
+    """
+
+    def __init__(self, n_samples: int, interval: float):
+        self.n, self.interval = n_samples, interval
+        self.t_end = float(np.arange(n_samples)[-1] * interval)  # as Run.t[-1]
+        self.largest = self.late = self.final = 0.0
+        self.stairs = (np.empty(0, np.int64), np.empty(0))
+        self.crossings: list[tuple[np.ndarray, np.ndarray]] = []
+        self.tops: dict[bool, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {True: [], False: []}
+        self._last: tuple[float, float] | None = None  # the previous sample's (t, s)
+        self._move: tuple[int, bool] | None = None  # the last move: (from sample, rising)
+
+    def add(self, start: int, t: np.ndarray, s: np.ndarray) -> None:
+        """The samples start, start + 1, ... at times t."""
+        magnitude = np.abs(s)
+        top = float(np.max(magnitude))
+        self.largest = max(self.largest, top)
+        late, final = magnitude[t >= self.t_end / 2], magnitude[t >= 0.9 * self.t_end]  # as motion's masks
+        if late.size:
+            self.late = max(self.late, float(np.max(late)))
+        if final.size:
+            self.final = max(self.final, float(np.max(final)))
+        # Strict suffix maxima: of the kept ones those above everything since, and the chunk's own.
+        after = np.append(np.maximum.accumulate(magnitude[::-1])[::-1][1:], -np.inf)
+        own = np.flatnonzero(magnitude > after)
+        index, value = self.stairs
+        keep = value > top
+        index, value = np.concatenate([index[keep], start + own]), np.concatenate([value[keep], magnitude[own]])
+        keep = value > DECAYED_FRACTION * self.largest  # never the last above the final fraction
+        self.stairs = (index[keep], value[keep])
+        if self._last is not None:
+            t = np.concatenate([[self._last[0]], t])
+            s = np.concatenate([[self._last[1]], s])
+            start -= 1
+        i = np.flatnonzero((s[:-1] < 0) & (s[1:] >= 0))
+        if i.size:
+            self.crossings.append((start + i, t[i] - s[i] * (t[i + 1] - t[i]) / (s[i + 1] - s[i])))
+        d = np.diff(s)
+        moves = np.flatnonzero(d != 0)
+        rises = d[moves] > 0
+        moves = start + moves
+        if self._move is not None:
+            moves = np.concatenate([[self._move[0]], moves])
+            rises = np.concatenate([[self._move[1]], rises])
+        if moves.size:
+            self._move = (int(moves[-1]), bool(rises[-1]))
+        for peak in (True, False):  # a rise then a fall; a fall then a rise
+            j = np.flatnonzero((rises[:-1] & ~rises[1:]) if peak else (~rises[:-1] & rises[1:]))
+            if j.size:
+                before, fall = moves[j], moves[j + 1]
+                self.tops[peak].append((before, fall, s[fall - start]))
+        self._last = (float(t[-1]), float(s[-1]))
+
+    def _events(self, first: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """The upward crossing times and the peaks (peaks, then troughs: times and |s| > 0) of
+        the samples first..stop-1, as `motion.oscillation` finds them in that slice."""
+        up = [c[1][(c[0] >= first) & (c[0] <= stop - 2)] for c in self.crossings]
+        times, values = [], []
+        for peak in (True, False):
+            for before, fall, value in self.tops[peak]:
+                inside = (before >= first) & (fall <= stop - 2)
+                times.append(((before[inside] + 1 + fall[inside]) // 2) * self.interval)
+                values.append(value[inside])
+        t, v = np.concatenate(times or [np.empty(0)]), np.concatenate(values or [np.empty(0)])
+        nonzero = np.abs(v) > 0
+        return np.concatenate(up or [np.empty(0)]), np.stack([t[nonzero], np.abs(v[nonzero])])
+
+    def oscillation(self, first: int, stop: int) -> tuple[float, float]:
+        """`motion.oscillation` of the samples first..stop-1."""
+        up, (t, v) = self._events(first, stop)
+        freq = (len(up) - 1) / (up[-1] - up[0]) if len(up) >= 2 else math.nan
+        sigma = float(np.polyfit(t, np.log(v), 1)[0]) if len(t) >= 3 and len(up) >= 2 else math.nan
+        return float(freq), sigma
+
+    def decayed_at(self) -> tuple[float, int] | None:
+        """`motion.decayed_at` of the whole run, and the sample it is at."""
+        index, value = self.stairs
+        above = index[value > DECAYED_FRACTION * self.largest]
+        if not above.size:
+            return 0.0, 0
+        end = int(above[-1]) + 1
+        at = end * self.interval
+        if end >= self.n or at > 0.0 + 0.75 * (self.t_end - 0.0):
+            return None
+        return float(at), end
+
+    def motion(self, speed: float) -> dict:
+        """`motion._motion` of this coordinate at constant `speed` on straight track."""
+        at_rest = self.largest <= AT_REST
+        ended = (0.0, 0) if at_rest else self.decayed_at()
+        decayed = None if ended is None else ended[0]
+        freq, sigma = self.oscillation(0, self.n if ended is None else ended[1] + 1)
+        if at_rest:
+            verdict = "at rest"
+        elif decayed is not None:
+            verdict = "decayed"
+        else:
+            late = int(np.argmax(np.arange(self.n) * self.interval >= self.t_end / 2))
+            late_sigma = self.oscillation(late, self.n)[1] if self.n - late > 2 else math.nan
+            t_late = float(np.arange(self.n)[late] * self.interval)
+            verdict = late_verdict(late_sigma, float(self.t_end - t_late))
+        return {
+            "decayed": decayed is not None,
+            "decayed_by_s": decayed,
+            "decayed_by_m": None if decayed is None else decayed * speed,
+            "growth_rate_per_s": None if math.isnan(sigma) else sigma,
+            "frequency_hz": None if math.isnan(freq) else freq,
+            "wavelength_m": None if math.isnan(freq) else speed / freq,
+            "motion": verdict,
+        }
+
+
+class Summarised:
+    """A Sink (rail_mj.simulation.run.Sink) for a run at constant speed on straight track:
+    `finish` gives what `rail_mj.analysis.motion.summary` says of the run's motion and EN 14363
+    instability, its `wheelsets` (largest |y| and yaw, last tenth's |y|, motion), `frames`
+    (the same of the bogie frames and car body), `decayed`, `hunting` and `max_abs_lateral_m`,
+    equal to the full summary's bit for bit."""
+
+    def __init__(self, layout: Layout, speed: float, n_samples: int, interval: float):
+        self.layout, self.speed, self.interval = layout, speed, interval
+        self.n = n_samples
+        self.wheelsets: list[dict[str, Coordinate]] = []
+        self.frames: list[dict[str, Coordinate]] = []
+        self.names: tuple[str, ...] = ()
+        self.lever = np.empty(0)
+        self.spatial = layout.spatial is not None
+        self.guiding = np.empty((0, 0))
+
+    @classmethod
+    def stream(cls, layout: Layout, speed: float) -> Callable[[int, float], Summarised]:
+        """The `Request.stream` of a run of `layout` at `speed`."""
+        return lambda n_samples, interval: cls(layout, speed, n_samples, interval)
+
+    def add(self, piece: Run, start: int) -> None:
+        n, interval = self.n, self.interval
+        if start == 0:
+            self.names = piece.frame_names
+            self.wheelsets = [
+                {"lateral": Coordinate(n, interval), "yaw": Coordinate(n, interval)} for _ in range(piece.n_wheelsets)
+            ]
+            coordinates = ("lateral", "yaw", "roll") if self.spatial else ("lateral", "yaw")
+            self.frames = [{c: Coordinate(n, interval) for c in coordinates} for _ in self.names]
+            offsets = piece.frame_station[0] - piece.station[0]
+            self.lever = np.min(np.abs(offsets[:, None] - np.asarray(self.layout.wheelset_x)[None, :]), axis=1)
+            self.guiding = np.empty((n, piece.n_wheelsets))
+        t = piece.t
+        y, psi = piece.y, piece.psi
+        for i, w in enumerate(self.wheelsets):
+            w["lateral"].add(start, t, y[:, i])
+            w["yaw"].add(start, t, psi[:, i])
+        if self.frames:
+            values = {"lateral": piece.frame_y, "yaw": piece.frame_psi}
+            if self.spatial:
+                values["roll"] = piece.frame_roll
+            for k, frame in enumerate(self.frames):
+                for c, coordinate in frame.items():
+                    coordinate.add(start, t, values[c][:, k])
+        self.guiding[start : start + len(t)] = piece.guiding_forces()
+
+    def finish(self, final_state) -> dict:
+        wheelsets = []
+        for i, w in enumerate(self.wheelsets):
+            wheelsets.append(
+                {
+                    "wheelset": i + 1,
+                    "max_abs_lateral_m": w["lateral"].largest,
+                    "max_abs_yaw_rad": w["yaw"].largest,
+                    "final_abs_lateral_m": w["lateral"].final,
+                    **w["lateral"].motion(self.speed),
+                }
+            )
+        frames = []
+        for k, (name, frame) in enumerate(zip(self.names, self.frames, strict=True)):
+            reach = {"lateral": frame["lateral"].late, "yaw": self.lever[k] * frame["yaw"].late}
+            largest = max(reach.values())
+            motions = {c: frame[c].motion(self.speed) for c in reach if reach[c] >= SIGNIFICANT * largest}
+            worst = max(motions, key=lambda c: MOTIONS.index(motions[c]["motion"]))
+            entry = {
+                "body": name,
+                "max_abs_lateral_m": frame["lateral"].largest,
+                "max_abs_yaw_rad": frame["yaw"].largest,
+                "final_abs_lateral_m": frame["lateral"].final,
+            }
+            if self.spatial:
+                entry["max_abs_roll_rad"] = frame["roll"].largest
+            entry.update(motions[worst])
+            entry["coordinate"] = worst
+            frames.append(entry)
+        t = np.arange(self.n) * self.interval
+        hunting = hunting_of(self.layout, t, self.speed * t, self.guiding)
+        self.guiding = np.empty((0, 0))
+        return {
+            "wheelsets": wheelsets,
+            "frames": frames,
+            "decayed": all(b["decayed"] for b in wheelsets + frames),
+            "hunting": hunting,
+            "max_abs_lateral_m": max(w["max_abs_lateral_m"] for w in wheelsets),
+            "final_state": final_state,
+        }
