@@ -7,8 +7,9 @@ motion is kept exactly, in a few numbers and events a coordinate (`Coordinate`):
 |value| (over the run, its second half and its last tenth), the samples that can end a decay
 (`decayed_at`), the upward zero crossings and the peaks. EN 14363's instability criterion needs
 the whole run's Sigma Y (its f0 is the peak of the whole run's periodogram, and the band-pass
-runs forwards and backwards), which is kept a sample a wheelset. Everything is the full
-summary's, bit for bit (tests/analysis/test_streaming.py): only the memory changes.
+runs forwards and backwards), which is kept a sample a wheelset in a temporary file until the run
+ends, and then filtered one run at a time. Everything is the full summary's, bit for bit
+(tests/analysis/test_streaming.py): only the memory changes.
 
 Example:
 
@@ -24,6 +25,8 @@ Example:
 from __future__ import annotations
 
 import math
+import tempfile
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -162,6 +165,11 @@ class Coordinate:
         }
 
 
+# The runs of a sweep end on several threads at once; each one's EN 14363 filters hold about six
+# times its Sigma Y (94 MB for 500 s of a coach): one at a time.
+_FINISHING = threading.Lock()
+
+
 class Summarised:
     """A Sink (rail_mj.simulation.run.Sink) for a run at constant speed on straight track:
     `finish` gives what `rail_mj.analysis.motion.summary` says of the run's motion and EN 14363
@@ -177,7 +185,9 @@ class Summarised:
         self.names: tuple[str, ...] = ()
         self.lever = np.empty(0)
         self.spatial = layout.spatial is not None
-        self.guiding = np.empty((0, 0))
+        # Sigma Y, a chunk at a time: on disk, not in memory; closed by `finish` (or when dropped).
+        self.guiding = tempfile.TemporaryFile()  # noqa: SIM115
+        self.n_wheelsets = 0
 
     @classmethod
     def stream(cls, layout: Layout, speed: float) -> Callable[[int, float], Summarised]:
@@ -195,7 +205,7 @@ class Summarised:
             self.frames = [{c: Coordinate(n, interval) for c in coordinates} for _ in self.names]
             offsets = piece.frame_station[0] - piece.station[0]
             self.lever = np.min(np.abs(offsets[:, None] - np.asarray(self.layout.wheelset_x)[None, :]), axis=1)
-            self.guiding = np.empty((n, piece.n_wheelsets))
+            self.n_wheelsets = piece.n_wheelsets
         t = piece.t
         y, psi = piece.y, piece.psi
         for i, w in enumerate(self.wheelsets):
@@ -208,7 +218,7 @@ class Summarised:
             for k, frame in enumerate(self.frames):
                 for c, coordinate in frame.items():
                     coordinate.add(start, t, values[c][:, k])
-        self.guiding[start : start + len(t)] = piece.guiding_forces()
+        self.guiding.write(np.ascontiguousarray(piece.guiding_forces(), dtype=np.float64).tobytes())
 
     def finish(self, final_state) -> dict:
         wheelsets = []
@@ -239,9 +249,13 @@ class Summarised:
             entry.update(motions[worst])
             entry["coordinate"] = worst
             frames.append(entry)
-        t = np.arange(self.n) * self.interval
-        hunting = hunting_of(self.layout, t, self.speed * t, self.guiding)
-        self.guiding = np.empty((0, 0))
+        with _FINISHING:  # one run's whole Sigma Y and its filters in memory at a time
+            self.guiding.seek(0)
+            guiding = np.fromfile(self.guiding, dtype=np.float64).reshape(self.n, self.n_wheelsets)
+            self.guiding.close()
+            t = np.arange(self.n) * self.interval
+            hunting = hunting_of(self.layout, t, self.speed * t, guiding)
+            del guiding, t
         return {
             "wheelsets": wheelsets,
             "frames": frames,
