@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import tempfile
 import threading
+import weakref
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -187,6 +188,8 @@ class Summarised:
         self.spatial = layout.spatial is not None
         # Sigma Y, a chunk at a time: on disk, not in memory; closed by `finish` (or when dropped).
         self.guiding = tempfile.TemporaryFile()  # noqa: SIM115
+        # A run that derails or is cancelled is dropped without `finish`: its file closes then.
+        weakref.finalize(self, self.guiding.close)
         self.n_wheelsets = 0
 
     @classmethod
