@@ -56,8 +56,8 @@ class Coordinate:
       peak of a window of the run too.
     """
 
-    def __init__(self, n_samples: int, interval: float):
-        self.n, self.interval = n_samples, interval
+    def __init__(self, n_samples: int, interval: float, events: bool = True):
+        self.n, self.interval, self.events = n_samples, interval, events  # events False: the largest only
         self.t_end = float(np.arange(n_samples)[-1] * interval)  # as Run.t[-1]
         self.largest = self.late = self.final = 0.0
         self.stairs = (np.empty(0, np.int64), np.empty(0))
@@ -71,6 +71,8 @@ class Coordinate:
         magnitude = np.abs(s)
         top = float(np.max(magnitude))
         self.largest = max(self.largest, top)
+        if not self.events:
+            return
         late, final = magnitude[t >= self.t_end / 2], magnitude[t >= 0.9 * self.t_end]  # as motion's masks
         if late.size:
             self.late = max(self.late, float(np.max(late)))
@@ -202,10 +204,12 @@ class Summarised:
         if start == 0:
             self.names = piece.frame_names
             self.wheelsets = [
-                {"lateral": Coordinate(n, interval), "yaw": Coordinate(n, interval)} for _ in range(piece.n_wheelsets)
+                # Of a wheelset's yaw the summary reads only its largest.
+                {"lateral": Coordinate(n, interval), "yaw": Coordinate(n, interval, events=False)}
+                for _ in range(piece.n_wheelsets)
             ]
             coordinates = ("lateral", "yaw", "roll") if self.spatial else ("lateral", "yaw")
-            self.frames = [{c: Coordinate(n, interval) for c in coordinates} for _ in self.names]
+            self.frames = [{c: Coordinate(n, interval, events=c != "roll") for c in coordinates} for _ in self.names]
             offsets = piece.frame_station[0] - piece.station[0]
             self.lever = np.min(np.abs(offsets[:, None] - np.asarray(self.layout.wheelset_x)[None, :]), axis=1)
             self.n_wheelsets = piece.n_wheelsets

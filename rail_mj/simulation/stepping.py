@@ -169,8 +169,17 @@ class Running:
             return
         p, n = self.prepared, mine.stop - mine.start
         t = np.arange(self.done, self.done + n) * (self.every * p.timestep)  # as `t`, bit for bit
-        piece = Run(p.vehicle, p.request.speed, p.timestep, t, self.pos[mine], self.quat[mine], self.rates[mine])
-        piece.axle_loads = self.loads[mine]
+        piece = Run(
+            p.vehicle,
+            p.request.speed,
+            p.timestep,
+            t,
+            self.pos[mine],
+            self.quat[mine],
+            self.rates[mine],
+            None,
+            self.loads[mine],
+        )
         self.sink.add(piece, self.done)
 
     def partial(self, k: int) -> Run | None:
