@@ -44,6 +44,8 @@ SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
 # many samples' steps whatever the run keeps, so that a thinned run is checked as often and its
 # chunk's buffers (every step's state and sensors) stay as small.
 CHECK_EVERY = 500
+# Chunks' samples a streamed run holds before its sink reads them (Running.stream).
+STREAM_CHUNKS = 4
 
 # Vehicles a model when runs are stepped together: a coach's step in a model of eight
 # costs two thirds of its step alone (no drawn shapes, MuJoCo's overheads shared) and far
@@ -118,9 +120,14 @@ class Running:
         self.last = (self.count - 1) * self.every  # the step of the last sample
         stream = prepared.request.stream
         self.sink = None if stream is None else stream(self.count, self.every * prepared.timestep)
-        # Streamed, a chunk's samples at a time (at most a chunk's steps over `every`, rounded up).
-        size = self.count if self.sink is None else min(self.count, -(-prepared.chunk // self.every))
+        # Streamed, STREAM_CHUNKS chunks' samples at a time (a chunk's steps over `every`, rounded
+        # up, each): the sink's fixed cost a call (a piece Run, the contact law, numpy's per-call
+        # overhead) amortised over more samples, for a coach 2.3 MB a run in flight.
+        size = self.count
+        if self.sink is not None:
+            size = min(self.count, STREAM_CHUNKS * -(-prepared.chunk // self.every))
         self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, size)
+        self.held = 0  # streamed: samples in the buffers not yet given to the sink
         self.done = 0  # samples recorded
         self.stepped = 0  # steps taken
         self.state = prepared.request.state
@@ -132,7 +139,7 @@ class Running:
     def record(self, sensors, readings: np.ndarray) -> slice:
         """Put a chunk's sensor readings (a row a sample) after the samples recorded (streamed:
         at the start of the chunk's buffers); their slice."""
-        start = self.done if self.sink is None else 0
+        start = self.done if self.sink is None else self.held
         mine = slice(start, start + len(readings))
         self.pos[mine, 0], self.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
         sensors.poses(readings, self.pos[mine], self.quat[mine])
@@ -164,23 +171,30 @@ class Running:
         return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads)
 
     def stream(self, mine: slice) -> None:
-        """Give its sink the samples `mine` of the chunk's buffers (nothing if it has none)."""
+        """Keep the samples `mine` of the chunk's buffers for its sink (nothing if it has none),
+        and give it the samples held once the buffers could not hold another chunk's, or the
+        run's last sample is among them."""
         if self.sink is None:
             return
-        p, n = self.prepared, mine.stop - mine.start
-        t = np.arange(self.done, self.done + n) * (self.every * p.timestep)  # as `t`, bit for bit
+        self.held = mine.stop
+        n = mine.stop - mine.start
+        if self.done + n < self.count and self.held + -(-self.prepared.chunk // self.every) <= len(self.pos):
+            return
+        p, held, first = self.prepared, slice(0, self.held), self.done + n - self.held
+        t = np.arange(first, first + self.held) * (self.every * p.timestep)  # as `t`, bit for bit
         piece = Run(
             p.vehicle,
             p.request.speed,
             p.timestep,
             t,
-            self.pos[mine],
-            self.quat[mine],
-            self.rates[mine],
+            self.pos[held],
+            self.quat[held],
+            self.rates[held],
             None,
-            self.loads[mine],
+            self.loads[held],
         )
-        self.sink.add(piece, self.done)
+        self.held = 0
+        self.sink.add(piece, first)
 
     def partial(self, k: int) -> Run | None:
         """The Run of its first k samples (what was simulated before a failure); None streamed."""
