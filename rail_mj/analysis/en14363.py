@@ -51,9 +51,13 @@ def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:
 def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
     """The frequency (Hz) of the highest peak of the signals' summed periodogram (samples
     along axis 0, evenly spaced), leaving out the mean: the instability frequency f0."""
-    freq, power = periodogram(signal, fs=1.0 / (t[1] - t[0]))
-    power = power.reshape(len(freq), -1).sum(axis=1)
-    return float(freq[1:][np.argmax(power[1:])])
+    columns = np.asarray(signal, dtype=float).reshape(len(signal), -1)
+    total = None
+    for c in range(columns.shape[1]):  # a column's spectrum at a time, summed in column order
+        freq, power = periodogram(columns[:, c], fs=1.0 / (t[1] - t[0]))
+        total = power if total is None else total + power
+    assert total is not None, "no signal to take the periodogram of"
+    return float(freq[1:][np.argmax(total[1:])])
 
 
 def band_pass(t: np.ndarray, signal: np.ndarray, f0: float) -> np.ndarray:
@@ -105,7 +109,13 @@ def hunting_rms(run: Run, guiding: np.ndarray | None = None) -> tuple[float, np.
 def _hunting_rms(t: np.ndarray, x: np.ndarray, guiding: np.ndarray) -> tuple[float, np.ndarray]:
     """`hunting_rms` of the guiding forces at times t and distances x (m)."""
     f0 = dominant_frequency(t, guiding)
-    return f0, sliding_rms(x, band_pass(t, guiding, f0), HUNTING_WINDOW)
+    # A wheelset at a time: the filter's and the window's buffers (about six times the signal)
+    # are a column's, not the run's (a sweep's long runs finish while others step on).
+    columns = guiding.reshape(len(guiding), -1)
+    rms = np.empty(columns.shape)
+    for c in range(columns.shape[1]):
+        rms[:, c] = sliding_rms(x, band_pass(t, columns[:, c], f0), HUNTING_WINDOW)
+    return f0, rms.reshape(guiding.shape)
 
 
 def hunting_assessable(run: Run) -> str | None:
