@@ -52,11 +52,11 @@ def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
     """The frequency (Hz) of the highest peak of the signals' summed periodogram (samples
     along axis 0, evenly spaced), leaving out the mean: the instability frequency f0."""
     columns = np.asarray(signal, dtype=float).reshape(len(signal), -1)
-    total = None
-    for c in range(columns.shape[1]):  # a column's spectrum at a time, summed in column order
-        freq, power = periodogram(columns[:, c], fs=1.0 / (t[1] - t[0]))
-        total = power if total is None else total + power
-    assert total is not None, "no signal to take the periodogram of"
+    if columns.shape[1] == 0:
+        raise ValueError("no signal to take the periodogram of")
+    freq, total = periodogram(columns[:, 0], fs=1.0 / (t[1] - t[0]))
+    for c in range(1, columns.shape[1]):  # a column's spectrum at a time, summed in column order
+        total = total + periodogram(columns[:, c], fs=1.0 / (t[1] - t[0]))[1]
     return float(freq[1:][np.argmax(total[1:])])
 
 
