@@ -5,6 +5,8 @@ Y/Q, the smallest wheel load Q). The forces are the run's, per sample (`Run.cont
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -40,12 +42,22 @@ def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:
     """rms of `signal` (samples along axis 0) over the `window` (m) of x ending at each
     sample; nan until one full window has passed."""
     signal = np.asarray(signal, dtype=float)
-    cumulative = np.concatenate([np.zeros((1,) + signal.shape[1:]), np.cumsum(signal**2, axis=0)])
+    # In place where it can be: a long run's column is millions of samples, and a sweep's runs
+    # finish while others step on.
+    cumulative = np.empty((len(signal) + 1,) + signal.shape[1:])
+    cumulative[0] = 0.0
+    np.cumsum(np.square(signal), axis=0, out=cumulative[1:])
     start = np.searchsorted(x, x - window, side="left")
-    count = (np.arange(1, len(x) + 1) - start).reshape((-1,) + (1,) * (signal.ndim - 1))
-    rms = np.sqrt(np.maximum(cumulative[1:] - cumulative[start], 0.0) / count)
-    full = (x - x[0] >= window).reshape(count.shape)
-    return np.where(full, rms, np.nan)
+    rms = cumulative[1:] - cumulative[start]
+    del cumulative
+    count = np.arange(1, len(x) + 1)
+    count -= start
+    del start
+    np.maximum(rms, 0.0, out=rms)
+    np.divide(rms, count.reshape((-1,) + (1,) * (signal.ndim - 1)), out=rms)
+    np.sqrt(rms, out=rms)
+    rms[x - x[0] < window] = np.nan
+    return rms
 
 
 def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
@@ -54,9 +66,16 @@ def dominant_frequency(t: np.ndarray, signal: np.ndarray) -> float:
     columns = np.asarray(signal, dtype=float).reshape(len(signal), -1)
     if columns.shape[1] == 0:
         raise ValueError("no signal to take the periodogram of")
-    freq, total = periodogram(columns[:, 0], fs=1.0 / (t[1] - t[0]))
-    for c in range(1, columns.shape[1]):  # a column's spectrum at a time, summed in column order
-        total = total + periodogram(columns[:, c], fs=1.0 / (t[1] - t[0]))[1]
+    return _dominant(t, (columns[:, c] for c in range(columns.shape[1])))
+
+
+def _dominant(t: np.ndarray, columns: Iterator[np.ndarray]) -> float:
+    """`dominant_frequency` of the columns, given one at a time (a column's spectrum at a time,
+    summed in column order)."""
+    fs = 1.0 / (t[1] - t[0])
+    freq, total = periodogram(next(columns), fs=fs)
+    for column in columns:
+        total = total + periodogram(column, fs=fs)[1]
     return float(freq[1:][np.argmax(total[1:])])
 
 
@@ -118,6 +137,13 @@ def _hunting_rms(t: np.ndarray, x: np.ndarray, guiding: np.ndarray) -> tuple[flo
     return f0, rms.reshape(guiding.shape)
 
 
+def _largest(rms: np.ndarray) -> float:
+    """The largest rms of a wheelset's column leaving out nan (no whole window yet); nan if
+    every sample is."""
+    kept = rms[~np.isnan(rms)]
+    return float(np.max(kept)) if kept.size else math.nan
+
+
 def hunting_assessable(run: Run) -> str | None:
     """Why EN 14363's criterion cannot be applied to `run` (None when it can): no wheel
     load, less than one 100 m window, or samples too sparse or too few for the filter."""
@@ -141,29 +167,37 @@ def hunting(run: Run) -> dict | None:
     (`hunting_assessable` says why)."""
     if hunting_assessable(run) is not None:
         return None
-    return _criterion(run.layout, *hunting_rms(run))
+    f0, rms = hunting_rms(run)
+    columns = rms.reshape(len(rms), -1)
+    return _criterion(run.layout, f0, [_largest(columns[:, c]) for c in range(columns.shape[1])])
 
 
-def hunting_of(layout, t: np.ndarray, x: np.ndarray, guiding: np.ndarray) -> dict | None:
-    """`hunting` of a run on straight track given as its times, distances and guiding forces
-    (rail_mj.analysis.streaming: a run summarised as it is stepped)."""
+def hunting_of(
+    layout, t: np.ndarray, x: np.ndarray, column: Callable[[int], np.ndarray], n_columns: int
+) -> dict | None:
+    """`hunting` of a run on straight track given as its times, distances and each wheelset's
+    guiding forces, `column(c)` for c < n_columns (rail_mj.analysis.streaming: a run summarised as
+    it is stepped, its Sigma Y read back a wheelset at a time)."""
     if _assessable(layout, float(x[-1]), len(t)) is not None:
         return None
-    return _criterion(layout, *_hunting_rms(t, x, guiding))
+    f0 = _dominant(t, (column(c) for c in range(n_columns)))
+    return _criterion(
+        layout, f0, [_largest(sliding_rms(x, band_pass(t, column(c), f0), HUNTING_WINDOW)) for c in range(n_columns)]
+    )
 
 
-def _criterion(layout, f0: float, rms: np.ndarray) -> dict | None:
+def _criterion(layout, f0: float, worst: list[float]) -> dict | None:
+    """The criterion from each wheelset's largest rms (nan: none)."""
     wheel_load = layout.wheelset.wheel_load
-    if not np.any(np.isfinite(rms)):
+    if not np.any(np.isfinite(worst)):
         return None
-    worst = np.nanmax(rms, axis=0)
     limit = hunting_limit(2.0 * wheel_load)
     return {
         "criterion": "EN 14363: rms over 100 m of the sum of guiding forces, band-passed f0 +/- 2 Hz",
         "frequency_hz": f0,
         "limit_n": limit,
         "max_rms_n": [float(v) for v in worst],
-        "hunting": bool(np.any(worst > limit)),
+        "hunting": bool(np.any(np.asarray(worst) > limit)),
     }
 
 

@@ -61,38 +61,37 @@ def simulate_many(
                 done(k, e, time.perf_counter() - started)
         queue.close()
 
-    queue = _Queue(stop)
     workers = max(1, min(threads, len(requests)))
     size = min(PACK, -(-len(requests) // workers))  # the first packs: every thread busy
-    with native.installed(), stepping():
-        if workers == 1:
-            put_all()
+    # A prepared vehicle holds its compiled model and data (0.8 MB a coach): the queue holds
+    # those the threads can take next, not every request's (64 coaches: 49 MB).
+    queue = _Queue(stop, limit=PACK * workers)
+    errors: list[BaseException] = []
+
+    def work() -> None:
+        try:
             _work(queue, size, done, derailment_lateral)
-        else:
-            errors: list[BaseException] = []
+        except BaseException as e:
+            errors.append(e)
+            queue.cancel()
 
-            def work() -> None:
-                try:
-                    _work(queue, size, done, derailment_lateral)
-                except BaseException as e:
-                    errors.append(e)
-                    queue.cancel()
-
-            pool = [threading.Thread(target=work, name=f"rail-mj-{i}", daemon=True) for i in range(workers)]
+    with native.installed(), stepping():
+        # Even one thread steps beside this one, which prepares the runs as places come free.
+        pool = [threading.Thread(target=work, name=f"rail-mj-{i}", daemon=True) for i in range(workers)]
+        for thread in pool:
+            thread.start()
+        try:
+            put_all()  # while the threads step the first runs prepared
             for thread in pool:
-                thread.start()
-            try:
-                put_all()  # while the threads step the first runs prepared
-                for thread in pool:
-                    while thread.is_alive():  # a timeout, so that Ctrl-C is heard
-                        thread.join(0.2)
-            except BaseException:
-                queue.cancel()  # each thread stops after its chunk; the callback stays till then
-                for thread in pool:
-                    thread.join()
-                raise
-            if errors:
-                raise errors[0]
+                while thread.is_alive():  # a timeout, so that Ctrl-C is heard
+                    thread.join(0.2)
+        except BaseException:
+            queue.cancel()  # each thread stops after its chunk; the callback stays till then
+            for thread in pool:
+                thread.join()
+            raise
+        if errors:
+            raise errors[0]
     return results
 
 
@@ -107,16 +106,19 @@ def _duration(request: Request) -> float:
 
 class _Queue:
     """The runs waiting to be stepped, the longest first, shared by the threads; put in as
-    they are prepared, until `close`."""
+    they are prepared, until `close`, and at most `limit` of them at a time (`put` waits)."""
 
-    def __init__(self, stop: threading.Event | None = None):
+    def __init__(self, stop: threading.Event | None = None, limit: int = PACK):
         self._items: list[tuple[int, Prepared]] = []
         self._ready = threading.Condition()
         self._closed = False
         self._stop = stop or threading.Event()
+        self._limit = max(1, limit)
 
     def put(self, k: int, prepared: Prepared) -> None:
         with self._ready:
+            while len(self._items) >= self._limit and not self.cancelled:
+                self._ready.wait(0.1)
             self._items.append((k, prepared))
             self._ready.notify_all()
 
@@ -142,11 +144,13 @@ class _Queue:
                     return []
                 like = cadence if cadence is not None or not self._items else self._items[0][1].cadence
                 chosen = [item for item in self._items if item[1].cadence == like][:n]
-                if cadence is not None or self._closed or len(chosen) == n:
+                # A full queue brings no more of this cadence until runs are taken: these then.
+                if cadence is not None or self._closed or len(chosen) == n or len(self._items) >= self._limit:
                     break
                 self._ready.wait(0.1)
             for item in chosen:
                 self._items.remove(item)
+            self._ready.notify_all()
             return chosen
 
     def take_like(self, prepared: Prepared) -> tuple[int, Prepared] | None:
@@ -163,6 +167,7 @@ class _Queue:
                     and request.profile == prepared.request.profile
                 ):
                     self._items.remove(item)
+                    self._ready.notify_all()
                     return item
             return None
 

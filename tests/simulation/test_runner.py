@@ -246,3 +246,26 @@ def test_many_runs_together_are_each_the_run_alone():
         assert _same_outcome(result, alone), request
         kinds.add(type(alone).__name__)
     assert kinds == {"Run", "Derailed", "SimulationError", "ValueError"}
+
+
+def test_the_batch_queue_holds_only_what_the_threads_can_take_next():
+    """A prepared vehicle holds its compiled model: `put` waits while `limit` wait, and a full
+    queue of mixed timesteps hands out what it has instead of waiting for more of one."""
+    import threading
+    from types import SimpleNamespace
+
+    from rail_mj.simulation.batch import _Queue
+
+    queue = _Queue(limit=2)
+    a, b = SimpleNamespace(cadence=(0.001, 1)), SimpleNamespace(cadence=(0.002, 1))
+    queue.put(0, a)
+    queue.put(1, b)
+    third = threading.Thread(target=queue.put, args=(2, a), daemon=True)
+    third.start()
+    third.join(0.3)
+    assert third.is_alive()  # waits: two already wait
+    assert queue.take(2) == [(0, a)]  # two of a's timestep asked, one there and the queue full
+    third.join(5.0)
+    assert not third.is_alive()
+    queue.close()
+    assert queue.take(2) == [(1, b)] and queue.take(2) == [(2, a)] and queue.take(2) == []
