@@ -496,17 +496,44 @@ def interleaved_steps(layout, n: int = 3000, repeats: int = 11):
     return np.array(out)
 
 
+# A child's own peak memory: its VmHWM when it exits. Not os.wait4's ru_maxrss: Linux carries the
+# parent's high-water mark into a child that is spawned (vfork) and execs, so every child of a
+# 390 MB benchmark would report at least 390 MB.
+_PEAK = """import atexit, os, runpy, sys
+def peak():
+    with open(os.environ["RAIL_MJ_PEAK"], "w") as f:
+        f.write(next(line.split()[1] for line in open("/proc/self/status") if line.startswith("VmHWM")))
+atexit.register(peak)
+if sys.argv[1] == "-c":
+    sys.argv = sys.argv[1:]
+    exec(compile(os.environ["RAIL_MJ_CODE"], "-c", "exec"), {"__name__": "__main__"})
+else:
+    sys.argv = sys.argv[1:]
+    runpy.run_path(sys.argv[0], run_name="__main__")
+"""
+
+
 def _child(command: list[str]) -> tuple[float, float, float]:
-    """A new process's wall and CPU time (s) and peak memory (MB), its own (os.wait4)."""
+    """A new process's wall and CPU time (s) (os.wait4) and peak memory (MB, its VmHWM): `command`
+    a Python script and its arguments, or [python, "-c", code]."""
     import os
 
-    wall = time.perf_counter()
-    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(child.pid, 0)
-    child.returncode = os.waitstatus_to_exitcode(status)
-    if child.returncode != 0:
-        raise RuntimeError(f"{command[:3]} failed: {child.stderr.read().decode()[-300:] if child.stderr else ''}")
-    return time.perf_counter() - wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
+    with tempfile.TemporaryDirectory() as folder:
+        peak = Path(folder) / "peak"
+        env = {**os.environ, "RAIL_MJ_PEAK": str(peak)}
+        if command[1:2] == ["-c"]:
+            env["RAIL_MJ_CODE"] = command[2]
+            args = [sys.executable, "-c", _PEAK, "-c", *command[3:]]
+        else:
+            args = [sys.executable, "-c", _PEAK, *command]
+        wall = time.perf_counter()
+        child = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+        _, status, usage = os.wait4(child.pid, 0)
+        wall = time.perf_counter() - wall
+        child.returncode = os.waitstatus_to_exitcode(status)
+        if child.returncode != 0:
+            raise RuntimeError(f"{command[:3]} failed: {child.stderr.read().decode()[-300:] if child.stderr else ''}")
+        return wall, usage.ru_utime + usage.ru_stime, int(peak.read_text()) / 1024
 
 
 def interleaved_batches(turns: int = 3):
@@ -527,6 +554,24 @@ def interleaved_batches(turns: int = 3):
             table.unlink()
             out.append((ours, _child(peer)))
     return out
+
+
+def long_sweep() -> tuple[float, float, float]:
+    """The 64-speed coach sweep of 10 km runs from the command line, a new process: its wall and
+    CPU time (s) and peak memory (MB): the memory a sweep holds as its cases get long."""
+    rail_mj = str(Path(sys.executable).parent / "rail-mj")
+    with tempfile.TemporaryDirectory() as folder:
+        table = Path(folder) / "sweep.csv"
+        return _child([rail_mj, "sweep", str(COACH), "--speeds", "20:100:64", "--distance", "10000", "-o", str(table)])
+
+
+def short_runs(repeats: int = 5) -> list[tuple[float, float, float]]:
+    """A warm `rail-mj run` of the coach over 100 m at 40 m/s, a new process each time (the first,
+    which may compile, left out): (wall s, CPU s, peak MB) of each, start-up and summary included."""
+    rail_mj = str(Path(sys.executable).parent / "rail-mj")
+    command = [rail_mj, "run", str(COACH), "--speed", "40", "--distance", "100"]
+    _child(command)
+    return [_child(command) for _ in range(repeats)]
 
 
 def fastsim_cost(repeats: int = 3):
@@ -588,6 +633,19 @@ def print_batch() -> None:
     wall = [t[0][0] / t[1][0] for t in turns]
     cpu = [t[0][1] / t[1][1] for t in turns]
     print(f"| sweep / peer, per turn | {min(wall):.2f}-{max(wall):.2f}x | {min(cpu):.2f}-{max(cpu):.2f}x | |")
+    print()
+    wall, cpu, peak = long_sweep()
+    runs = short_runs()
+    walls = [r[0] for r in runs]
+    print("| from the command line, a new process each | wall | CPU | peak memory |")
+    print("|---|---|---|---|")
+    print(f"| `rail-mj sweep`, 64 speeds 20-100 m/s, 10 km each, both cores | {wall:.0f} s | {cpu:.0f} s ", end="")
+    print(f"| {peak:.0f} MB |")
+    print(
+        f"| `rail-mj run` of the coach, 100 m at 40 m/s, warm, best of {len(runs)} (range) "
+        f"| {min(walls):.2f} s ({min(walls):.2f}-{max(walls):.2f} s) | {min(r[1] for r in runs):.2f} s "
+        f"| {max(r[2] for r in runs):.0f} MB |"
+    )
     print()
     laws = fastsim_cost()
     ratio = laws[:, 1] / laws[:, 0]

@@ -8,8 +8,8 @@ motion is kept exactly, in a few numbers and events a coordinate (`Coordinate`):
 (`decayed_at`), the upward zero crossings and the peaks. EN 14363's instability criterion needs
 the whole run's Sigma Y (its f0 is the peak of the whole run's periodogram, and the band-pass
 runs forwards and backwards), which is kept a sample a wheelset in a temporary file until the run
-ends, and then filtered one run at a time. Everything is the full summary's, bit for bit
-(tests/analysis/test_streaming.py): only the memory changes.
+ends, and then read back and filtered a wheelset at a time, one run at a time. Everything is the
+full summary's, bit for bit (tests/analysis/test_streaming.py): only the memory changes.
 
 Example:
 
