@@ -169,7 +169,8 @@ class Coordinate:
 
 
 # The runs of a sweep end on several threads at once; each one's EN 14363 filters hold a few
-# times a wheelset's Sigma Y (4 MB for 500 s at 1 kHz): one at a time.
+# times a wheelset's Sigma Y (4 MB for 500 s at 1 kHz), and numpy's FFT of its periodogram, for a
+# length with a large prime factor (Bluestein's algorithm), about 16 times it: one at a time.
 _FINISHING = threading.Lock()
 _BLOCK = 1 << 20  # bytes of Sigma Y read back at a time
 
