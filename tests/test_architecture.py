@@ -20,7 +20,7 @@ from rail_mj import _compat
 PYTHON = sys.executable
 # Folders in the order data flows through them; the leaves are below all of them.
 FLOW = ("contact", "track", "layout", "vehicle", "simulation", "analysis", "output", "studies", "cli")
-LEAVES = ("units", "numerics", "files", "practice", "_lazy", "_compat", "__main__")
+LEAVES = ("units", "numerics", "files", "compiled", "practice", "_lazy", "_compat", "__main__")
 
 
 def test_import_contracts_hold():

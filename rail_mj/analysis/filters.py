@@ -6,7 +6,8 @@ These are scipy.signal's `butter(..., output="sos")`, `sosfiltfilt` (odd padding
 (constant detrend, boxcar window), written out because every `rail-mj run` summarises its
 motion with them and importing scipy.signal costs half a second (scipy 1.17 parses the
 docstring of each of its functions at import). `tests/analysis/test_filters.py` holds them to
-scipy's to round-off. The recursion is compiled with numba, which a run has loaded already.
+scipy's to round-off. The recursion is C, built once per installation (rail_mj.compiled), so that
+a run's summary needs no numba; numba compiles it where no C compiler is found.
 
 Example:
 
@@ -18,9 +19,10 @@ Example:
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import math
 
-import numba
 import numpy as np
 
 
@@ -79,22 +81,77 @@ def _steady_state(sos: np.ndarray) -> np.ndarray:
     return zi
 
 
-@numba.njit(cache=True)
-def _sosfilt(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
-    """Second-order sections, transposed direct form II, down axis 0 of x; zi[s] times the
-    first row starts section s."""
-    y = x.copy()
-    for c in range(x.shape[1]):
-        for s in range(sos.shape[0]):
-            b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
-            z0 = zi[s, 0] * x[0, c]
-            z1 = zi[s, 1] * x[0, c]
-            for n in range(x.shape[0]):
-                v = y[n, c]
-                out = b0 * v + z0
-                z0 = b1 * v - a1 * out + z1
-                z1 = b2 * v - a2 * out
-                y[n, c] = out
+# `_sosfilt_numba`'s recursion in C, in place on a C-ordered (n, columns) array.
+_C_SOURCE = """/* Written by rail_mj.analysis.filters. */
+#include <stdint.h>
+
+void rail_mj_sosfilt(const double *sos, int64_t sections, const double *zi, double *y, int64_t n,
+                     int64_t columns) {
+    for (int64_t c = 0; c < columns; c++) {
+        double first = y[c];
+        for (int64_t s = 0; s < sections; s++) {
+            double b0 = sos[6 * s], b1 = sos[6 * s + 1], b2 = sos[6 * s + 2];
+            double a1 = sos[6 * s + 4], a2 = sos[6 * s + 5];
+            double z0 = zi[2 * s] * first, z1 = zi[2 * s + 1] * first;
+            for (int64_t i = 0; i < n; i++) {
+                double v = y[i * columns + c];
+                double out = b0 * v + z0;
+                z0 = b1 * v - a1 * out + z1;
+                z1 = b2 * v - a2 * out;
+                y[i * columns + c] = out;
+            }
+        }
+    }
+}
+"""
+
+
+@functools.cache
+def _library() -> ctypes.CDLL | None:
+    from rail_mj import compiled
+
+    library = compiled.load("filters", "", _C_SOURCE)
+    if library is not None:
+        i64, v = ctypes.c_int64, ctypes.c_void_p
+        library.rail_mj_sosfilt.argtypes = (v, i64, v, v, i64, i64)
+        library.rail_mj_sosfilt.restype = None
+    return library
+
+
+@functools.cache
+def _sosfilt_numba():
+    import numba
+
+    @numba.njit(cache=True)
+    def sosfilt(sos, x, zi):
+        """Second-order sections, transposed direct form II, down axis 0 of x; zi[s] times the
+        first row starts section s."""
+        y = x.copy()
+        for c in range(x.shape[1]):
+            for s in range(sos.shape[0]):
+                b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
+                z0 = zi[s, 0] * x[0, c]
+                z1 = zi[s, 1] * x[0, c]
+                for n in range(x.shape[0]):
+                    v = y[n, c]
+                    out = b0 * v + z0
+                    z0 = b1 * v - a1 * out + z1
+                    z1 = b2 * v - a2 * out
+                    y[n, c] = out
+        return y
+
+    return sosfilt
+
+
+def _sosfilt(sos: np.ndarray, x: np.ndarray, zi: np.ndarray, native: bool = True) -> np.ndarray:
+    """Second-order sections, transposed direct form II, down axis 0 of x (2-D); zi[s] times the
+    first row starts section s. `native`: the C library's (else numba's, as where it cannot be built)."""
+    library = _library() if native else None
+    if library is None:
+        return _sosfilt_numba()(sos, x, zi)
+    sos, zi = np.ascontiguousarray(sos, dtype=float), np.ascontiguousarray(zi, dtype=float)
+    y = np.array(x, dtype=float, order="C")
+    library.rail_mj_sosfilt(sos.ctypes.data, len(sos), zi.ctypes.data, y.ctypes.data, y.shape[0], y.shape[1])
     return y
 
 

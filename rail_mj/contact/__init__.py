@@ -7,7 +7,9 @@
     hertz.py       Hertz's contact ellipse and Kalker's creep coefficients from materials and radii
     tables.py      a profiled wheelset's contact tables for the compiled law; linearised at an amplitude
     laws.py        the creep laws by name and number
-    creep.py       the contact law: Kalker's creep, saturation, FASTSIM, flanges, wheel loads (numba)
+    parameters.py  what the law takes of each wheelset and what it gives: plain data
+    creep.py       the contact law: Kalker's creep, saturation, FASTSIM, flanges, wheel loads
+    law.py         the same law as numba compiles it (creep.py gives its names; a library holds it)
     derived.py     what a layout leaves to its contact: the profiles' conicity and flange shift, f11..f33, wheel load
 
 The names of rail-mj 0.1's `rail_mj.contact` (Hertz and Kalker) are still found here.

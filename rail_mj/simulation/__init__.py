@@ -2,6 +2,7 @@
 
 callback.py    the contact law as a Python passive-force callback: the readable reference
 native.py      the same law as a native (C) callback: no Python in a step, thread-safe
+kernel.py      that callback's code, as numba compiles it into the installation's library
 curve.py       what a curved, canted track adds in the native callback, each body at its own station
 linear.py      the model linearised about its reference state (timestep, eigenvalues)
 timestep.py    the timestep: RK4's limit for the fastest linear mode

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Callable
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -25,8 +25,10 @@ from rail_mj.units import GRAVITY
 from rail_mj.vehicle.block import contact_parameters
 from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.loads import AxleLoads
-from rail_mj.vehicle.rails import ALIGNMENT, GAUGE, LEVEL, ROLL, Rails
 from rail_mj.vehicle.spec import Vehicle
+
+if TYPE_CHECKING:
+    from rail_mj.vehicle.rails import Rails
 
 
 @dataclasses.dataclass
@@ -211,6 +213,8 @@ class Run:
             cols += [cant[:, i] for i in range(self.n_wheelsets)]
         rails = self.rails
         if rails is not None:  # on irregular track: the rails under each wheelset, the floor's accelerations
+            from rail_mj.vehicle.rails import ALIGNMENT, GAUGE, LEVEL, ROLL
+
             at = rails.at(self.wheelset_station)
             for name, entry, factor in (
                 ("alignment", ALIGNMENT, 1.0),
@@ -251,6 +255,12 @@ class Run:
     @functools.cached_property
     def rails(self) -> Rails | None:
         """The rails under the wheelsets of an irregular track (rail_mj.vehicle.rails); None: perfect."""
+        from rail_mj.vehicle.block import track_part_at
+
+        if track_part_at(self.vehicle.model, "") is None:  # straight track (rails, compiled, not imported)
+            return None
+        from rail_mj.vehicle.rails import Rails
+
         return Rails.of(self.vehicle.model)
 
     @property

@@ -19,7 +19,7 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import mujoco
 import numpy as np
@@ -36,8 +36,10 @@ from rail_mj.vehicle.block import contact_parameters, set_speed
 from rail_mj.vehicle.curve import ODOMETER, track_part
 from rail_mj.vehicle.joints import YAW
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
-from rail_mj.vehicle.rails import Rails
 from rail_mj.vehicle.spec import Vehicle
+
+if TYPE_CHECKING:
+    from rail_mj.vehicle.rails import Rails
 
 SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
 # Samples at SAMPLE_INTERVAL between divergence checks (and progress reports): a chunk is this
@@ -100,6 +102,12 @@ class Prepared:
     @functools.cached_property
     def rails(self) -> Rails | None:
         """The rails under the wheelsets of an irregular track (rail_mj.vehicle.rails); None: perfect."""
+        from rail_mj.vehicle.block import track_part_at
+
+        if track_part_at(self.vehicle.model, "") is None:  # straight track (rails, compiled, not imported)
+            return None
+        from rail_mj.vehicle.rails import Rails
+
         return Rails.of(self.vehicle.model)
 
     @functools.cached_property
@@ -590,18 +598,12 @@ def stepping():
                 mujoco.set_mjcb_time(_stepping_previous[1])
 
 
-@functools.cache
 def _untimed():
-    """A native clock that always reads 0 (MuJoCo's default reads the system clock)."""
-    import ctypes
+    """A native clock that always reads 0 (MuJoCo's default reads the system clock): the native
+    callback's library holds it (rail_mj.simulation.native)."""
+    from rail_mj.simulation import native
 
-    import numba
-
-    @numba.cfunc(numba.types.float64(), cache=True)
-    def zero():
-        return 0.0
-
-    return ctypes.CFUNCTYPE(ctypes.c_double)(zero.address)
+    return native.native().clock
 
 
 def _records(vehicle: Vehicle, n_samples: int):

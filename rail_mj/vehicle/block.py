@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from rail_mj import numerics
-from rail_mj.contact.creep import ContactParameters
+from rail_mj.contact.parameters import ContactParameters
 from rail_mj.numerics import (
     COLUMNS,
     COUPLE,

@@ -74,3 +74,18 @@ def test_periodogram_is_scipys(n):
     f_s, p_s = signal.periodogram(x, fs=250.0, axis=0)
     assert np.allclose(f, f_s, rtol=1e-15, atol=0)
     assert np.allclose(p, p_s, rtol=1e-12, atol=1e-14 * np.max(np.abs(p_s)))
+
+
+def test_the_c_recursion_is_numbas_to_the_bit():
+    """The filters' recursion in C (the installation's library) rounds as numba's: no fused
+    multiply-adds, the same operations in the same order."""
+    from rail_mj.analysis import filters
+
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((4000, 3))
+    sos = filters.butterworth_sos(4, (1.5, 5.5), fs=200.0)
+    zi = filters._steady_state(sos)
+    assert filters._library() is not None
+    native, compiled = filters._sosfilt(sos, x, zi), filters._sosfilt(sos, x, zi, native=False)
+    assert np.any(native != x)
+    np.testing.assert_array_equal(native, compiled)
