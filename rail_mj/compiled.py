@@ -122,15 +122,15 @@ def library_path(name: str, key: str, c_source: str) -> Path:
 def load(name: str, key: str, c_source: str, kernels: Callable[[], dict] | None = None) -> ctypes.CDLL | None:
     """The shared library `name`, built the first time: `c_source` linked with the machine code of
     `kernels()` (C name -> numba cfunc, compiled when called; each kernel's body is then the C
-    function `<name>` of numba's calling convention, `int <name>(void **result, void
-    **exception, args...)`, status in STATUS_OK when it returned, and numba's C-callable wrapper
-    is dropped). None where it cannot be built here (no compiler, nowhere to keep it)."""
+    function `<name>` of numba's calling convention, `int <name>(T *result, void **exception,
+    args...)` (the value returned written to *result), status in STATUS_OK when it returned;
+    numba's C-callable wrapper is dropped). None where it cannot be built here (no compiler, nowhere to keep it)."""
     path = library_path(name, key, c_source)
     for attempt in range(2):
         if attempt or not path.is_file():  # first use for these sources, or a damaged file
             try:
                 _build(path, c_source, kernels)
-            except (BuildError, OSError):
+            except Exception:  # no compiler, no room, an llvmlite without this API: numba, here
                 return None
         try:
             return ctypes.CDLL(str(path))
