@@ -1,9 +1,11 @@
 """The creep law as MuJoCo's passive-force callback in native code: no Python in a step.
 
 `rail_mj.simulation.callback.CreepForces` is the same physics in Python: readable, and what the tests
-compare this with. This module compiles a C callback with numba that reads each
-wheelset's state from mjData, calls the one contact law (`rail_mj.contact.creep.wheelset_contact`)
-and adds the forces to `qfrc_passive`. It holds the GIL never and shares no buffer, so
+compare this with. The callback's code is `rail_mj.simulation.kernel._apply` (numba): it reads each
+wheelset's state from mjData, calls the one contact law (`rail_mj.contact.law.wheelset_contact`)
+and adds the forces to `qfrc_passive`. This module builds it, with this MuJoCo's struct offsets,
+into the installation's library (rail_mj.compiled) and hands MuJoCo its pointer; where no library
+can be built, numba compiles it here. It holds the GIL never and shares no buffer, so
 MuJoCo may call it from many threads at once (`mujoco.rollout`, `mujoco.batch`).
 
 Everything it needs comes from the model, so a batch may mix vehicles and speeds:
