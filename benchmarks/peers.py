@@ -48,6 +48,7 @@ from rail_mj.layout import load_layout
 from rail_mj.simulation.callback import contact_parameters
 from rail_mj.simulation.run import Run
 from rail_mj.simulation.runner import simulate
+from rail_mj.track import Track
 from rail_mj.vehicle.spec import Vehicle
 
 COACH = Path(__file__).resolve().parent.parent / "models" / "manchester-coach" / "manchester-coach.toml"
@@ -131,10 +132,17 @@ def initial_state(vehicle: Coach, initial_lateral: float) -> np.ndarray:
 
 
 def reference(
-    speed: float = SPEED, distance: float = DISTANCE, initial_lateral: float = INITIAL_LATERAL, path: Path = COACH
+    speed: float = SPEED,
+    distance: float = DISTANCE,
+    initial_lateral: float = INITIAL_LATERAL,
+    path: Path = COACH,
+    nested: bool = False,
 ) -> Run:
-    """rail-mj's run of the coach: what the peers are compared with."""
-    return simulate(load_layout(path), speed, distance, initial_lateral)
+    """rail-mj's run of the coach: what the peers are compared with. On straight track rail-mj
+    steps the coach's flat twin (rail_mj.vehicle.spec.Vehicle.stepped); `nested`: its own
+    nested model, the peers' equations, which it steps on a track file (a straight one here)."""
+    track = Track.straight(distance + 100.0) if nested else None
+    return simulate(load_layout(path), speed, distance, initial_lateral, track=track)
 
 
 def best(fn, repeats: int) -> float:

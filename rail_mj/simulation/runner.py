@@ -95,7 +95,8 @@ def prepare(request: Request, python_callback: bool = False) -> Prepared:
     dt = _timestep(vehicle, python_callback, speed, request)
     if profile is None:
         set_speed(vehicle.model, speed)
-    forces = CreepForces(vehicle.model, vehicle.wheelset_names, speed) if python_callback else None
+    # On the model that steps (Vehicle.stepped: a planar vehicle's flat twin on straight track).
+    forces = CreepForces(vehicle.stepped.model, vehicle.wheelset_names, speed) if python_callback else None
     steps = duration / float(dt)
     if not steps <= MAX_STEPS:  # also catches inf from an absurdly slow run
         w, c = layout.wheelset, layout.creep

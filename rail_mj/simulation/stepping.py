@@ -82,6 +82,12 @@ class Prepared:
         their contact table (10 mm: far up the flange, where a rigid wheel climbs it)."""
         return min(lateral, self.table_end)
 
+    @property
+    def stepped(self) -> Vehicle:
+        """The vehicle MuJoCo steps, `Vehicle.stepped` (a planar vehicle on straight track: its
+        flat twin), with either callback."""
+        return self.vehicle.stepped
+
     @functools.cached_property
     def every(self) -> int:
         """Steps between the samples the run keeps: its request's sample interval (or
@@ -138,7 +144,9 @@ class Running:
         self.held = 0  # streamed: samples in the buffers not yet given to the sink
         self.done = 0  # samples recorded
         self.stepped = 0  # steps taken
-        self.state = prepared.request.state
+        # In the stepped vehicle's coordinates (a flat twin's: Prepared.stepped), as the packs keep it.
+        state = prepared.request.state
+        self.state = None if state is None else prepared.vehicle.to_stepped(state)
         self.seconds = prepared.seconds  # and its share of the time of the models it was stepped in
 
     def t(self) -> np.ndarray:
@@ -172,8 +180,10 @@ class Running:
         return int(off[0]), int(np.argmax(lateral[off[0]]))
 
     def run(self, final):
-        """Its result: the Run of every sample, or what its sink makes of them."""
+        """Its result: the Run of every sample, or what its sink makes of them; `final` the
+        stepped vehicle's last state (the Run's final_state is its own vehicle's)."""
         p = self.prepared
+        final = p.vehicle.from_stepped(final)
         if self.sink is not None:
             return self.sink.finish(final)
         return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads)
@@ -258,12 +268,12 @@ class Pack:
         # As `simulate` steps it: in its own vehicle's model (drawn shapes and all), or a train on
         # straight track in a model of its own without tendons (its springs in the callback).
         self.alone = alone
-        vehicle = runs[0].prepared.vehicle
+        vehicle = runs[0].prepared.stepped
         if alone and (runs[0].prepared.forces is not None or not vehicle.springs_in_callback):
             self.model, self.places = vehicle.model, [_Place.whole(vehicle)]
         else:
             self.model, self.places = _pack(
-                [r.prepared.vehicle for r in runs], [r.prepared.request.speed for r in runs]
+                [r.prepared.stepped for r in runs], [r.prepared.request.speed for r in runs]
             )
         model = self.model
         model.opt.timestep = runs[0].prepared.timestep

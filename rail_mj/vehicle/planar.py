@@ -13,6 +13,12 @@ carries. A wheelset joint measures y_w - (y_f + (x_w - x_f)*psi_f) and
 psi_w - psi_f relative to its frame, exactly the suspension deflections of
 docs/frames.md once linearised. A fixed car body has no joints.
 
+`rail_mj.vehicle.train.add_flat_carbody` builds the same vehicle flat, for stepping (docs/trains.md): every
+body a child of the world on absolute joints, each suspension a pair of fixed tendons whose
+lengths are those linearised deflections (as a train's, rail_mj.vehicle.train). Its mass
+matrix is diagonal where the nested one couples every body to the joints above it; the two
+forms differ by the second-order kinematics the flat one leaves out.
+
 Example:
 
     >>> from rail_mj.layout import load_layout
@@ -75,16 +81,22 @@ def add_bogie(parent, name: str, x: float, z: float, layout: Layout, bogies: Bog
         )
 
 
-def add_carbody(worldbody, vehicle: Planar) -> None:
-    """The car body (held over the centreline when fixed) with everything under it."""
-    layout = vehicle.layout
-    c = layout.carbody
+def add_carbody_body(worldbody, vehicle: Planar):
+    """The car body alone, on the world (no joints when fixed: held over the centreline), drawn."""
+    c = vehicle.layout.carbody
     body = worldbody.add_body(name="carbody", pos=[0, 0, CARBODY_HEIGHT])
     if not c.fixed:
         assert c.mass is not None and c.inertia is not None  # the reader requires both of a free body
         _set_inertia(body, c.mass, c.inertia)
         _add_planar_joints(body, None)
     add_carbody_shell(body, vehicle)
+    return body
+
+
+def add_carbody(worldbody, vehicle: Planar) -> None:
+    """The car body (held over the centreline when fixed) with everything under it."""
+    layout = vehicle.layout
+    body = add_carbody_body(worldbody, vehicle)
     if vehicle.bogies is not None:
         n = vehicle.bogies.wheelsets_per_bogie
         for k, x in enumerate(vehicle.bogies.positions):

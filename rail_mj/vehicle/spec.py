@@ -23,22 +23,23 @@ from rail_mj.numerics import (
 from rail_mj.track import SpeedProfile, Track
 from rail_mj.units import PA_PER_GPA
 from rail_mj.vehicle.curve import add_odometer
-from rail_mj.vehicle.joints import LATERAL
+from rail_mj.vehicle.joints import LATERAL, YAW
 from rail_mj.vehicle.looks import add_wheel_mesh
 from rail_mj.vehicle.planar import add_carbody
 from rail_mj.vehicle.rounding import _g6
 from rail_mj.vehicle.sensors import Sensors, add_load_sensors, add_sensors
 from rail_mj.vehicle.spatial import add_spatial
 from rail_mj.vehicle.statics import add_gravitational_stiffness, preload
-from rail_mj.vehicle.train import add_train
+from rail_mj.vehicle.train import add_flat_carbody, add_train
 
 # The run's speed replaces nothing here: the timestep is chosen by the runner.
 DEFAULT_TIMESTEP = 1e-3
 
 
-def build_spec(layout: Layout, track: Track | None = None) -> mujoco.MjSpec:
+def build_spec(layout: Layout, track: Track | None = None, flat: bool = False) -> mujoco.MjSpec:
     """The vehicle alone as an MjSpec, its wheel mesh in `spec.assets`; on `track` (curved or
-    canted: rail_mj.vehicle.curve) with its odometer."""
+    canted: rail_mj.vehicle.curve) with its odometer. `flat`: a planar vehicle built flat
+    (rail_mj.vehicle.train.add_flat_carbody), the form it is stepped in on straight track."""
     spec = mujoco.MjSpec()
     spec.modelname = layout.name
     spec.compiler.degree = False
@@ -67,6 +68,8 @@ def build_spec(layout: Layout, track: Track | None = None) -> mujoco.MjSpec:
                 _add_loads(spec, vehicle)
         case TrainOfCars():
             add_train(spec, vehicle)
+        case Planar() if flat:
+            add_flat_carbody(spec, vehicle)
         case Planar():
             add_carbody(spec.worldbody, vehicle)
     if track is not None:
@@ -157,7 +160,7 @@ def compile_spec(spec: mujoco.MjSpec, layout: Layout) -> mujoco.MjModel:
 
 
 def compiled(
-    layout: Layout, track: Track | None = None, profile: SpeedProfile | None = None
+    layout: Layout, track: Track | None = None, profile: SpeedProfile | None = None, flat: bool = False
 ) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
     """The vehicle's spec and compiled model, its native block filled in: the block lists
     bodies, joints and dofs by the ids the compiler gave them, so it is written after a
@@ -165,7 +168,7 @@ def compiled(
     from rail_mj.numerics import userdata_size
     from rail_mj.vehicle import block  # numba (the contact law's module): only once a model is built
 
-    spec = build_spec(layout, track)
+    spec = build_spec(layout, track, flat)
     model = compile_spec(spec, layout)
     if layout.spatial is not None:  # a spatial vehicle's gravity: the only one with vertical motion
         if layout.spatial.gravity:
@@ -200,25 +203,77 @@ class Vehicle:
         ('wheelset1', 14)
     """
 
-    def __init__(self, layout: Layout, track: Track | None = None, profile: SpeedProfile | None = None):
+    def __init__(
+        self, layout: Layout, track: Track | None = None, profile: SpeedProfile | None = None, flat: bool = False
+    ):
         """`track`: a curved or canted track to run on (None: straight, the shipped MJCF);
         `profile`: the speed along it (rail_mj.track.speed; None: the run's constant speed). A
-        profile needs a track (the odometer it drives): `Track.straight` where there is no curve."""
+        profile needs a track (the odometer it drives): `Track.straight` where there is no curve.
+        `flat`: a planar vehicle's flat twin on straight track (`stepped`), not its MJCF."""
         if profile is not None and track is None:
             raise ValueError("a speed profile needs a track to run along (rail_mj.track.Track.straight)")
-        self.layout, self.track, self.profile = layout, track, profile
-        self.spec, self.model = compiled(layout, track, profile)
+        if flat and (track is not None or not isinstance(vehicle_kind(layout), Planar)):
+            raise ValueError("only a planar vehicle on straight track has a flat twin")
+        self.layout, self.track, self.profile, self.flat = layout, track, profile, flat
+        self.spec, self.model = compiled(layout, track, profile, flat)
         self.wheelset_names = tuple(f"wheelset{i + 1}" for i in range(layout.n_wheelsets))
         self.wheelset_ids = np.array([self.model.body(n).id for n in self.wheelset_names], dtype=np.int64)
 
     @property
     def springs_in_callback(self) -> bool:
         """Whether the model that steps this vehicle (rail_mj.simulation.stepping) leaves its
-        suspension to the native callback: a flat train on straight track, whose every tendon is
-        a linear spring and damper on its joints. MuJoCo's tendon stages cost a train's step
-        more than the same forces summed in the callback (docs/trains.md); its own model, and
-        its MJCF, keep the tendons."""
-        return self.track is None and isinstance(vehicle_kind(self.layout), TrainOfCars)
+        suspension to the native callback: a flat train, or a planar vehicle's flat twin, on
+        straight track, whose every tendon is a linear spring and damper on its joints.
+        MuJoCo's tendon stages cost a train's step more than the same forces summed in the
+        callback (docs/trains.md); its own model, and its MJCF, keep the tendons."""
+        return self.track is None and (self.flat or isinstance(vehicle_kind(self.layout), TrainOfCars))
+
+    @functools.cached_property
+    def stepped(self) -> Vehicle:
+        """The vehicle that steps for this one (rail_mj.simulation.stepping): a planar vehicle
+        on straight track whose joints are nested (a body on a moving body) steps as its flat
+        twin (`Vehicle(layout, flat=True)`: the same bodies, names and joints, each body on its
+        own absolute joints, its suspension summed in the callback: docs/trains.md); any
+        other, itself. On a track file the nested model steps (its curve loads and tendon shifts
+        are the nested chain's). States pass between the two by `from_stepped` and `to_stepped`."""
+        nested = np.any(self.model.body_dofnum[self.model.body_parentid[self.model.jnt_bodyid]] > 0)
+        if self.flat or self.track is not None or not isinstance(vehicle_kind(self.layout), Planar) or not nested:
+            return self
+        return Vehicle(self.layout, flat=True)
+
+    @functools.cached_property
+    def _from_stepped(self) -> np.ndarray:
+        """The matrix that takes the stepped twin's coordinates (absolute lateral and yaw of each
+        body) to this vehicle's (each joint relative to the body it hangs from): a child c's
+        lateral joint reads y_c - y_p - a*psi_p (a: its x in its parent's frame), its yaw
+        psi_c - psi_p, the suspension deflections the twin's tendons measure (docs/frames.md)."""
+        own, twin = self.model, self.stepped.model
+        names = [own.joint(j).name for j in range(own.njnt)]
+        if [twin.joint(j).name for j in range(twin.njnt)] != names:
+            raise ValueError("the flat twin's joints are not the vehicle's")
+        T = np.eye(own.nv)
+        for j, name in enumerate(names):
+            body = int(own.jnt_bodyid[j])
+            parent = int(own.body_parentid[body])
+            if own.body_dofnum[parent] == 0:  # on the world or a fixed car body: absolute already
+                continue
+            p = own.body(parent).name
+            T[j, names.index(f"{p}_{YAW}")] = -1.0 if name.endswith(f"_{YAW}") else -float(own.body_pos[body, 0])
+            if name.endswith(f"_{LATERAL}"):
+                T[j, names.index(f"{p}_{LATERAL}")] = -1.0
+        return T
+
+    def from_stepped(self, state: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """(qpos, qvel) of the stepped vehicle (`stepped`) as this vehicle's own."""
+        if self.stepped is self:
+            return state
+        return self._from_stepped @ state[0], self._from_stepped @ state[1]
+
+    def to_stepped(self, state: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """(qpos, qvel) of this vehicle as its stepped twin's (`stepped`)."""
+        if self.stepped is self:
+            return state
+        return np.linalg.solve(self._from_stepped, state[0]), np.linalg.solve(self._from_stepped, state[1])
 
     @functools.cached_property
     def stepping_spec(self) -> mujoco.MjSpec:

@@ -1,6 +1,7 @@
 """A train built flat (docs/trains.md): every body a child of the world with absolute lateral
 and yaw joints, each suspension and coupling a pair of fixed tendons on them; its bogie frames,
-tendons and couplings serve the spatial vehicle, also built flat, as well.
+tendons and couplings serve the spatial vehicle, also built flat, as well, and the planar
+vehicle's flat twin (`add_flat_carbody`), which steps it on straight track.
 """
 
 from __future__ import annotations
@@ -8,7 +9,7 @@ from __future__ import annotations
 import mujoco
 
 from rail_mj.layout import Layout, Suspension
-from rail_mj.layout.kinds import TrainOfCars
+from rail_mj.layout.kinds import Planar, TrainOfCars
 from rail_mj.layout.reader import Bogie, BogieDesign
 from rail_mj.vehicle.joints import LATERAL, ROLL, YAW, _add_planar_joints, _add_spatial_joints, _set_inertia
 from rail_mj.vehicle.looks import (
@@ -18,8 +19,9 @@ from rail_mj.vehicle.looks import (
     add_bogie_frame,
     add_coach_shell,
     side_frame_heights,
+    underframe_bottom,
 )
-from rail_mj.vehicle.planar import add_wheelset
+from rail_mj.vehicle.planar import add_carbody_body, add_wheelset
 from rail_mj.vehicle.rounding import _g6, _pos
 
 
@@ -48,10 +50,10 @@ def add_train(spec: mujoco.MjSpec, vehicle: TrainOfCars) -> None:
             wheelset = f"wheelset{(i - 1) * n + j + 1}"
             add_wheelset(world, wheelset, xb + xw, layout.wheelset.rolling_radius, layout, spring_top, nested=False)
             x_of[wheelset] = xb + xw
-            _suspension_tendons(spec, wheelset, f"{name}", x_of, layout.primary)
+            add_suspension_tendons(spec, wheelset, f"{name}", x_of, layout.primary)
         carried_by = train.cars_on(i)
         for k in carried_by:  # a Jacobs bogie shares [secondary] between its two bodies
-            _suspension_tendons(spec, name, f"carbody{k}", x_of, bogies.secondary, 1.0 / len(carried_by))
+            add_suspension_tendons(spec, name, f"carbody{k}", x_of, bogies.secondary, 1.0 / len(carried_by))
     _coupling_tendons(spec, train, x_of)
 
 
@@ -100,21 +102,26 @@ def add_flat_bogie(
     add_bogie_frame(body, name, layout, design.wheelset_positions)
 
 
-def _suspension_tendons(
-    spec, child: str, parent: str, x_of: dict[str, float], s: Suspension, share: float = 1.0
+def add_suspension_tendons(
+    spec,
+    child: str,
+    parent: str,
+    x_of: dict[str, float],
+    s: Suspension,
+    share: float = 1.0,
+    fixed: set[str] | frozenset[str] = frozenset(),
 ) -> None:
     """The lateral and yaw deflections of `child` hung from `parent` (docs/frames.md),
-    d = y_c - y_p - (x_c - x_p)*psi_p and e = psi_c - psi_p, as tendons with `share` of `s`."""
+    d = y_c - y_p - (x_c - x_p)*psi_p and e = psi_c - psi_p, as tendons with `share` of `s`;
+    a parent in `fixed` (a fixed car body: no joints) adds no terms."""
     arm = x_of[child] - x_of[parent]
-    lateral = {f"{child}_{LATERAL}": 1.0, f"{parent}_{LATERAL}": -1.0, f"{parent}_{YAW}": -arm}
+    lateral = {f"{child}_{LATERAL}": 1.0}
+    yaw = {f"{child}_{YAW}": 1.0}
+    if parent not in fixed:
+        lateral |= {f"{parent}_{LATERAL}": -1.0, f"{parent}_{YAW}": -arm}
+        yaw[f"{parent}_{YAW}"] = -1.0
     _tendon(spec, f"{child}_{parent}_{LATERAL}", lateral, share * s.lateral_stiffness, share * s.lateral_damping)
-    _tendon(
-        spec,
-        f"{child}_{parent}_{YAW}",
-        {f"{child}_{YAW}": 1.0, f"{parent}_{YAW}": -1.0},
-        share * s.yaw_stiffness,
-        share * s.yaw_damping,
-    )
+    _tendon(spec, f"{child}_{parent}_{YAW}", yaw, share * s.yaw_stiffness, share * s.yaw_damping)
 
 
 def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, damping: float, keep: bool = False):
@@ -129,3 +136,34 @@ def _tendon(spec, name: str, coefficients: dict[str, float], stiffness: float, d
         if coef != 0.0:
             tendon.wrap_joint(joint, _g6(coef)[0])
     return tendon
+
+
+def add_flat_carbody(spec, vehicle: Planar) -> None:
+    """`add_carbody` built flat: the same bodies, in the same order and at the same places, each
+    a child of the world with its own lateral slide and yaw hinge (a fixed car body none), and
+    each suspension a pair of fixed tendons on them (rail_mj.vehicle.train)."""
+    layout, world = vehicle.layout, spec.worldbody
+    add_carbody_body(world, vehicle)
+    x_of = {"carbody": 0.0}
+    fixed = {"carbody"} if layout.carbody.fixed else set()
+    if vehicle.bogies is not None:
+        n = vehicle.bogies.wheelsets_per_bogie
+        spring_top = side_frame_heights(layout)[0]
+        for k, xb in enumerate(vehicle.bogies.positions):
+            name = f"bogie{k + 1}"
+            add_flat_bogie(world, name, xb, BOGIE_HEIGHT, layout, vehicle.bogies.bogie, spatial=False)
+            x_of[name] = xb
+            add_suspension_tendons(spec, name, "carbody", x_of, vehicle.bogies.secondary, fixed=fixed)
+            for j, xw in enumerate(vehicle.bogies.bogie.wheelset_positions):
+                wheelset = f"wheelset{k * n + j + 1}"
+                add_wheelset(world, wheelset, xb + xw, layout.wheelset.rolling_radius, layout, spring_top, nested=False)
+                x_of[wheelset] = xb + xw
+                add_suspension_tendons(spec, wheelset, name, x_of, layout.primary)
+    else:
+        for i, x in enumerate(vehicle.hung_wheelsets):
+            wheelset = f"wheelset{i + 1}"
+            add_wheelset(
+                world, wheelset, x, layout.wheelset.rolling_radius, layout, underframe_bottom(layout), nested=False
+            )
+            x_of[wheelset] = x
+            add_suspension_tendons(spec, wheelset, "carbody", x_of, layout.primary, fixed=fixed)

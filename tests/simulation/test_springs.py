@@ -1,5 +1,6 @@
 """The block's springs: a flat train on straight track is stepped without its tendons, its
-suspension summed in the native callback (rail_mj.vehicle.block.spring_rows)."""
+suspension summed in the native callback (rail_mj.vehicle.block.spring_rows), and so is a nested
+planar vehicle's flat twin (rail_mj.vehicle.spec.Vehicle.stepped)."""
 
 from __future__ import annotations
 
@@ -61,9 +62,9 @@ def test_a_train_run_follows_its_tendon_model_to_round_off(monkeypatch):
 
 
 def test_only_a_train_on_straight_track_leaves_its_springs_to_the_callback():
-    """A nested planar vehicle has no tendons to leave; a spatial one's carry its wheel loads and
-    bump stops, read by MuJoCo's sensors: both keep their own model's form. On a curve a train's
-    tendons stay too (its curve stages read them)."""
+    """A nested planar vehicle has no tendons to leave (its flat twin, which steps it, does:
+    below); a spatial one's carry its wheel loads and bump stops, read by MuJoCo's sensors: it
+    keeps its own model's form. On a curve a train's tendons stay too (its curve stages read them)."""
     assert Vehicle(load_layout(TRAIN)).springs_in_callback
     assert not Vehicle(load_layout(TRAIN), load_track(MODELS / "tracks" / "curve-600.toml")).springs_in_callback
     for name in ("manchester-coach", "manchester-coach-spatial"):
@@ -108,3 +109,69 @@ def test_a_tendon_that_makes_a_constraint_or_inertia_is_refused(settings, what):
     model = _one_tendon(**settings)
     with pytest.raises(NativeError, match=f"tendon t: {what}, not a block spring"):
         block.spring_rows(model, model)
+
+
+NESTED = ("manchester-coach", "bogie", "wagon")  # a car body on bogies; a bogie; wheelsets hung from a car body
+
+
+@pytest.mark.parametrize("name", NESTED)
+def test_a_nested_planar_vehicle_steps_as_its_flat_twin(name):
+    """Its own model (the MJCF) stays nested; what steps is a twin with the same bodies and joints,
+    in the same order, each body on the world, the suspension summed in the callback. The twin's
+    kinematics is the nested one linearised, so the vehicle linearised about the centred state is
+    the same system in other coordinates: the same eigenvalues, to round-off of the two
+    eigen-solutions (1e-9 of the largest)."""
+    layout = load_layout(MODELS / name / f"{name}.toml")
+    vehicle = Vehicle(layout)
+    twin = vehicle.stepped
+    own = vehicle.model
+    assert twin is not vehicle and twin.springs_in_callback and not vehicle.springs_in_callback
+    assert np.any(own.body_parentid[vehicle.wheelset_ids] != 0)  # nested
+    assert np.all(twin.model.body_parentid[1:] == 0)  # flat
+    assert [own.joint(j).name for j in range(own.njnt)] == [twin.model.joint(j).name for j in range(own.njnt)]
+    assert [own.body(b).name for b in range(own.nbody)] == [twin.model.body(b).name for b in range(own.nbody)]
+    from rail_mj.simulation.linear import state_matrix
+
+    for v in (vehicle, twin):
+        native.set_speed(v.model, 50.0)
+    nested, flat = (np.sort_complex(np.linalg.eigvals(state_matrix(v.model))) for v in (vehicle, twin))
+    np.testing.assert_allclose(flat, nested, rtol=0, atol=1e-9 * np.max(np.abs(nested)))
+
+
+@pytest.mark.parametrize("name", NESTED)
+def test_states_pass_between_the_forms_as_the_nested_kinematics_says(name):
+    """`to_stepped` gives each body's absolute lateral position and yaw, as MuJoCo's kinematics of
+    the nested model places it, to second order in the coordinates (a*psi^2/2 with a the
+    largest arm, 9.5 m: under 1e-8 m at 1e-5); `from_stepped` undoes it to round-off."""
+    vehicle = Vehicle(load_layout(MODELS / name / f"{name}.toml"))
+    own, twin = vehicle.model, vehicle.stepped.model
+    rng = np.random.default_rng(5)
+    qpos, qvel = rng.normal(scale=1e-5, size=own.nq), rng.normal(scale=1e-3, size=own.nv)
+    flat_qpos, flat_qvel = vehicle.to_stepped((qpos, qvel))
+    back = vehicle.from_stepped((flat_qpos, flat_qvel))
+    np.testing.assert_allclose(back[0], qpos, rtol=0, atol=1e-13 * np.max(np.abs(qpos)))
+    np.testing.assert_allclose(back[1], qvel, rtol=0, atol=1e-13 * np.max(np.abs(qvel)))
+    data = mujoco.MjData(own)
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(own, data)
+    for j in range(twin.njnt):
+        body = int(own.jnt_bodyid[j])
+        if own.joint(j).name.endswith("_lateral"):
+            placed = data.xpos[body, 1]
+        else:
+            placed = np.arctan2(data.xmat[body, 3], data.xmat[body, 0])
+        assert abs(flat_qpos[j] - placed) < 1e-8
+
+
+def test_a_run_continued_from_its_final_state_goes_on_as_one_run():
+    """A run's final_state is its own (nested) vehicle's coordinates, converted from the twin that
+    stepped; continued from it, the coach follows the one long run to round-off."""
+    layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
+    whole = simulate(layout, 60.0, 120.0)
+    first = simulate(layout, 60.0, 60.0)
+    assert len(first.final_state[0]) == Vehicle(layout).model.nq
+    rest = simulate(layout, 60.0, 60.0, state=first.final_state)
+    k = len(first.t) - 1  # the continued run's first sample is the first run's last
+    n = min(len(rest.t), len(whole.t) - k)
+    assert np.max(np.abs(whole.y[k : k + n])) > 1e-4  # still moving
+    np.testing.assert_allclose(rest.y[:n], whole.y[k : k + n], rtol=0, atol=1e-15)

@@ -69,17 +69,25 @@ def test_bad_profiles_are_refused_in_one_line(text, says):
 )
 def test_a_profile_of_one_speed_is_the_constant_speed_run(name, speed):
     """One point: dV/ds = 0 everywhere, the odometer's force is zero and its velocity the run's
-    speed, so every operation is the constant run's: equal to the last bit, the timestep too
+    speed, so every operation is the constant run's: the timestep equal to the last bit
     (linearised with the odometer rolling at the speed: on profiles and at 5 m/s the contact,
-    not the 1 ms cap, sets it)."""
+    not the 1 ms cap, sets it), and the motion too where the same model steps. A coach steps
+    on its profile's straight track in its nested form, and without a track in its flat twin
+    (Vehicle.stepped): there the motion agrees to the forms' difference, second order in the
+    yaw angles: 5.5e-10 m on the coned coach, 1.6e-8 m on S1002/60E1, where RK4's own change
+    from dt to dt/2 is 2.0e-6 m (tests/validation/test_peers.py bounds it on the coach too)."""
     layout = load_layout(MODELS / name / f"{name}.toml")
     constant = simulate(layout, speed, 150.0, initial_lateral=0.002)
     profiled = simulate(layout, SpeedProfile((0.0,), (speed,)), 150.0, initial_lateral=0.002)
     if name != "manchester-coach":
         assert constant.timestep < 1e-3
     assert profiled.timestep == constant.timestep
-    np.testing.assert_array_equal(profiled.y, constant.y)
-    np.testing.assert_array_equal(profiled.psi, constant.psi)
+    if constant.vehicle.stepped is constant.vehicle:
+        np.testing.assert_array_equal(profiled.y, constant.y)
+        np.testing.assert_array_equal(profiled.psi, constant.psi)
+    else:
+        np.testing.assert_allclose(profiled.y, constant.y, rtol=0, atol=5e-8)
+        np.testing.assert_allclose(profiled.psi, constant.psi, rtol=0, atol=5e-8)
     np.testing.assert_array_equal(profiled.x, profiled.station - profiled.station[0])
     np.testing.assert_allclose(profiled.x, constant.x, rtol=0, atol=1e-9)
 

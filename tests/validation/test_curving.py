@@ -251,14 +251,17 @@ def test_a_run_longer_than_its_track_is_refused_in_one_line():
 
 
 def test_straight_track_given_as_a_track_runs_as_without_one():
-    """A straight Track adds the odometer and nothing else: the same motion to round-off."""
+    """A straight Track adds the odometer, and the vehicle steps in its nested form (without a
+    track, its flat twin: Vehicle.stepped): the same motion to the two forms' difference,
+    second order in the yaw angles, 1.8e-10 m here over 200 m, where RK4's own change from
+    dt to dt/2 is 1.5e-9 m (tests/validation/test_peers.py measures both on the coach)."""
     from rail_mj.layout import load_layout
 
     layout = load_layout(MODELS / "bogie" / "bogie.toml")
     straight = track_from_dict({"section": [{"kind": "straight", "length": 500.0}]})
     plain = simulate(layout, 30.0, 200.0, 0.002)
     on_track = simulate(layout, 30.0, 200.0, 0.002, track=straight)
-    np.testing.assert_allclose(on_track.y, plain.y, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(on_track.y, plain.y, rtol=0, atol=5e-10)
     assert dataclasses.asdict(layout) == dataclasses.asdict(on_track.layout)
 
 
