@@ -500,8 +500,11 @@ def drive(
         first, ended = runs[0].stepped, []
         for m, r in going:
             # Its samples among this chunk's steps: sample j is at the run's step j*every.
-            kept = np.arange(r.done, min(r.count, -(-(r.stepped + steps) // r.every))) * r.every - r.stepped
-            n = len(kept)
+            # A slice (every `every`-th row from the first kept): a view of the pack's readings, not
+            # a copy of every vehicle's sensors for each run.
+            first_kept = r.done * r.every - r.stepped
+            n = max(0, min(r.count, -(-(r.stepped + steps) // r.every)) - r.done)
+            kept = slice(first_kept, first_kept + (n - 1) * r.every + 1, r.every) if n else slice(0, 0)
             mine = r.record(pack.places[m].sensors, readings[kept])
             off = r.left_rails(mine, derailment_lateral)
             if off is not None:
