@@ -22,7 +22,6 @@ from rail_mj.track import SpeedProfile, Track
 from rail_mj.track.irregularities import RAIL_BASE
 from rail_mj.track.speed import PROFILE_TRACK
 from rail_mj.units import GRAVITY
-from rail_mj.vehicle.block import contact_parameters
 from rail_mj.vehicle.curve import ODOMETER
 from rail_mj.vehicle.loads import AxleLoads
 from rail_mj.vehicle.spec import Vehicle
@@ -110,7 +109,7 @@ class Run:
 
     @functools.cached_property
     def _contact_forces(self) -> ContactForces:
-        params = contact_parameters(self.vehicle.model, len(self.vehicle.wheelset_names))
+        params = self.vehicle.contact_parameters
         rates = self.wheelset_rates.copy()
         # On a curve the track turns under each wheelset at V*k: its absolute yaw rate, as the
         # callback gives the contact law (rail_mj.simulation.curve).

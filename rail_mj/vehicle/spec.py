@@ -9,6 +9,7 @@ import functools
 import mujoco
 import numpy as np
 
+from rail_mj.contact.parameters import ContactParameters
 from rail_mj.layout import GRAVITY, LAWS, Layout
 from rail_mj.layout.kinds import Hertzian, Planar, SpatialVehicle, TrainOfCars, contact_model, vehicle_kind
 from rail_mj.numerics import (
@@ -290,6 +291,14 @@ class Vehicle:
                 if child.tag in ("geom", "mesh") or parent.tag == "tendon":
                     parent.remove(child)
         return mujoco.MjSpec.from_string(ElementTree.tostring(root, encoding="unicode"))
+
+    @functools.cached_property
+    def contact_parameters(self) -> ContactParameters:
+        """The contact data its model carries (rail_mj.vehicle.block.contact_parameters), read once:
+        a run's summary evaluates the law over every piece of a streamed run with them."""
+        from rail_mj.vehicle.block import contact_parameters
+
+        return contact_parameters(self.model, self.n_wheelsets)
 
     @property
     def n_wheelsets(self) -> int:
