@@ -5,8 +5,9 @@ What a user would write instead of rail-mj to run the Manchester coach fast: the
 for the derivation), rail-mj's own creep law called from inside the compiled code
 (`rail_mj.contact.creep.wheelset_contact`: Polach saturation and flange contact, the same
 function rail-mj's MuJoCo callback calls), and the classical RK4 at rail-mj's timestep.
-It follows rail-mj's trajectory to round-off: 1e-18 m over 1 km at 60 m/s, 4e-16 m
-hunting on the flanges at 100 m/s, where |y| reaches 15 mm.
+It follows rail-mj's nested model (what rail-mj steps on a track file) to round-off: 1e-18 m
+over 1 km at 60 m/s, 4e-16 m hunting on the flanges at 100 m/s, where |y| reaches 15 mm; on
+straight track rail-mj steps the coach's flat twin, 5.5e-10 m from it at 60 m/s (docs/trains.md).
 
     PYTHONPATH=. python benchmarks/peer_numba.py
 
@@ -294,10 +295,11 @@ def threads() -> int:
 def agreement(
     run=None, speed: float = SPEED, distance: float = DISTANCE, initial_lateral: float = INITIAL_LATERAL
 ) -> float:
-    """max |y_peer - y_rail_mj| (m) over the samples of rail-mj's run of the coach (made
-    here unless given: `run` must be `peers.reference(speed, distance, initial_lateral)`),
-    at its timestep."""
-    run = run or reference(speed, distance, initial_lateral)
+    """max |y_peer - y_rail_mj| (m) over the samples of rail-mj's run of the coach in its
+    nested model, the peer's equations (made here unless given: `run` must be
+    `peers.reference(speed, distance, initial_lateral, nested=True)`, or without `nested` to
+    measure the flat twin rail-mj steps on straight track), at its timestep."""
+    run = run or reference(speed, distance, initial_lateral, nested=True)
     every = max(1, round((run.t[1] - run.t[0]) / run.timestep))
     t, y, _ = simulate(coach(), speed, distance, initial_lateral, run.timestep, every)
     return max_difference(run, t, y)

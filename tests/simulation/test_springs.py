@@ -114,14 +114,29 @@ def test_a_tendon_that_makes_a_constraint_or_inertia_is_refused(settings, what):
 NESTED = ("manchester-coach", "bogie", "wagon")  # a car body on bogies; a bogie; wheelsets hung from a car body
 
 
-@pytest.mark.parametrize("name", NESTED)
+def _layout(name: str):
+    """A shipped layout, or "uneven": the coach with its bogies and axles placed unevenly (no
+    fore-and-aft symmetry, which would hide a wrong sign of an arm behind swapped wheelsets)."""
+    if name != "uneven":
+        return load_layout(MODELS / name / f"{name}.toml")
+    import tomllib
+
+    from rail_mj.layout.reader import layout_from_dict
+
+    data = tomllib.loads((MODELS / "manchester-coach" / "manchester-coach.toml").read_text())
+    data["carbody"]["bogie_positions"] = [10.5, -8.0]
+    data["bogie"]["wheelset_positions"] = [1.5, -1.1]
+    return layout_from_dict(data, source="uneven coach")
+
+
+@pytest.mark.parametrize("name", (*NESTED, "uneven"))
 def test_a_nested_planar_vehicle_steps_as_its_flat_twin(name):
     """Its own model (the MJCF) stays nested; what steps is a twin with the same bodies and joints,
     in the same order, each body on the world, the suspension summed in the callback. The twin's
     kinematics is the nested one linearised, so the vehicle linearised about the centred state is
     the same system in other coordinates: the same eigenvalues, to round-off of the two
     eigen-solutions (1e-9 of the largest)."""
-    layout = load_layout(MODELS / name / f"{name}.toml")
+    layout = _layout(name)
     vehicle = Vehicle(layout)
     twin = vehicle.stepped
     own = vehicle.model
@@ -138,12 +153,12 @@ def test_a_nested_planar_vehicle_steps_as_its_flat_twin(name):
     np.testing.assert_allclose(flat, nested, rtol=0, atol=1e-9 * np.max(np.abs(nested)))
 
 
-@pytest.mark.parametrize("name", NESTED)
+@pytest.mark.parametrize("name", (*NESTED, "uneven"))
 def test_states_pass_between_the_forms_as_the_nested_kinematics_says(name):
     """`to_stepped` gives each body's absolute lateral position and yaw, as MuJoCo's kinematics of
     the nested model places it, to second order in the coordinates (a*psi^2/2 with a the
     largest arm, 9.5 m: under 1e-8 m at 1e-5); `from_stepped` undoes it to round-off."""
-    vehicle = Vehicle(load_layout(MODELS / name / f"{name}.toml"))
+    vehicle = Vehicle(_layout(name))
     own, twin = vehicle.model, vehicle.stepped.model
     rng = np.random.default_rng(5)
     qpos, qvel = rng.normal(scale=1e-5, size=own.nq), rng.normal(scale=1e-3, size=own.nv)
@@ -175,3 +190,22 @@ def test_a_run_continued_from_its_final_state_goes_on_as_one_run():
     n = min(len(rest.t), len(whole.t) - k)
     assert np.max(np.abs(whole.y[k : k + n])) > 1e-4  # still moving
     np.testing.assert_allclose(rest.y[:n], whole.y[k : k + n], rtol=0, atol=1e-15)
+
+
+def test_a_run_s_final_state_is_in_its_own_nested_coordinates():
+    """The coach after 60 m at 60 m/s (still moving: its state about 1e-4): its final_state is the
+    nested model's, the one the same run on a straight track file (which steps the nested model)
+    ends in, to the two forms' difference (7e-11 measured), not the twin's absolute coordinates,
+    which differ from them by the state's own size."""
+    from rail_mj.track import Track
+
+    layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
+    flat = simulate(layout, 60.0, 60.0)
+    nested = simulate(layout, 60.0, 60.0, track=Track.straight(200.0))
+    model = nested.vehicle.model
+    own = flat.vehicle.model
+    columns = [model.joint(own.joint(j).name).qposadr[0] for j in range(own.njnt)]
+    qpos = nested.final_state[0][columns]
+    assert np.max(np.abs(qpos)) > 1e-5
+    assert np.max(np.abs(Vehicle(layout).to_stepped((qpos, qpos))[0] - qpos)) > 1e-5  # the forms differ
+    np.testing.assert_allclose(flat.final_state[0], qpos, rtol=0, atol=1e-9)

@@ -46,20 +46,22 @@ def test_the_flat_twin_is_within_rk4_s_own_error_of_the_nested_equations():
     _, half, _ = peer_numba.simulate(peers.coach(), 60.0, 1000.0, 0.002, dt / 2, 2)
     assert half.shape == y.shape
     rk4 = np.max(np.abs(y - half))
-    assert 0 < peers.max_difference(run, t, y) < rk4
+    # Above round-off (1e-13 if the nested model were stepped): the twin is what steps.
+    assert 1e-11 < peers.max_difference(run, t, y) < rk4
 
 
 def test_on_the_flanges_the_flat_twin_keeps_the_nested_limit_cycle():
     """Hunting on the flanges at 100 m/s (|y| 14.8 mm) the two forms drift in phase (the
     second-order terms change the cycle's period slightly: 1.4e-4 m apart after 1 km, RK4's own
     change from dt to dt/2 there 2e-5 m), and the limit cycle is the same: its amplitude over
-    the last 200 m agrees to 1e-5 of itself (8e-6 measured)."""
+    the last 200 m agrees to 2e-5 of itself (8e-6 measured; the phase drift makes the last bits
+    depend on the machine's rounding)."""
     flat = peers.reference(100.0, 1000.0, 0.002)
     nested = peers.reference(100.0, 1000.0, 0.002, nested=True)
     late = slice(int(0.8 * len(flat.y)), None)
     amplitude = np.abs(flat.y[late]).max()
     assert amplitude > 0.008  # on the flanges
-    assert abs(amplitude - np.abs(nested.y[late]).max()) < 1e-5 * amplitude
+    assert abs(amplitude - np.abs(nested.y[late]).max()) < 2e-5 * amplitude
 
 
 def test_numpy_law_is_rail_mj_law(coach):
