@@ -24,6 +24,8 @@ Example:
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import math
 import tempfile
 import threading
@@ -39,6 +41,103 @@ from rail_mj.analysis.motion import AT_REST, DECAYED_FRACTION, MOTIONS, SIGNIFIC
 if TYPE_CHECKING:
     from rail_mj.layout import Layout
     from rail_mj.simulation.run import Run
+
+
+# `Coordinate._add_numpy` in one pass in C (built once per installation, rail_mj.compiled): the
+# same comparisons and the same arithmetic in the same order, so the same bits. The samples are
+# the previous chunk's last (if `has_last`) and then the chunk's, numbered from start - has_last.
+_C_SOURCE = """/* Written by rail_mj.analysis.streaming. */
+#include <math.h>
+#include <stdint.h>
+
+void rail_mj_events(int64_t start, const double *t, const double *s, int64_t n, double t_end,
+                    int64_t has_last, double last_t, double last_s, int64_t *move, double *reach,
+                    int64_t *counts, int64_t *ints, double *reals, int64_t width) {
+    int64_t mine = 0, crossings = 0, peaks = 0, troughs = 0;
+    double top = 0.0, late = -1.0, final = -1.0, after = -INFINITY;
+    for (int64_t i = 0; i < n; i++) {
+        double m = fabs(s[i]);
+        if (i == 0 || m > top) top = m;
+        if (t[i] >= t_end / 2 && m > late) late = m;
+        if (t[i] >= 0.9 * t_end && m > final) final = m;
+    }
+    for (int64_t i = n - 1; i >= 0; i--) { /* each sample above every later one, last first */
+        double m = fabs(s[i]);
+        if (m > after) {
+            ints[mine] = i;
+            reals[mine++] = m;
+            after = m;
+        }
+    }
+    for (int64_t a = 0, b = mine - 1; a < b; a++, b--) {
+        int64_t i = ints[a]; ints[a] = ints[b]; ints[b] = i;
+        double m = reals[a]; reals[a] = reals[b]; reals[b] = m;
+    }
+    int64_t base = start - has_last, total = n + has_last;
+    for (int64_t k = 0; k + 1 < total; k++) {
+        double t0 = (has_last && k == 0) ? last_t : t[k - has_last], t1 = t[k + 1 - has_last];
+        double s0 = (has_last && k == 0) ? last_s : s[k - has_last], s1 = s[k + 1 - has_last];
+        if (s0 < 0 && s1 >= 0) {
+            ints[width + crossings] = base + k;
+            reals[width + crossings++] = t0 - s0 * (t1 - t0) / (s1 - s0);
+        }
+        double d = s1 - s0;
+        if (d != 0) {
+            int64_t rising = d > 0;
+            if (move[0] && move[2] && !rising) { /* a rise then a fall: a peak at s0 */
+                ints[2 * width + peaks] = move[1];
+                ints[3 * width + peaks] = base + k;
+                reals[2 * width + peaks++] = s0;
+            } else if (move[0] && !move[2] && rising) { /* a fall then a rise: a trough */
+                ints[4 * width + troughs] = move[1];
+                ints[5 * width + troughs] = base + k;
+                reals[3 * width + troughs++] = s0;
+            }
+            move[0] = 1, move[1] = base + k, move[2] = rising;
+        }
+    }
+    reach[0] = top, reach[1] = late, reach[2] = final;
+    counts[0] = mine, counts[1] = crossings, counts[2] = peaks, counts[3] = troughs;
+}
+"""
+
+
+class _Workspace(threading.local):
+    """A thread's buffers for the kernel's results (6 + 4 rows of up to n + 1 entries, reach,
+    counts, the move's state), kept from chunk to chunk, and their addresses."""
+
+    def __init__(self):
+        self.size = -1
+
+    def fit(self, n: int) -> _Workspace:
+        if n > self.size:
+            self.size = max(n, 2 * self.size)
+            self.arrays = (
+                np.empty((6, self.size + 1), np.int64),
+                np.empty((4, self.size + 1)),
+                np.empty(3),
+                np.empty(4, np.int64),
+                np.empty(3, np.int64),
+            )
+            state, reach, counts, ints, reals = (self.arrays[k] for k in (4, 2, 3, 0, 1))
+            self.pointers = (state.ctypes.data, reach.ctypes.data, counts.ctypes.data, ints.ctypes.data,
+                             reals.ctypes.data, self.size + 1)  # fmt: skip
+        return self
+
+
+_WORK = _Workspace()
+
+
+@functools.cache
+def _library() -> ctypes.CDLL | None:
+    from rail_mj import compiled
+
+    library = compiled.load("events", "", _C_SOURCE)
+    if library is not None:
+        i64, f64, v = ctypes.c_int64, ctypes.c_double, ctypes.c_void_p
+        library.rail_mj_events.argtypes = (i64, v, v, i64, f64, i64, f64, f64, v, v, v, v, v, i64)
+        library.rail_mj_events.restype = None
+    return library
 
 
 class Coordinate:
@@ -66,8 +165,46 @@ class Coordinate:
         self._last: tuple[float, float] | None = None  # the previous sample's (t, s)
         self._move: tuple[int, bool] | None = None  # the last move: (from sample, rising)
 
-    def add(self, start: int, t: np.ndarray, s: np.ndarray) -> None:
-        """The samples start, start + 1, ... at times t."""
+    def add(self, start: int, t: np.ndarray, s: np.ndarray, native: bool = True) -> None:
+        """The samples start, start + 1, ... at times t. `native`: by the C library's kernel (else
+        numpy's, as where it cannot be built; the two agree bit for bit)."""
+        library = _library() if native and self.events else None
+        if library is None:
+            self._add_numpy(start, t, s)
+            return
+        t, s = np.ascontiguousarray(t, dtype=np.float64), np.ascontiguousarray(s, dtype=np.float64)
+        n = len(s)
+        work = _WORK.fit(n)
+        ints, reals, reach, counts, state = work.arrays
+        state[:] = (0, 0, 0) if self._move is None else (1, *self._move)
+        last = (0, 0.0, 0.0) if self._last is None else (1, *self._last)
+        library.rail_mj_events(start, t.ctypes.data, s.ctypes.data, n, self.t_end, *last, *work.pointers)
+        top = float(reach[0])
+        self.largest = max(self.largest, top)
+        if reach[1] >= 0.0:
+            self.late = max(self.late, float(reach[1]))
+        if reach[2] >= 0.0:
+            self.final = max(self.final, float(reach[2]))
+        mine, crossings, peaks, troughs = (int(c) for c in counts)
+        index, value = self.stairs
+        keep = value > top
+        index = np.concatenate([index[keep], start + ints[0, :mine]])
+        value = np.concatenate([value[keep], reals[0, :mine]])
+        keep = value > DECAYED_FRACTION * self.largest  # never the last above the final fraction
+        self.stairs = (index[keep], value[keep])
+        if crossings:
+            self.crossings.append((ints[1, :crossings].copy(), reals[1, :crossings].copy()))
+        for peak, count in ((True, peaks), (False, troughs)):
+            if count:
+                row = 2 if peak else 4
+                self.tops[peak].append(
+                    (ints[row, :count].copy(), ints[row + 1, :count].copy(), reals[row // 2 + 1, :count].copy())
+                )
+        if state[0]:
+            self._move = (int(state[1]), bool(state[2]))
+        self._last = (float(t[-1]), float(s[-1]))
+
+    def _add_numpy(self, start: int, t: np.ndarray, s: np.ndarray) -> None:
         magnitude = np.abs(s)
         top = float(np.max(magnitude))
         self.largest = max(self.largest, top)

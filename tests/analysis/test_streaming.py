@@ -96,3 +96,32 @@ def test_a_sweep_streams_its_rows_and_they_are_the_full_summarys(monkeypatch, tm
     for a, b in zip(streamed, full, strict=True):
         a.pop("wall_time_s"), b.pop("wall_time_s")
         assert a == b
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_coordinates_kernel_keeps_what_numpy_keeps_bit_for_bit(seed):
+    """The C kernel of `Coordinate.add` against its numpy form, on the signals above (flat tops,
+    zeros, a decay) cut at random: every number kept equal, and the same types."""
+    from rail_mj.analysis.streaming import _library
+
+    assert _library() is not None  # gcc is here: the kernel, not its fallback, is what is tested
+    rng = np.random.default_rng(100 + seed)
+    n, interval = 1500, 1e-3
+    t = np.arange(n) * interval
+    s = np.round(np.exp(-2.0 * t) * np.sin(2 * np.pi * 7.0 * t + seed), 2 + seed % 3)
+    s[900:] *= 0.01 * (seed > 2)
+    kernel, numpy_ = Coordinate(n, interval), Coordinate(n, interval)
+    cuts = _chunks(s, rng)
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        kernel.add(a, t[a:b].copy(), s[a:b].copy())
+        numpy_.add(a, t[a:b].copy(), s[a:b].copy(), native=False)
+        assert (kernel.largest, kernel.late, kernel.final) == (numpy_.largest, numpy_.late, numpy_.final)
+        assert kernel._last == numpy_._last and kernel._move == numpy_._move
+    for mine, theirs in ((kernel.stairs, numpy_.stairs), *zip(kernel.crossings, numpy_.crossings, strict=True)):
+        for x, y in zip(mine, theirs, strict=True):
+            assert x.dtype == y.dtype and np.array_equal(x, y)
+    for peak in (True, False):
+        assert len(kernel.tops[peak]) == len(numpy_.tops[peak]) > 0
+        for mine, theirs in zip(kernel.tops[peak], numpy_.tops[peak], strict=True):
+            for x, y in zip(mine, theirs, strict=True):
+                assert x.dtype == y.dtype and np.array_equal(x, y)
