@@ -40,6 +40,7 @@ from rail_mj.vehicle.spec import Vehicle
 
 if TYPE_CHECKING:
     from rail_mj.vehicle.rails import Rails
+    from rail_mj.vehicle.sensors import JointSensors, Sensors
 
 SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
 # Samples at SAMPLE_INTERVAL between divergence checks (and progress reports): a chunk is this
@@ -236,7 +237,7 @@ class _Place:
     """Where one vehicle sits in the model that is stepped: its sensors, and its qpos and
     qvel entries."""
 
-    sensors: object  # rail_mj.vehicle.sensors.Sensors
+    sensors: Sensors | JointSensors
     qpos: np.ndarray
     qvel: np.ndarray
     lateral: np.ndarray  # qpos entries of its root lateral joints
@@ -282,6 +283,8 @@ class Pack:
         model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
         if _unconstrained(model):  # nothing to constrain: the constraint stages are skipped, same result
             model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+        if _undamped(model):  # no damper of MuJoCo's own (a flat twin's are the callback's): same result
+            model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
         self.data = mujoco.MjData(model)
         self.state = np.empty(mujoco.mj_stateSize(model, self.STATE))
         mujoco.mj_getState(model, self.data, self.state, self.STATE)
@@ -346,11 +349,18 @@ def _unconstrained(model: mujoco.MjModel) -> bool:
     )
 
 
+def _undamped(model: mujoco.MjModel) -> bool:
+    """Whether MuJoCo has no damper to add (no joint, tendon or flex damping): mjDSBL_DAMPER then
+    skips its loop over every dof at every stage, and leaves the passive-force callback, which
+    mjDSBL_SPRING would also take with it, running (MuJoCo skips both only when both are off)."""
+    poly = getattr(model, "dof_dampingpoly", np.zeros(0))
+    return model.ntendon == 0 and model.nflex == 0 and not np.any(model.dof_damping) and not np.any(poly)
+
+
 def _pack(vehicles: list[Vehicle], speeds: list[float]):
     """One model holding every vehicle, attached under the prefixes v0/, v1/, ..., the
     native block listing them all with their speeds."""
     from rail_mj.numerics import NUMERIC_NATIVE
-    from rail_mj.vehicle.sensors import Sensors
     from rail_mj.vehicle.spec import compile_spec
 
     parent = mujoco.MjSpec()
@@ -411,7 +421,7 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
         # Each own joint is one coordinate (slide or hinge): own index -> packed index.
         places.append(
             _Place(
-                Sensors(model, vehicle.wheelset_names, prefix=f"v{k}/"),
+                vehicle.sensors_in(model, prefix=f"v{k}/"),
                 qpos,
                 qvel,
                 qpos[vehicle.root_lateral_dofs],
@@ -498,6 +508,10 @@ def drive(
             _diverged(pack, runs, steps, warning, done, derailment_lateral)
             return later
         first, ended = runs[0].stepped, []
+        # A flat twin's samples are states (JointSensors): step j's is the state it started from.
+        began = readings
+        if any(pack.places[m].sensors.from_state for m, _ in going):
+            began = np.concatenate([start[None], states[:-1]])
         for m, r in going:
             # Its samples among this chunk's steps: sample j is at the run's step j*every.
             # A slice (every `every`-th row from the first kept): a view of the pack's readings, not
@@ -505,7 +519,8 @@ def drive(
             first_kept = r.done * r.every - r.stepped
             n = max(0, min(r.count, -(-(r.stepped + steps) // r.every)) - r.done)
             kept = slice(first_kept, first_kept + (n - 1) * r.every + 1, r.every) if n else slice(0, 0)
-            mine = r.record(pack.places[m].sensors, readings[kept])
+            sensors = pack.places[m].sensors
+            mine = r.record(sensors, (began if sensors.from_state else readings)[kept])
             off = r.left_rails(mine, derailment_lateral)
             if off is not None:
                 j, worst = r.done + off[0], off[1]

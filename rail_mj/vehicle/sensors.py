@@ -55,6 +55,8 @@ def add_load_sensors(spec: mujoco.MjSpec, model: mujoco.MjModel, wheelsets: list
 class Sensors:
     """Where `add_sensors`' readings sit in MuJoCo's sensordata, and what they mean."""
 
+    from_state = False  # read from sensordata (JointSensors: from the state)
+
     def __init__(self, model: mujoco.MjModel, wheelset_names, prefix: str = ""):
         """`model` holds the vehicle under `prefix` (several vehicles stepped together);
         the readings are for the vehicle's own bodies 1, 2, ... in its own order."""
@@ -155,3 +157,62 @@ class Sensors:
                 loads[..., 1] -= roll
                 return
         loads[..., 0], loads[..., 1] = self.axle_loads.evaluate(self.model, lengths, rates, self.prefix)
+
+
+class JointSensors:
+    """What a flat twin's run records, read from MuJoCo's state instead of sensors (it has none:
+    frame sensors cost a twentieth of its step to turn each body's pose and velocity out of the
+    kinematics, and every body is on the world, rail_mj.vehicle.train.add_flat_carbody): each
+    body's position its place at rest moved along y by its lateral joint, its orientation a turn
+    about z by its yaw joint, (cos psi/2, 0, 0, sin psi/2); each wheelset's rates its joints'.
+    `readings` are states (mjSTATE_FULLPHYSICS: the time, then qpos, then qvel), a sample's the
+    state its step starts from. A planar vehicle's wheels carry the static load."""
+
+    from_state = True
+
+    def __init__(self, model: mujoco.MjModel, wheelset_names, prefix: str = ""):
+        from rail_mj.vehicle.joints import LATERAL, YAW
+
+        own = [
+            name.removeprefix(prefix) for b in range(1, model.nbody) if (name := model.body(b).name).startswith(prefix)
+        ]
+        self.bodies = np.arange(1, len(own) + 1, dtype=np.int64)
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        ids = [model.body(prefix + name).id for name in own]
+        self.rest = data.xpos[ids].copy()
+        self.turned = data.xquat[ids].copy()
+        if not np.array_equal(self.turned, np.tile((1.0, 0.0, 0.0, 0.0), (len(ids), 1))):
+            raise ValueError("a flat twin's bodies are not square to the track at rest")
+        names = {model.joint(j).name.removeprefix(prefix): j for j in range(model.njnt)}
+        qpos = lambda joint: 1 + model.jnt_qposadr[names[joint]]  # noqa: E731
+        qvel = lambda joint: 1 + model.nq + model.jnt_dofadr[names[joint]]  # noqa: E731
+        self.sliding = np.array([k for k, b in enumerate(own) if f"{b}_{LATERAL}" in names], dtype=np.int64)
+        self.turning = np.array([k for k, b in enumerate(own) if f"{b}_{YAW}" in names], dtype=np.int64)
+        self.lateral = np.array([qpos(f"{own[k]}_{LATERAL}") for k in self.sliding], dtype=np.int64)
+        self.yaw = np.array([qpos(f"{own[k]}_{YAW}") for k in self.turning], dtype=np.int64)
+        self.lateral_rate = np.array([qvel(f"{w}_{LATERAL}") for w in wheelset_names], dtype=np.int64)
+        self.yaw_rate = np.array([qvel(f"{w}_{YAW}") for w in wheelset_names], dtype=np.int64)
+        self.axle_loads, self.track_part, self.station = None, None, -1
+        self.wheelset_x = np.array([data.xpos[model.body(prefix + w).id, 0] for w in wheelset_names])
+
+    def poses(self, readings: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Fill every moving body's position and quaternion (w, x, y, z) from states (samples
+        along axis 0); the world's stay as they are."""
+        own = slice(1, 1 + len(self.bodies))  # bodies 1, 2, ...: a view, not a gather
+        moved, turned = pos[:, own], quat[:, own]
+        moved[...] = self.rest
+        moved[:, self.sliding, 1] += readings[:, self.lateral]
+        turned[...] = self.turned
+        half = 0.5 * readings[:, self.yaw]
+        turned[:, self.turning, 0] = np.cos(half)
+        turned[:, self.turning, 3] = np.sin(half)
+
+    def rates(self, readings: np.ndarray, rates: np.ndarray) -> None:
+        """Fill each wheelset's (y_dot, psi_dot) from states."""
+        rates[..., 0] = readings[:, self.lateral_rate]
+        rates[..., 1] = readings[:, self.yaw_rate]
+
+    def loads(self, readings: np.ndarray, loads: np.ndarray) -> None:
+        """NaN: the wheels carry the layout's static load."""
+        loads[...] = np.nan

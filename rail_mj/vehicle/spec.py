@@ -28,7 +28,7 @@ from rail_mj.vehicle.joints import LATERAL, YAW
 from rail_mj.vehicle.looks import add_wheel_mesh
 from rail_mj.vehicle.planar import add_carbody
 from rail_mj.vehicle.rounding import _g6
-from rail_mj.vehicle.sensors import Sensors, add_load_sensors, add_sensors
+from rail_mj.vehicle.sensors import JointSensors, Sensors, add_load_sensors, add_sensors
 from rail_mj.vehicle.spatial import add_spatial
 from rail_mj.vehicle.statics import add_gravitational_stiffness, preload
 from rail_mj.vehicle.train import add_flat_carbody, add_train
@@ -188,8 +188,9 @@ def compiled(
     native = block.block_for(model, layout.n_wheelsets, part)
     spec.numerics[0].data = native.tolist()
     spec.nuserdata = userdata_size(native, model.ntendon)  # the callback's scratch on a curve
-    add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
-    add_load_sensors(spec, model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)])
+    if not flat:  # a flat twin's record is read from its state (JointSensors)
+        add_sensors(spec, [model.body(b).name for b in range(1, model.nbody)])
+        add_load_sensors(spec, model, [f"wheelset{i + 1}" for i in range(layout.n_wheelsets)])
     return spec, compile_spec(spec, layout)
 
 
@@ -305,8 +306,14 @@ class Vehicle:
         return len(self.wheelset_names)
 
     @functools.cached_property
-    def sensors(self) -> Sensors:
-        return Sensors(self.model, self.wheelset_names)
+    def sensors(self) -> Sensors | JointSensors:
+        return self.sensors_in(self.model)
+
+    def sensors_in(self, model: mujoco.MjModel, prefix: str = "") -> Sensors | JointSensors:
+        """Where this vehicle's readings sit in `model` (its own, or a pack's under `prefix`): a
+        flat twin's are its joints' (`JointSensors`)."""
+        kind = JointSensors if self.flat else Sensors
+        return kind(model, self.wheelset_names, prefix)
 
     @functools.cached_property
     def root_lateral_dofs(self) -> np.ndarray:

@@ -13,7 +13,7 @@ from rail_mj.layout import load_layout
 from rail_mj.simulation import native
 from rail_mj.simulation.run import Request
 from rail_mj.simulation.runner import prepare, simulate
-from rail_mj.simulation.stepping import Pack, Running
+from rail_mj.simulation.stepping import Pack, Running, _undamped
 from rail_mj.track import load_track
 from rail_mj.vehicle import block
 from rail_mj.vehicle.block import NativeError
@@ -209,3 +209,63 @@ def test_a_run_s_final_state_is_in_its_own_nested_coordinates():
     assert np.max(np.abs(qpos)) > 1e-5
     assert np.max(np.abs(Vehicle(layout).to_stepped((qpos, qpos))[0] - qpos)) > 1e-5  # the forms differ
     np.testing.assert_allclose(flat.final_state[0], qpos, rtol=0, atol=1e-9)
+
+
+def test_mujocos_damper_stage_is_skipped_only_where_it_has_nothing_to_add():
+    """A flat twin (its dampers the callback's) is stepped with mjDSBL_DAMPER, the nested model
+    (its dampers MuJoCo's, on its joints) without; and skipping the stage changes no bit: the coach's
+    twin stepped 2000 steps from the 2 mm start with the flag and without it, states equal, and
+    the callback (which MuJoCo's passive stage skips when springs are off too) at work."""
+    layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
+    damper = int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
+    flat = _stepped(layout, 60.0)
+    assert flat.model.opt.disableflags & damper
+    nested = Vehicle(layout).model
+    assert np.any(nested.dof_damping) and not _undamped(nested)
+    states = []
+    for flags in (flat.model.opt.disableflags, flat.model.opt.disableflags & ~damper):
+        flat.model.opt.disableflags = flags
+        data = mujoco.MjData(flat.model)
+        mujoco.mj_setState(flat.model, data, flat.state, flat.STATE)
+        with native.installed():
+            mujoco.mj_step(flat.model, data, nstep=2000)
+        states.append(np.concatenate([data.qpos, data.qvel]))
+    # From 2 mm down to 3e-5 m in 2 s: the callback's creep damping and springs acted (without
+    # them nothing pulls the bodies back).
+    assert 0.0 < np.max(np.abs(states[0][: flat.model.nq])) < 1e-4
+    assert np.array_equal(states[0], states[1])
+
+
+@pytest.mark.parametrize("name", NESTED)
+def test_a_flat_twins_record_read_from_its_state_is_mujocos_kinematics(name):
+    """A flat twin has no sensors: each sample's poses and wheelset rates are read from its state
+    (JointSensors). At random states they are MuJoCo's own kinematics of the twin: every body's
+    xpos, exactly (its place at rest plus its slide); its xquat to 1 ulp (MuJoCo normalises the
+    hinge's turn); each wheelset's lateral velocity and yaw rate, its frame sensors' quantities
+    (mj_objectVelocity in the world frame), to 1e-15 of their size."""
+    layout = load_layout(MODELS / name / f"{name}.toml")
+    twin = Vehicle(layout).stepped
+    model = twin.model
+    assert twin.flat and model.nsensor == 0 and twin.sensors.from_state
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(7)
+    states = np.zeros((5, mujoco.mj_stateSize(model, Pack.STATE)))
+    n = model.nbody
+    pos, quat = np.zeros((5, n, 3)), np.tile((1.0, 0.0, 0.0, 0.0), (5, n, 1))
+    rates = np.zeros((5, twin.n_wheelsets, 2))
+    for k in range(5):
+        data.qpos[:] = rng.normal(scale=0.01, size=model.nq)
+        data.qvel[:] = rng.normal(scale=0.1, size=model.nv)
+        mujoco.mj_getState(model, data, states[k], Pack.STATE)
+    twin.sensors.poses(states, pos, quat)
+    twin.sensors.rates(states, rates)
+    velocity = np.zeros(6)
+    for k in range(5):
+        mujoco.mj_setState(model, data, states[k], Pack.STATE)
+        mujoco.mj_forward(model, data)
+        assert np.array_equal(pos[k], data.xpos)
+        np.testing.assert_allclose(quat[k], data.xquat, rtol=0, atol=2.3e-16)
+        for i, body in enumerate(twin.wheelset_ids):
+            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, body, velocity, 0)
+            expected = (velocity[4], velocity[2])
+            np.testing.assert_allclose(rates[k, i], expected, rtol=1e-15, atol=1e-15 * np.max(np.abs(expected)))
