@@ -330,18 +330,11 @@ class Run:
     def frame_names(self) -> tuple[str, ...]:
         """The moving bodies other than the wheelsets: the bogie frames (bogie1, ...), then the
         car body unless it is fixed. A fixed car body (no joints) has no motion to show."""
-        return tuple(self.vehicle.model.body(b).name for b in self._frame_ids)
+        return self.vehicle.frame_names
 
     @property
-    def _frame_ids(self) -> list[int]:
-        model = self.vehicle.model
-        wheelsets = set(self.vehicle.wheelset_ids.tolist())
-        moving = [
-            b
-            for b in range(1, model.nbody)
-            if b not in wheelsets and model.body_dofnum[b] > 0 and model.body(b).name != ODOMETER
-        ]
-        return sorted(moving, key=lambda b: (model.body(b).name == "carbody", b))
+    def _frame_ids(self) -> np.ndarray:
+        return self.vehicle.frame_ids
 
     @property
     def frame_y(self) -> np.ndarray:

@@ -23,7 +23,7 @@ from rail_mj.numerics import (
 )
 from rail_mj.track import SpeedProfile, Track
 from rail_mj.units import PA_PER_GPA
-from rail_mj.vehicle.curve import add_odometer
+from rail_mj.vehicle.curve import ODOMETER, add_odometer
 from rail_mj.vehicle.joints import LATERAL, YAW
 from rail_mj.vehicle.looks import add_wheel_mesh
 from rail_mj.vehicle.planar import add_carbody
@@ -304,6 +304,23 @@ class Vehicle:
     @property
     def n_wheelsets(self) -> int:
         return len(self.wheelset_names)
+
+    @functools.cached_property
+    def frame_ids(self) -> np.ndarray:
+        """The moving bodies other than the wheelsets: the bogie frames (bogie1, ...), then the
+        car body unless it is fixed (a fixed car body, no joints, has no motion to show); read
+        once, a streamed run's every piece reads them."""
+        model, wheelsets = self.model, set(self.wheelset_ids.tolist())
+        moving = [
+            b
+            for b in range(1, model.nbody)
+            if b not in wheelsets and model.body_dofnum[b] > 0 and model.body(b).name != ODOMETER
+        ]
+        return np.array(sorted(moving, key=lambda b: (model.body(b).name == "carbody", b)), dtype=np.int64)
+
+    @functools.cached_property
+    def frame_names(self) -> tuple[str, ...]:
+        return tuple(self.model.body(int(b)).name for b in self.frame_ids)
 
     @functools.cached_property
     def sensors(self) -> Sensors | JointSensors:
