@@ -244,3 +244,16 @@ COLUMNS = FIRST_POINT + 2 * SLOTS * POINT
 def point_column(side: int, slot: int, field: int) -> int:
     """The column of `field` for side 0 (left) / 1 (right) and slot 0 / 1."""
     return FIRST_POINT + (side * SLOTS + slot) * POINT + field
+
+
+# --- the guiding forces a packed model records (rail_mj.simulation.stepping._pack) ----------
+
+# A model whose last two sensors are these (a clock, then a user sensor of one entry per body)
+# gets from the native callback, at the first stage of every step (the state the step starts
+# from, as every sensor), each wheelset's Sigma Y at its body's entry: what the record's EN 14363
+# guiding forces are, without evaluating the law again. MuJoCo's sensor types, as mjtSensor
+# numbers them (tests/simulation/test_native.py checks them against the installed MuJoCo).
+SENSOR_CLOCK = 45  # mjSENS_CLOCK: the time, read in the first stage only
+SENSOR_USER = 48  # mjSENS_USER: cleared by MuJoCo in its stage, then the callback's
+CLOCK_SENSOR = "rail_mj/clock"
+GUIDING_SENSOR = "rail_mj/guiding"

@@ -25,6 +25,8 @@ from rail_mj.numerics import (
     LOADS_HEADER,
     MAGIC,
     ROWS,
+    SENSOR_CLOCK,
+    SENSOR_USER,
     TRACK_AT,
     TRACK_HEADER,
     VEHICLE_HEADER,
@@ -66,6 +68,33 @@ def _size_at(typingctx, base, offset):
     def codegen(context, builder, sig, args):
         field = builder.gep(builder.bitcast(args[0], ir.IntType(8).as_pointer()), [args[1]])
         return builder.load(builder.bitcast(field, ir.IntType(64).as_pointer()))
+
+    return signature, codegen
+
+
+@intrinsic
+def _double_at(typingctx, base, offset):
+    """The double stored `offset` bytes into the struct at `base` (mjData.time)."""
+    signature = types.float64(types.voidptr, types.intp)
+
+    def codegen(context, builder, sig, args):
+        field = builder.gep(builder.bitcast(args[0], ir.IntType(8).as_pointer()), [args[1]])
+        return builder.load(builder.bitcast(field, ir.DoubleType().as_pointer()))
+
+    return signature, codegen
+
+
+@intrinsic
+def _int_at(typingctx, base, offset, index):
+    """Entry `index` of the int array whose pointer is stored `offset` bytes into the struct at
+    `base` (mjModel.sensor_type, sensor_dim)."""
+    signature = types.int64(types.voidptr, types.intp, types.intp)
+
+    def codegen(context, builder, sig, args):
+        field = builder.gep(builder.bitcast(args[0], ir.IntType(8).as_pointer()), [args[1]])
+        array = builder.load(builder.bitcast(field, ir.IntType(32).as_pointer().as_pointer()))
+        value = builder.load(builder.gep(array, [args[2]]))
+        return builder.sext(value, ir.IntType(64))
 
     return signature, codegen
 
@@ -143,6 +172,25 @@ def _tendon_force(stiffness, damping, springlength, length, velocity, t):
     return -stiffness[t] * (length[t] - springlength[2 * t]) - damping[t] * velocity[t]
 
 
+@numba.njit(cache=True, inline="always")
+def _guiding_at(model, data, off_nsensor, off_nsensordata, off_nbody, off_sensor_type, off_sensor_dim,
+                off_sensordata, off_time):  # fmt: skip
+    """Where in sensordata this call writes each wheelset's Sigma Y (at the address plus the
+    wheelset's body id), or -1: not a model ending with the clock and guiding sensors, or not the
+    first stage of a step."""
+    nsensor, nbody = _size_at(model, off_nsensor), _size_at(model, off_nbody)
+    if nsensor < 2 or _int_at(model, off_sensor_type, nsensor - 1) != SENSOR_USER:
+        return -1
+    if _int_at(model, off_sensor_dim, nsensor - 1) != nbody:
+        return -1
+    if _int_at(model, off_sensor_type, nsensor - 2) != SENSOR_CLOCK:
+        return -1
+    start = _size_at(model, off_nsensordata) - nbody
+    if _pointer_at(data, off_sensordata)[start - 1] != _double_at(data, off_time):
+        return -1
+    return start
+
+
 @numba.njit(cache=True)
 def _apply(
     model,
@@ -154,6 +202,11 @@ def _apply(
     off_stiffness,
     off_damping,
     off_springlength,
+    off_nsensor,
+    off_nsensordata,
+    off_nbody,
+    off_sensor_type,
+    off_sensor_dim,
     off_qvel,
     off_qpos,
     off_xpos,
@@ -164,6 +217,8 @@ def _apply(
     off_length,
     off_velocity,
     off_force,
+    off_sensordata,
+    off_time,
 ):
     """Add every vehicle's contact forces to qfrc_passive: J^T [Fy, Mz] at each wheelset's
     origin, over the slide and hinge joints between it and the world. A model without the
@@ -185,6 +240,14 @@ def _apply(
     ntendon = _size_at(model, off_ntendon)
     nuserdata, userdata = _size_at(model, off_nuserdata), _pointer_at(data, off_userdata)
     cached = 2 * ntendon  # where the next vehicle's cache starts in userdata, after the copies
+    # Each wheelset's Sigma Y at the state a step starts from, for the run's record, where the model
+    # ends with rail-mj's clock and guiding sensors (rail_mj.numerics.GUIDING_SENSOR): the clock
+    # reads the step's start (MuJoCo computes sensors in the step's first stage only), so the call
+    # whose time is the clock's is that stage's, and its forces go into the guiding sensor, which
+    # MuJoCo has just cleared and leaves alone until the next step's first stage.
+    guiding = _guiding_at(model, data, off_nsensor, off_nsensordata, off_nbody, off_sensor_type, off_sensor_dim,
+                          off_sensordata, off_time)  # fmt: skip
+    sensordata = _pointer_at(data, off_sensordata)
     address = float(_address(model))
     k = 2
     for _ in range(int(block[1])):
@@ -333,6 +396,8 @@ def _apply(
                     gauge,
                 )
             fy, mz = f[0] + f[1], f[2] + f[3] + f[4]
+            if guiding >= 0:
+                sensordata[guiding + body] = fy
             if push != 0.0:
                 fy += push
             if f[9] != 0.0:  # the gyroscopic yaw moment (as the kernel adds it)

@@ -109,6 +109,11 @@ MODEL_FIELDS = (
     "tendon_stiffness",
     "tendon_damping",
     "tendon_lengthspring",
+    "nsensor",
+    "nsensordata",
+    "nbody",
+    "sensor_type",
+    "sensor_dim",
 )
 DATA_FIELDS = (
     "qvel",
@@ -121,6 +126,8 @@ DATA_FIELDS = (
     "ten_length",
     "ten_velocity",
     "qfrc_passive",
+    "sensordata",
+    "time",
 )
 
 
@@ -140,7 +147,7 @@ def _offsets() -> tuple[int, ...]:
     model = mujoco.MjModel.from_xml_string(
         '<mujoco><size nuserdata="2"/><custom><numeric name="probe" data="1 2 3"/></custom><worldbody><body>'
         '<joint name="j" type="hinge"/><geom size="0.1"/></body></worldbody>'
-        '<tendon><fixed stiffness="1"><joint joint="j" coef="1"/></fixed></tendon></mujoco>'
+        '<tendon><fixed stiffness="1"><joint joint="j" coef="1"/></fixed></tendon><sensor><clock/></sensor></mujoco>'
     )
     data = mujoco.MjData(model)
     offsets = []

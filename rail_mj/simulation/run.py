@@ -100,6 +100,10 @@ class Run:
     # (n_samples, n_wheelsets, 2): a spatial vehicle's axle load P (N) and roll moment M (N m)
     # from its suspension (rail_mj.vehicle.loads); None or NaN: the wheels carry the layout's static load.
     axle_loads: np.ndarray | None = None
+    # (n_samples, n_wheelsets): each wheelset's Sigma Y (N) as the native callback applied it at each
+    # sample (a run stepped in a pack, rail_mj.numerics.GUIDING_SENSOR); None: `guiding_forces`
+    # evaluates the law again from the record, which gives the same to round-off.
+    guiding: np.ndarray | None = None
 
     def contact_forces(self) -> ContactForces:
         """The rails' forces on each wheelset at every sample, by origin: arrays of shape
@@ -149,7 +153,11 @@ class Run:
 
     def guiding_forces(self) -> np.ndarray:
         """(n_samples, n_wheelsets): the sum of guiding forces (Sigma Y, N) of each
-        wheelset, creep and flange."""
+        wheelset, creep and flange: as the callback applied them, where it recorded them
+        (`guiding`), else `contact_forces().lateral` (the law again from the record: the same
+        to round-off)."""
+        if self.guiding is not None:
+            return self.guiding
         return self.contact_forces().lateral
 
     def wheel_loads(self) -> np.ndarray:

@@ -1,13 +1,13 @@
 """MuJoCo stepped in chunks: a model holding one run or several (a pack), the checks between
 chunks, and the runs' records.
 
-A run is stepped on its own (`step_alone`: what `simulate` does; in its vehicle's own model,
-or a train on straight track in one without its tendons, Vehicle.springs_in_callback) or in a
-pack of up to PACK vehicles, each attached under its own name prefix with its own speed in the
-native block (rail_mj.simulation.batch fills and refills the packs from its queue). Either
-way `drive` steps it in chunks of CHECK_EVERY samples' steps at SAMPLE_INTERVAL (`mujoco.rollout`), reads
-every body's pose from MuJoCo's sensors at the samples it keeps, and stops it where it
-diverges or leaves the rails, saying why.
+A run is stepped on its own (`step_alone`: what `simulate` does; in a pack of one, or with the
+Python callback in its vehicle's own model) or in a pack of up to PACK vehicles, each attached
+under its own name prefix with its own speed in the native block (rail_mj.simulation.batch fills
+and refills the packs from its queue). Either way `drive` steps it in chunks of CHECK_EVERY
+samples' steps at SAMPLE_INTERVAL (`mujoco.rollout`), reads every body's pose from MuJoCo's
+sensors (a flat twin's from its states) and each wheelset's Sigma Y from the callback at the
+samples it keeps, and stops it where it diverges or leaves the rails, saying why.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import numpy as np
 from mujoco import rollout
 
 from rail_mj.layout.kinds import Profiled, contact_model
-from rail_mj.numerics import userdata_size
+from rail_mj.numerics import CLOCK_SENSOR, GUIDING_SENSOR, userdata_size
 from rail_mj.simulation import native
 from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.simulation.run import Derailed, Request, Run, SimulationError
@@ -142,6 +142,10 @@ class Running:
         if self.sink is not None:
             size = min(self.count, STREAM_CHUNKS * -(-prepared.chunk // self.every))
         self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, size)
+        # Each wheelset's Sigma Y as the callback recorded it (`record`); None: re-evaluated from
+        # the record (not recorded, or not at every sample).
+        self.guiding: np.ndarray | None = None
+        self.guided = True
         self.held = 0  # streamed: samples in the buffers not yet given to the sink
         self.done = 0  # samples recorded
         self.stepped = 0  # steps taken
@@ -153,16 +157,30 @@ class Running:
     def t(self) -> np.ndarray:
         return np.arange(self.count) * (self.every * self.prepared.timestep)  # exact, unlike data.time
 
-    def record(self, sensors, readings: np.ndarray) -> slice:
-        """Put a chunk's sensor readings (a row a sample) after the samples recorded (streamed:
-        at the start of the chunk's buffers); their slice."""
+    def record(self, sensors, readings: np.ndarray, guiding: np.ndarray | None = None) -> slice:
+        """Put a chunk's sensor readings (a row a sample; a flat twin's, its states) after the
+        samples recorded (streamed: at the start of the chunk's buffers), and `guiding`, each
+        wheelset's Sigma Y at those samples as the callback recorded it (None: not recorded);
+        their slice."""
         start = self.done if self.sink is None else self.held
         mine = slice(start, start + len(readings))
         self.pos[mine, 0], self.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
         sensors.poses(readings, self.pos[mine], self.quat[mine])
         sensors.rates(readings, self.rates[mine])
         sensors.loads(readings, self.loads[mine])
+        if guiding is None:
+            self.guided = False
+        elif self.guided:
+            if self.guiding is None:
+                self.guiding = np.empty((len(self.pos), guiding.shape[1]))
+            self.guiding[mine] = guiding
         return mine
+
+    def _guiding(self, part: slice | None = None) -> np.ndarray | None:
+        """The recorded Sigma Y of the samples `part` (all: None), if every sample has one."""
+        if not self.guided or self.guiding is None:
+            return None
+        return self.guiding if part is None else self.guiding[part]
 
     def left_rails(self, mine: slice, derailment_lateral: float) -> tuple[int, int] | None:
         """(sample, wheelset) where a wheelset first left the rails among the samples `mine`
@@ -187,7 +205,10 @@ class Running:
         final = p.vehicle.from_stepped(final)
         if self.sink is not None:
             return self.sink.finish(final)
-        return Run(p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads)
+        return Run(
+            p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads,
+            self._guiding(),
+        )  # fmt: skip
 
     def stream(self, mine: slice) -> None:
         """Keep the samples `mine` of the chunk's buffers for its sink (nothing if it has none),
@@ -211,6 +232,7 @@ class Running:
             self.rates[held],
             None,
             self.loads[held],
+            self._guiding(held),
         )
         self.held = 0
         self.sink.add(piece, first)
@@ -229,6 +251,7 @@ class Running:
             self.quat[:k].copy(),
             self.rates[:k].copy(),
             axle_loads=self.loads[:k].copy(),
+            guiding=None if (g := self._guiding(slice(0, k))) is None else g.copy(),
         )
 
 
@@ -243,6 +266,8 @@ class _Place:
     lateral: np.ndarray  # qpos entries of its root lateral joints
     yaw: np.ndarray  # qpos entries of its wheelsets' yaw joints
     odometer: tuple[int, int] | None = None  # on a curved track: its odometer's qpos and qvel entries
+    # Where its wheelsets' Sigma Y sit in sensordata (rail_mj.numerics.GUIDING_SENSOR); None: not recorded.
+    guiding: np.ndarray | None = None
 
     @classmethod
     def whole(cls, vehicle: Vehicle) -> _Place:
@@ -266,15 +291,19 @@ class Pack:
     def __init__(self, runs: list[Running], alone: bool = False):
         started = time.perf_counter()
         self.runs: list[Running | None] = list(runs)
-        # As `simulate` steps it: in its own vehicle's model (drawn shapes and all), or a train on
-        # straight track in a model of its own without tendons (its springs in the callback).
+        # As `simulate` steps it: in a pack of one (no drawn shapes; a train's or a flat twin's
+        # springs in the callback; each wheelset's Sigma Y recorded), or with the Python callback in
+        # its vehicle's own model.
         self.alone = alone
         vehicle = runs[0].prepared.stepped
-        if alone and (runs[0].prepared.forces is not None or not vehicle.springs_in_callback):
+        if alone and runs[0].prepared.forces is not None:
             self.model, self.places = vehicle.model, [_Place.whole(vehicle)]
         else:
+            # The native callback records each wheelset's Sigma Y as it steps (the Python one does not).
             self.model, self.places = _pack(
-                [r.prepared.stepped for r in runs], [r.prepared.request.speed for r in runs]
+                [r.prepared.stepped for r in runs],
+                [r.prepared.request.speed for r in runs],
+                guiding=runs[0].prepared.forces is None,
             )
         model = self.model
         model.opt.timestep = runs[0].prepared.timestep
@@ -357,9 +386,11 @@ def _undamped(model: mujoco.MjModel) -> bool:
     return model.ntendon == 0 and model.nflex == 0 and not np.any(model.dof_damping) and not np.any(poly)
 
 
-def _pack(vehicles: list[Vehicle], speeds: list[float]):
+def _pack(vehicles: list[Vehicle], speeds: list[float], guiding: bool = False):
     """One model holding every vehicle, attached under the prefixes v0/, v1/, ..., the
-    native block listing them all with their speeds."""
+    native block listing them all with their speeds; `guiding`: ending with the clock and
+    guiding sensors, in which the native callback records each wheelset's Sigma Y
+    (rail_mj.numerics.GUIDING_SENSOR)."""
     from rail_mj.numerics import NUMERIC_NATIVE
     from rail_mj.vehicle.spec import compile_spec
 
@@ -368,6 +399,7 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     parent.option.timestep = first.option.timestep
     parent.option.integrator = first.option.integrator
     parent.option.disableflags = first.option.disableflags
+    parent.option.gravity = first.option.gravity  # a spatial vehicle without gravity has none
     native_numeric = parent.add_numeric(name=NUMERIC_NATIVE, data=[0.0])  # first: the block
     for k, vehicle in enumerate(vehicles):
         # The drawn shapes touch nothing and weigh nothing, yet MuJoCo places each one at
@@ -411,6 +443,15 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
     native = block.block(entries)
     native_numeric.data = native.tolist()
     parent.nuserdata = userdata_size(native, model.ntendon)  # the callback's scratch on a curve
+    if guiding:  # last, as the callback looks for them: a clock, then an entry per body
+        parent.add_sensor(name=CLOCK_SENSOR, type=mujoco.mjtSensor.mjSENS_CLOCK)
+        parent.add_sensor(
+            name=GUIDING_SENSOR,
+            type=mujoco.mjtSensor.mjSENS_USER,
+            dim=model.nbody,
+            needstage=mujoco.mjtStage.mjSTAGE_POS,
+            datatype=mujoco.mjtDataType.mjDATATYPE_REAL,
+        )
     model = compile_spec(parent, layout)
     places = []
     for k, vehicle in enumerate(vehicles):
@@ -427,9 +468,16 @@ def _pack(vehicles: list[Vehicle], speeds: list[float]):
                 qpos[vehicle.root_lateral_dofs],
                 qpos[vehicle.wheelset_dofs(YAW)],
                 _odometer(model, prefix=f"v{k}/"),
+                _guiding(model, vehicle, f"v{k}/") if guiding else None,
             )
         )
     return model, places
+
+
+def _guiding(model: mujoco.MjModel, vehicle: Vehicle, prefix: str) -> np.ndarray:
+    """The sensordata entries of the vehicle's wheelsets' Sigma Y (rail_mj.numerics.GUIDING_SENSOR)."""
+    start = int(model.sensor(GUIDING_SENSOR).adr[0])
+    return np.array([start + model.body(prefix + w).id for w in vehicle.wheelset_names], dtype=np.int64)
 
 
 class Roller:
@@ -455,8 +503,8 @@ class Roller:
 
 
 def step_alone(prepared: Prepared, derailment_lateral: float, progress=None) -> Run | SimulationError:
-    """One run on its own (its vehicle's own model, or a train's without tendons): what
-    `simulate` steps."""
+    """One run on its own (in a pack of one; with the Python callback, in its vehicle's own
+    model): what `simulate` steps."""
     outcome = []
     forces = prepared.forces
     with installed(forces) if forces else native.installed(), stepping():
@@ -519,8 +567,10 @@ def drive(
             first_kept = r.done * r.every - r.stepped
             n = max(0, min(r.count, -(-(r.stepped + steps) // r.every)) - r.done)
             kept = slice(first_kept, first_kept + (n - 1) * r.every + 1, r.every) if n else slice(0, 0)
-            sensors = pack.places[m].sensors
-            mine = r.record(sensors, (began if sensors.from_state else readings)[kept])
+            place = pack.places[m]
+            source = began if place.sensors.from_state else readings
+            guided = None if place.guiding is None else readings[kept][:, place.guiding]
+            mine = r.record(place.sensors, source[kept], guided)
             off = r.left_rails(mine, derailment_lateral)
             if off is not None:
                 j, worst = r.done + off[0], off[1]

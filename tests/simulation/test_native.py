@@ -194,3 +194,41 @@ def test_the_curve_cache_changes_no_bit(layout_path):
     assert np.array_equal(with_cache, without)
     assert np.array_equal(with_cache, again)
     assert np.ptp(with_cache[:, vehicle.root_lateral_dofs[0]]) > 1e-4  # the vehicle moved: not a trivial match
+
+
+def test_the_guiding_sensors_numbers_are_mujocos():
+    """The callback finds the clock and guiding sensors by MuJoCo's numbers for their types."""
+    from rail_mj.numerics import SENSOR_CLOCK, SENSOR_USER
+
+    assert (int(mujoco.mjtSensor.mjSENS_CLOCK), int(mujoco.mjtSensor.mjSENS_USER)) == (SENSOR_CLOCK, SENSOR_USER)
+
+
+@pytest.mark.parametrize(
+    "name,speed",
+    [
+        ("manchester-coach", 60.0),  # the flat twin, creep alone
+        ("manchester-coach", 100.0),  # hunting onto the flanges
+        ("manchester-coach-s1002", 70.0),  # profiles
+        ("manchester-coach-spatial", 60.0),  # a spatial vehicle: its wheel loads from its suspension
+    ],
+)
+def test_the_recorded_guiding_forces_are_the_laws_at_each_sample(name, speed):
+    """A natively stepped run keeps each wheelset's Sigma Y as the callback applied it at the
+    state each step starts from (rail_mj.numerics.GUIDING_SENSOR): the law evaluated again from
+    the run's record gives the same at every sample, the first included, to 2e-15 of the largest
+    (round-off: the record's yaw is its quaternion's, the callback's its rotation matrix's). The
+    Python callback records none: its runs evaluate the law again."""
+    from rail_mj.layout import load_layout
+    from rail_mj.simulation import simulate
+
+    layout = load_layout(MODELS / name / f"{name}.toml")
+    run = simulate(layout, speed, 300.0)
+    assert run.guiding is not None and run.guiding.shape == run.y.shape
+    again = run.contact_forces().lateral
+    scale = np.max(np.abs(again))
+    assert scale > 1e3
+    np.testing.assert_allclose(run.guiding, again, rtol=0, atol=2e-15 * scale)
+    assert np.array_equal(run.guiding_forces(), run.guiding)
+    slow = simulate(layout, speed, 20.0, python_callback=True)
+    assert slow.guiding is None
+    np.testing.assert_allclose(slow.guiding_forces(), run.guiding[: len(slow.t)], rtol=0, atol=1e-9 * scale)
