@@ -173,12 +173,13 @@ def sosfiltfilt(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
     return backwards[pad:-pad].reshape(shape)
 
 
-def periodogram(signal: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
+def periodogram(signal: np.ndarray, fs: float, centred: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Frequencies (Hz) and one-sided power spectral density of each column of `signal`
-    (samples along axis 0) about its mean, boxcar window: scipy.signal.periodogram's defaults."""
+    (samples along axis 0) about its mean, boxcar window: scipy.signal.periodogram's defaults.
+    `centred`: the columns are given less their means already."""
     x = np.asarray(signal, dtype=float)
     n = len(x)
-    spectrum = np.fft.rfft(x - x.mean(axis=0), axis=0)
+    spectrum = np.fft.rfft(x if centred else x - x.mean(axis=0), axis=0)
     power = np.abs(spectrum) ** 2 / (fs * n)
     # One-sided: every bin but the mean (and the Nyquist bin of an even length) counted twice.
     power[1 : n // 2 + 1 if n % 2 else n // 2] *= 2.0

@@ -89,3 +89,21 @@ def test_the_c_recursion_is_numbas_to_the_bit():
     native, compiled = filters._sosfilt(sos, x, zi), filters._sosfilt(sos, x, zi, native=False)
     assert np.any(native != x)
     np.testing.assert_array_equal(native, compiled)
+
+
+@pytest.mark.parametrize("n", [16667, 20011, 4096])  # a large prime factor (Bluestein), a prime, a power of 2
+def test_the_wheelsets_spectra_taken_together_are_each_ones_own(monkeypatch, n):
+    """EN 14363's f0 takes a short run's wheelsets' spectra in one FFT call: each column's power
+    is the one it has alone, bit for bit, and so is the f0 of their sum."""
+    from rail_mj.analysis import en14363
+
+    rng = np.random.default_rng(n)
+    t = np.arange(n) * 1e-3
+    columns = [np.sin(2 * np.pi * (3.0 + k) * t) + rng.normal(scale=0.5, size=n) for k in range(4)]
+    rows = np.stack([c - c.mean() for c in columns])
+    _, together = periodogram(rows.T, fs=1000.0, centred=True)
+    for k, column in enumerate(columns):
+        assert np.array_equal(together[:, k], periodogram(column, fs=1000.0)[1])
+    short = en14363._dominant(t, iter(columns))
+    monkeypatch.setattr(en14363, "_TOGETHER", 0)  # every run long: a column at a time
+    assert en14363._dominant(t, iter(columns)) == short
