@@ -135,8 +135,8 @@ class _Queue:
     def cancelled(self) -> bool:
         return self._stop.is_set()
 
-    def take(self, n: int, cadence: tuple[float, int] | None = None) -> list[tuple[int, Prepared]]:
-        """Up to n runs of `cadence` (timestep and steps between samples), the longest first.
+    def take(self, n: int, cadence: tuple | None = None) -> list[tuple[int, Prepared]]:
+        """Up to n runs of `cadence` (timestep, steps between samples, gravity), the longest first.
         Without one: the first run waiting's, and n of them if n will come (it waits for them)."""
         with self._ready:
             while True:

@@ -62,7 +62,7 @@ class Waiting(Protocol):
     @property
     def cancelled(self) -> bool: ...
 
-    def take(self, n: int, cadence: tuple[float, int] | None = None) -> list[tuple[int, Prepared]]: ...
+    def take(self, n: int, cadence: tuple | None = None) -> list[tuple[int, Prepared]]: ...
 
     def take_like(self, prepared: Prepared) -> tuple[int, Prepared] | None: ...
 
@@ -102,9 +102,10 @@ class Prepared:
         return CHECK_EVERY * max(1, round(SAMPLE_INTERVAL / self.timestep))
 
     @property
-    def cadence(self) -> tuple[float, int]:
-        """What the runs of one pack share: the timestep, and the steps between kept samples."""
-        return self.timestep, self.every
+    def cadence(self) -> tuple:
+        """What the runs of one pack share: the timestep, the steps between kept samples, and the
+        gravity (a packed model has one: a spatial vehicle's may be off)."""
+        return self.timestep, self.every, tuple(float(g) for g in self.vehicle.model.opt.gravity)
 
     @functools.cached_property
     def rails(self) -> Rails | None:
@@ -637,7 +638,7 @@ def _refill(pack: Pack, ended: list[tuple[int, Running]], queue: Waiting | None)
         pack.start(m)
 
 
-def _repacked(pack: Pack, queue: Waiting, cadence: tuple[float, int]) -> Pack | None:
+def _repacked(pack: Pack, queue: Waiting, cadence: tuple) -> Pack | None:
     """Half the places empty: the runs going continue in a new model, with runs waiting
     (None when there are none of either)."""
     keep = pack.going()

@@ -7,7 +7,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from conftest import MODELS, passive_forces
+from conftest import DATA, MODELS, passive_forces
 
 from rail_mj.layout import load_layout
 from rail_mj.simulation import native
@@ -269,3 +269,19 @@ def test_a_flat_twins_record_read_from_its_state_is_mujocos_kinematics(name):
             mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, body, velocity, 0)
             expected = (velocity[4], velocity[2])
             np.testing.assert_allclose(rates[k, i], expected, rtol=1e-15, atol=1e-15 * np.max(np.abs(expected)))
+
+
+def test_vehicles_with_and_without_gravity_are_never_packed_together():
+    """A packed model has one gravity: a spatial coach with gravity and the same coach without it,
+    in one batch in either order, each come out as `simulate` steps it on its own, to the bit."""
+    import dataclasses
+
+    from rail_mj.simulation.batch import simulate_many
+
+    with_gravity = load_layout(DATA / "manchester-coach-spatial.toml")
+    spatial = dataclasses.replace(with_gravity.spatial, gravity=False, gravitational_stiffness=False, gyroscopic=False)
+    without = dataclasses.replace(with_gravity, spatial=spatial)
+    for first, second in ((without, with_gravity), (with_gravity, without)):
+        runs = simulate_many([Request(first, 30.0, 60.0, 0.002), Request(second, 30.0, 40.0, 0.002)])
+        for layout, run, distance in zip((first, second), runs, (60.0, 40.0), strict=True):
+            assert np.array_equal(run.body_pos, simulate(layout, 30.0, distance, initial_lateral=0.002).body_pos)
