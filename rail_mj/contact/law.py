@@ -332,11 +332,18 @@ def wear_number(fx, fy, mz, xi_x, xi_y, xi_sp):
     return -(fx * xi_x + fy * xi_y + mz * xi_sp)
 
 
+@numba.njit(cache=True, inline="always")
+def _norm(a, b):
+    """|(a, b)|. libm's hypot guards against overflow past 1e154, which no creepage or force comes
+    near, at several times the cost of a square root: most of the law's time in a coach-step."""
+    return math.sqrt(a * a + b * b)
+
+
 @numba.njit(cache=True)
 def _saturation_factor(law, fx, fy, limit):
     """The factor that scales a wheel's linear (Fx, Fy) onto the creep law's resultant:
     1 at zero, where every law has Kalker's slope."""
-    linear = math.hypot(fx, fy)
+    linear = _norm(fx, fy)
     return 1.0 if linear == 0.0 else _saturation(law, linear, limit) / linear
 
 
@@ -367,10 +374,8 @@ def _kalker_wheelset(p, law, falling, xi_left, xi_right, xi_y, xi_sp, speed, q_l
     if law != LINEAR:
         limit_left, limit_right = p[_LIMIT] * q_left, p[_LIMIT] * q_right
         if falling:  # each wheel's slip velocity V*|(xi_x, xi_y)|, spin aside, as Polach
-            limit_left = _falling_friction(limit_left, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_left, xi_y))
-            limit_right = _falling_friction(
-                limit_right, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_right, xi_y)
-            )
+            limit_left = _falling_friction(limit_left, p[_FALL_RATIO], p[_FALL_RATE], speed * _norm(xi_left, xi_y))
+            limit_right = _falling_friction(limit_right, p[_FALL_RATIO], p[_FALL_RATE], speed * _norm(xi_right, xi_y))
         # Fx, Fy and the spin moment of a wheel all saturate by one factor (a common
         # simplification: Kalker's full theory saturates the moment its own way). An unloaded
         # wheel (limit 0) carries nothing.
@@ -902,7 +907,7 @@ def _points(
                 if law != LINEAR:
                     limit = mu * normal
                     if falling:
-                        limit = _falling_friction(limit, p[_FALL_RATIO], p[_FALL_RATE], speed * math.hypot(xi_x, xi_y))
+                        limit = _falling_friction(limit, p[_FALL_RATIO], p[_FALL_RATE], speed * _norm(xi_x, xi_y))
                     scale = _saturation_factor(law, fx, fy, limit)
             lateral = scale * fy * cos_g
             pushed = -s * normal * sin_g if gravity else 0.0
