@@ -435,3 +435,41 @@ def test_python_values_give_the_cases_the_command_lines_texts_give():
         load_layout(BOGIE), "30:40:2", sets={"creep.law": "polach"}, grids={"primary.yaw_stiffness": [1e6, 4e6]}
     )
     assert [c.key for c in values] == [c.key for c in texts] and len(texts) == 4
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        [None, None],
+        [True, None, False],
+        [3, None, -7, 2**62],
+        [0.5, None, float("nan"), -1e300, float("inf")],
+        [1, 2.5, None],
+        ["ok", None, "", "diverged: the timestep 1e-3 s", "ünïcode"],
+        [1, None, 2**64],  # past int64: left to pa.array
+        [True, 1],  # a mix: left to pa.array, which says so
+        [],
+    ],
+)
+def test_a_sweep_table_is_the_table_pa_table_makes(values):
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    from rail_mj.studies.sweep import to_table
+
+    rows = [{"case": k, "value": v} for k, v in enumerate(values)]
+    try:
+        expected = pa.table({"case": [r["case"] for r in rows], "value": values})
+    except (pa.ArrowException, OverflowError) as e:
+        with pytest.raises(type(e)):
+            to_table(rows, ["case", "value"])
+        return
+    got = to_table(rows[::-1], ["case", "value"])  # sorted by case
+    assert got.schema == expected.schema
+    assert got.column("value").is_null().equals(expected.column("value").is_null())
+    written = []
+    for table in (got, expected):  # as the sweep writes them, NaN included
+        sink = pa.BufferOutputStream()
+        pacsv.write_csv(table, sink)
+        written.append(sink.getvalue().to_pybytes())
+    assert written[0] == written[1]
