@@ -45,8 +45,10 @@ if TYPE_CHECKING:
 SAMPLE_INTERVAL = 1e-3  # s between recorded samples (or every step, if longer)
 # Samples at SAMPLE_INTERVAL between divergence checks (and progress reports): a chunk is this
 # many samples' steps whatever the run keeps, so that a thinned run is checked as often and its
-# chunk's buffers (every step's state and sensors) stay as small.
-CHECK_EVERY = 500
+# chunk's buffers (every step's state and sensors) stay as small. A second of a run: a pack of
+# eight coaches holds 2.3 MB of states at their 1 ms step, and a sweep's Python work a chunk
+# (each run's record, its checks) costs half what it did at half a second.
+CHECK_EVERY = 1000
 # Chunks' samples a streamed run holds before its sink reads them (Running.stream).
 STREAM_CHUNKS = 4
 
@@ -138,7 +140,7 @@ class Running:
         self.sink = None if stream is None else stream(self.count, self.every * prepared.timestep)
         # Streamed, STREAM_CHUNKS chunks' samples at a time (a chunk's steps over `every`, rounded
         # up, each): the sink's fixed cost a call (a piece Run, the contact law, numpy's per-call
-        # overhead) amortised over more samples, for a coach 2.3 MB a run in flight.
+        # overhead) amortised over more samples, for a coach 4.6 MB a run in flight.
         size = self.count
         if self.sink is not None:
             size = min(self.count, STREAM_CHUNKS * -(-prepared.chunk // self.every))
