@@ -33,26 +33,32 @@ HUNTING_BAND = 2.0  # Hz either side of f0
 FILTER_ORDER = 4  # Butterworth, run forwards and backwards (no phase shift)
 
 
+def window_starts(x: np.ndarray, window: float) -> np.ndarray:
+    """For each sample, the first sample within `window` (m) of x behind it (x increasing)."""
+    return np.searchsorted(x, x - window, side="left")
+
+
 def hunting_limit(axle_load: float) -> float:
     """The rms limit of Sigma Y, N, for a static axle load in N: (10 kN + P0/3)/2."""
     return (10e3 + axle_load / 3.0) / 2.0
 
 
-def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:
+def sliding_rms(x: np.ndarray, signal: np.ndarray, window: float, start: np.ndarray | None = None) -> np.ndarray:
     """rms of `signal` (samples along axis 0) over the `window` (m) of x ending at each
-    sample; nan until one full window has passed."""
+    sample; nan until one full window has passed. `start`: `window_starts(x, window)`, if
+    already found (a run's wheelsets share it)."""
     signal = np.asarray(signal, dtype=float)
     # In place where it can be: a long run's column is millions of samples, and a sweep's runs
     # finish while others step on.
     cumulative = np.empty((len(signal) + 1,) + signal.shape[1:])
     cumulative[0] = 0.0
     np.cumsum(np.square(signal), axis=0, out=cumulative[1:])
-    start = np.searchsorted(x, x - window, side="left")
+    if start is None:
+        start = window_starts(x, window)
     rms = cumulative[1:] - cumulative[start]
     del cumulative
     count = np.arange(1, len(x) + 1)
     count -= start
-    del start
     np.maximum(rms, 0.0, out=rms)
     np.divide(rms, count.reshape((-1,) + (1,) * (signal.ndim - 1)), out=rms)
     np.sqrt(rms, out=rms)
@@ -149,8 +155,9 @@ def _hunting_rms(t: np.ndarray, x: np.ndarray, guiding: np.ndarray) -> tuple[flo
     # are a column's, not the run's (a sweep's long runs finish while others step on).
     columns = guiding.reshape(len(guiding), -1)
     rms = np.empty(columns.shape)
+    start = window_starts(x, HUNTING_WINDOW)
     for c in range(columns.shape[1]):
-        rms[:, c] = sliding_rms(x, band_pass(t, columns[:, c], f0), HUNTING_WINDOW)
+        rms[:, c] = sliding_rms(x, band_pass(t, columns[:, c], f0), HUNTING_WINDOW, start)
     return f0, rms.reshape(guiding.shape)
 
 
@@ -198,9 +205,9 @@ def hunting_of(
     if _assessable(layout, float(x[-1]), len(t)) is not None:
         return None
     f0 = _dominant(t, (column(c) for c in range(n_columns)))
-    return _criterion(
-        layout, f0, [_largest(sliding_rms(x, band_pass(t, column(c), f0), HUNTING_WINDOW)) for c in range(n_columns)]
-    )
+    start = window_starts(x, HUNTING_WINDOW)
+    worst = [_largest(sliding_rms(x, band_pass(t, column(c), f0), HUNTING_WINDOW, start)) for c in range(n_columns)]
+    return _criterion(layout, f0, worst)
 
 
 def _criterion(layout, f0: float, worst: list[float]) -> dict | None:

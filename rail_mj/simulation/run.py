@@ -104,6 +104,11 @@ class Run:
     # sample (a run stepped in a pack, rail_mj.numerics.GUIDING_SENSOR); None: `guiding_forces`
     # evaluates the law again from the record, which gives the same to round-off.
     guiding: np.ndarray | None = None
+    # (n_samples, nbody): each body's yaw about z (rad), where the record holds it as an angle (a
+    # flat twin's yaw joints: rail_mj.vehicle.sensors.JointSensors); `psi` and a planar run's
+    # `frame_psi` read it instead of turning body_quat back into angles (the same to an ulp).
+    # None: they read body_quat.
+    body_yaw: np.ndarray | None = None
 
     def contact_forces(self) -> ContactForces:
         """The rails' forces on each wheelset at every sample, by origin: arrays of shape
@@ -280,6 +285,8 @@ class Run:
 
     @functools.cached_property
     def psi(self) -> np.ndarray:
+        if self.body_yaw is not None:
+            return self.body_yaw[:, self.vehicle.wheelset_ids]
         return _yaw(self.body_quat[:, self.vehicle.wheelset_ids])
 
     @functools.cached_property
@@ -359,6 +366,8 @@ class Run:
     @property
     def frame_psi(self) -> np.ndarray:
         """(n_samples, n_frames): yaw of each of `frame_names`, rad (absolute, like `psi`)."""
+        if self.body_yaw is not None:
+            return self.body_yaw[:, self._frame_ids]
         quat = self.body_quat[:, self._frame_ids]
         return _yaw(quat) if self.layout.spatial is None else _spatial_angles(quat)[2]
 

@@ -149,6 +149,9 @@ class Running:
         # the record (not recorded, or not at every sample).
         self.guiding: np.ndarray | None = None
         self.guided = True
+        # Each body's yaw angle where the record is read from states (JointSensors), as the Run
+        # of its samples carries it (Run.body_yaw); None: read from sensors.
+        self.yaw: np.ndarray | None = None
         self.held = 0  # streamed: samples in the buffers not yet given to the sink
         self.done = 0  # samples recorded
         self.stepped = 0  # steps taken
@@ -168,7 +171,12 @@ class Running:
         start = self.done if self.sink is None else self.held
         mine = slice(start, start + len(readings))
         self.pos[mine, 0], self.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
-        sensors.poses(readings, self.pos[mine], self.quat[mine])
+        if sensors.from_state:
+            if self.yaw is None:
+                self.yaw = np.zeros(self.pos.shape[:2])  # the world's column stays 0
+            sensors.poses(readings, self.pos[mine], self.quat[mine], self.yaw[mine])
+        else:
+            sensors.poses(readings, self.pos[mine], self.quat[mine])
         sensors.rates(readings, self.rates[mine])
         sensors.loads(readings, self.loads[mine])
         if guiding is None:
@@ -210,7 +218,7 @@ class Running:
             return self.sink.finish(final)
         return Run(
             p.vehicle, p.request.speed, p.timestep, self.t(), self.pos, self.quat, self.rates, final, self.loads,
-            self._guiding(),
+            self._guiding(), self.yaw,
         )  # fmt: skip
 
     def stream(self, mine: slice) -> None:
@@ -236,6 +244,7 @@ class Running:
             None,
             self.loads[held],
             self._guiding(held),
+            None if self.yaw is None else self.yaw[held],
         )
         self.held = 0
         self.sink.add(piece, first)
@@ -255,6 +264,7 @@ class Running:
             self.rates[:k].copy(),
             axle_loads=self.loads[:k].copy(),
             guiding=None if (g := self._guiding(slice(0, k))) is None else g.copy(),
+            body_yaw=None if self.yaw is None else self.yaw[:k].copy(),
         )
 
 

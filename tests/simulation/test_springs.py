@@ -257,14 +257,21 @@ def test_a_flat_twins_record_read_from_its_state_is_mujocos_kinematics(name):
         data.qpos[:] = rng.normal(scale=0.01, size=model.nq)
         data.qvel[:] = rng.normal(scale=0.1, size=model.nv)
         mujoco.mj_getState(model, data, states[k], Pack.STATE)
-    twin.sensors.poses(states, pos, quat)
+    yaw = np.full((5, n), np.nan)
+    twin.sensors.poses(states, pos, quat, yaw)
     twin.sensors.rates(states, rates)
-    velocity = np.zeros(6)
+    velocity, matrix = np.zeros(6), np.zeros(9)
     for k in range(5):
         mujoco.mj_setState(model, data, states[k], Pack.STATE)
         mujoco.mj_forward(model, data)
         assert np.array_equal(pos[k], data.xpos)
         np.testing.assert_allclose(quat[k], data.xquat, rtol=0, atol=2.3e-16)
+        # Each body's yaw angle (Run.body_yaw, what psi reads): its orientation's, to an ulp of the
+        # largest (rad, ~0.03 here), 0 for any body without a yaw joint; the world's left as it was.
+        for b in range(1, n):
+            mujoco.mju_quat2Mat(matrix, data.xquat[b])
+            assert abs(yaw[k, b] - np.arctan2(matrix[3], matrix[0])) <= 4 * np.spacing(0.05)
+        assert np.isnan(yaw[k, 0])
         for i, body in enumerate(twin.wheelset_ids):
             mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, body, velocity, 0)
             expected = (velocity[4], velocity[2])
