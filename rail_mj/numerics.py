@@ -51,12 +51,16 @@ NUMERIC_COUPLES = "rail_mj/couples"
 # figures, as MuJoCo's MJCF writer keeps them. Version 5 added the track part (below), version 6
 # its speed profile, version 7 its irregularities, version 8 the springs.
 MAGIC = 7043.08
+# A chain's flag for a hinge of a chain whose hinges all turn its body about the world's z
+# (rail_mj.vehicle.block.joint_chain): the callback reads the body's yaw as their angles' sum.
+YAW_HINGE = 2.0
 # Per vehicle: speed, wheelset count, law, flange (0/1), falling friction (0/1), the number
 # of rows of its profile contact table (0: coned wheels), where its track part starts (from
 # the vehicle's first entry), then the contact parameters (ContactParameters.table,
 # row-major), the profile contact table (rail_mj.contact.tables, row-major), then per wheelset
 # its body and the joints from it to the world: count, then (joint, dof, 1 for a hinge / 0 for
-# a slide); then its weight (N), the nominal wheel load (N), its spin inertia (gyroscopic
+# a slide / YAW_HINGE for a hinge of a chain turning the body about z alone); then its weight
+# (N), the nominal wheel load (N), its spin inertia (gyroscopic
 # terms; 0: off), the cones' gravitational stiffness (0/1) and its axlebox tendons
 # (rail_mj.vehicle.loads): count, then (tendon, on P, on M); count 0: the wheels carry the
 # static load; then its shear couples: count, then (z tendon, y tendon). After the wheelsets,

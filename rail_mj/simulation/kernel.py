@@ -30,6 +30,7 @@ from rail_mj.numerics import (
     TRACK_AT,
     TRACK_HEADER,
     VEHICLE_HEADER,
+    YAW_HINGE,
 )
 from rail_mj.simulation.curve import (
     add_curve_forces,
@@ -164,6 +165,22 @@ def _wheelset_rates(chain, n, qvel, xpos, xanchor, xaxis, body):
         else:
             vy += ay * rate
     return vy, wz
+
+
+@numba.njit(cache=True, inline="always")
+def _yaw_of(chain, n, qpos, xmat, body):
+    """A body's yaw: the sum of its chain's hinge angles where they all turn it about z
+    (rail_mj.numerics.YAW_HINGE: their dof is their qpos), else atan2 of its rotation."""
+    psi = 0.0
+    for c in range(n):
+        flag = chain[3 * c + 2]
+        if flag == YAW_HINGE:
+            psi += qpos[int(chain[3 * c + 1])]
+        elif flag != 0.0:
+            return math.atan2(xmat[9 * body + 3], xmat[9 * body])
+    if psi > math.pi or psi < -math.pi:  # atan2's range, which a wheelset spun round (off its rails) reaches
+        return math.atan2(math.sin(psi), math.cos(psi))
+    return psi
 
 
 @numba.njit(cache=True, inline="always")
@@ -347,7 +364,7 @@ def _apply(
                     push_load(force, chain, count, xpos, xanchor, xaxis, body, cfy, cfz, cmz)
                 continue
             y = xpos[3 * body + 1]
-            psi = math.atan2(xmat[9 * body + 3], xmat[9 * body])
+            psi = _yaw_of(chain, count, qpos, xmat, body)
             y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
             if curved:  # on a curve the track turns under the wheelset: its absolute yaw rate
                 psi_dot += speed * curvature_at(block, track, s_ref + xpos[3 * body])

@@ -31,6 +31,7 @@ from rail_mj.numerics import (
     SPEED,
     TRACK_AT,
     TRACK_HEADER,
+    YAW_HINGE,
 )
 from rail_mj.units import PA_PER_GPA
 from rail_mj.vehicle.loads import AxleLoads, ShearCouples
@@ -142,20 +143,35 @@ def vehicle_block(
     return np.asarray(entries, dtype=np.float64)
 
 
+HINGE = 1.0  # a chain's hinge flag; YAW_HINGE (rail_mj.numerics): one of a chain turning its body about z
+
+
 def joint_chain(model: mujoco.MjModel, body: int) -> list[float]:
-    """The joints from `body` to the world, as the block lists them: (joint, dof, 1 for a
-    hinge / 0 for a slide) each, the body's own first."""
+    """The joints from `body` to the world, as the block lists them: (joint, dof, flag) each,
+    the body's own first; flag 0 for a slide, 1 for a hinge, YAW_HINGE for every hinge of a chain
+    whose hinges all turn about z from the world down (every body on the way square to its parent,
+    each hinge's axis z and its reference angle 0): there the body's orientation is a turn about z
+    by the sum of their angles, which the callback reads as its yaw (the same as atan2 of its
+    rotation to an ulp, without the atan2)."""
     chain: list[float] = []
-    b = body
+    b, about_z = body, True
     while b:
+        about_z &= bool(np.array_equal(model.body_quat[b], (1.0, 0.0, 0.0, 0.0)))
         for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
             kind = int(model.jnt_type[j])
             if kind not in (_SLIDE, _HINGE):
                 raise NativeError(
                     f"joint {model.joint(j).name}: the native callback handles slide and hinge joints only"
                 )
+            if kind == _HINGE:
+                about_z &= bool(np.array_equal(model.jnt_axis[j], (0.0, 0.0, 1.0)))
+                about_z &= model.qpos0[model.jnt_qposadr[j]] == 0.0 and model.jnt_qposadr[j] == model.jnt_dofadr[j]
             chain += [j, model.jnt_dofadr[j], float(kind == _HINGE)]
         b = model.body_parentid[b]
+    if about_z:
+        for c in range(2, len(chain), 3):
+            if chain[c] == HINGE:
+                chain[c] = YAW_HINGE
     return chain
 
 
