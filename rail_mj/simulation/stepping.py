@@ -170,11 +170,16 @@ class Running:
         their slice."""
         start = self.done if self.sink is None else self.held
         mine = slice(start, start + len(readings))
-        self.pos[mine, 0], self.quat[mine, 0] = 0.0, (1.0, 0.0, 0.0, 0.0)  # the world; the sensors the rest
+        oriented = not sensors.from_state or getattr(self.sink, "orientations", True)
+        self.pos[mine, 0] = 0.0  # the world; the sensors the rest
+        if oriented:
+            self.quat[mine, 0] = (1.0, 0.0, 0.0, 0.0)
         if sensors.from_state:
             if self.yaw is None:
                 self.yaw = np.zeros(self.pos.shape[:2])  # the world's column stays 0
-            sensors.poses(readings, self.pos[mine], self.quat[mine], self.yaw[mine])
+                if not oriented:  # its sink's pieces' body_quat: NaN (Sink)
+                    self.quat[...] = np.nan
+            sensors.poses(readings, self.pos[mine], self.quat[mine] if oriented else None, self.yaw[mine])
         else:
             sensors.poses(readings, self.pos[mine], self.quat[mine])
         sensors.rates(readings, self.rates[mine])

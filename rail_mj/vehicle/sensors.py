@@ -196,19 +196,24 @@ class JointSensors:
         self.axle_loads, self.track_part, self.station = None, None, -1
         self.wheelset_x = np.array([data.xpos[model.body(prefix + w).id, 0] for w in wheelset_names])
 
-    def poses(self, readings: np.ndarray, pos: np.ndarray, quat: np.ndarray, yaw: np.ndarray | None = None) -> None:
-        """Fill every moving body's position and quaternion (w, x, y, z) from states (samples
-        along axis 0), and `yaw`, each body's yaw angle (its yaw joint's; 0 where it has none),
-        if given; the world's stay as they are."""
+    def poses(
+        self, readings: np.ndarray, pos: np.ndarray, quat: np.ndarray | None, yaw: np.ndarray | None = None
+    ) -> None:
+        """Fill every moving body's position and quaternion (w, x, y, z; None: not wanted) from
+        states (samples along axis 0), and `yaw`, each body's yaw angle (its yaw joint's; 0 where
+        it has none), if given; the world's stay as they are."""
         own = slice(1, 1 + len(self.bodies))  # bodies 1, 2, ...: a view, not a gather
-        moved, turned = pos[:, own], quat[:, own]
+        moved = pos[:, own]
         moved[...] = self.rest
         moved[:, self.sliding, 1] += readings[:, self.lateral]
-        turned[...] = self.turned
         angles = readings[:, self.yaw]
         if yaw is not None:
             yaw[:, own] = 0.0
             yaw[:, 1 + self.turning] = angles
+        if quat is None:
+            return
+        turned = quat[:, own]
+        turned[...] = self.turned
         half = 0.5 * angles
         turned[:, self.turning, 0] = np.cos(half)
         turned[:, self.turning, 3] = np.sin(half)

@@ -125,3 +125,29 @@ def test_a_coordinates_kernel_keeps_what_numpy_keeps_bit_for_bit(seed):
         for mine, theirs in zip(kernel.tops[peak], numpy_.tops[peak], strict=True):
             for x, y in zip(mine, theirs, strict=True):
                 assert x.dtype == y.dtype and np.array_equal(x, y)
+
+
+@pytest.mark.parametrize("orientations", [True, False])
+def test_a_sink_that_reads_no_orientation_gets_yaw_angles_and_nan_quaternions(orientations):
+    """A flat twin's pieces carry each body's yaw angle (Run.body_yaw, what psi reads); their
+    quaternions are the full record's, bit for bit, unless the sink says it reads none
+    (`orientations = False`, as Summarised): then NaN, never a stale or half-filled pose."""
+    layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
+    full = simulate(layout, 40.0, 200.0, 0.002)
+    pieces: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
+
+    class Keep:
+        def add(self, piece, start):
+            pieces.append((start, piece.body_quat.copy(), piece.psi.copy(), piece.body_pos.copy()))
+
+        def finish(self, final_state):
+            return len(pieces)
+
+    Keep.orientations = orientations
+    (count,) = simulate_many([Request(layout, 40.0, 200.0, 0.002, stream=lambda n, interval: Keep())])
+    assert count == len(pieces) > 1
+    for start, quat, psi, pos in pieces:
+        rows = slice(start, start + len(quat))
+        assert np.array_equal(pos, full.body_pos[rows]) and np.array_equal(psi, full.psi[rows])
+        assert np.array_equal(quat, full.body_quat[rows]) if orientations else np.all(np.isnan(quat))
+    assert Summarised.orientations is False
