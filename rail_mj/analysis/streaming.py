@@ -310,6 +310,10 @@ class Coordinate:
 # length with a large prime factor (Bluestein's algorithm), about 16 times it: one at a time.
 _FINISHING = threading.Lock()
 _BLOCK = 1 << 20  # bytes of Sigma Y read back at a time
+# Samples from which a finished run's heap is given back (release_memory): its filters' buffers,
+# about eight columns of samples, are then 8 MB or more; a shorter run's are reused by the next
+# run's as they are (the trim, a millisecond, is a tenth of a short run's summary).
+_TRIM_FROM = 1 << 17
 
 
 def release_memory() -> None:
@@ -440,7 +444,8 @@ class Summarised:
             hunting = hunting_of(self.layout, t, self.speed * t, self._guiding, self.n_wheelsets)
             self.guiding.close()
             del t
-            release_memory()
+            if self.n >= _TRIM_FROM:
+                release_memory()
         return {
             "wheelsets": wheelsets,
             "frames": frames,
