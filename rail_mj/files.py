@@ -255,10 +255,12 @@ def sources_digest() -> str:
     """A hash of every source file of the package: what a kept result was computed by (not the
     modules written into its caches, under __pycache__: rail_mj.simulation.native's cfunc)."""
     here = Path(__file__).resolve().parent
+    sources = []
+    for folder, subfolders, names in os.walk(here):
+        subfolders[:] = [f for f in subfolders if f != "__pycache__"]  # its caches: thousands of files
+        sources += [Path(folder, name) for name in names if name.endswith(".py")]
     digest = hashlib.sha256()
-    for source in sorted(here.rglob("*.py")):
-        if "__pycache__" in source.relative_to(here).parts:
-            continue
+    for source in sorted(sources):
         digest.update(source.relative_to(here).as_posix().encode() + source.read_bytes())
     return digest.hexdigest()[:16]
 

@@ -193,6 +193,7 @@ class JointSensors:
         self.yaw = np.array([qpos(f"{own[k]}_{YAW}") for k in self.turning], dtype=np.int64)
         self.lateral_rate = np.array([qvel(f"{w}_{LATERAL}") for w in wheelset_names], dtype=np.int64)
         self.yaw_rate = np.array([qvel(f"{w}_{YAW}") for w in wheelset_names], dtype=np.int64)
+        self._rates = np.stack([self.lateral_rate, self.yaw_rate], axis=1)  # one gather for both
         self.axle_loads, self.track_part, self.station = None, None, -1
         self.wheelset_x = np.array([data.xpos[model.body(prefix + w).id, 0] for w in wheelset_names])
 
@@ -220,8 +221,7 @@ class JointSensors:
 
     def rates(self, readings: np.ndarray, rates: np.ndarray) -> None:
         """Fill each wheelset's (y_dot, psi_dot) from states."""
-        rates[..., 0] = readings[:, self.lateral_rate]
-        rates[..., 1] = readings[:, self.yaw_rate]
+        rates[...] = readings[:, self._rates]
 
     def loads(self, readings: np.ndarray, loads: np.ndarray) -> None:
         """NaN: the wheels carry the layout's static load."""
