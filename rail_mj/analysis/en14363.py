@@ -6,7 +6,7 @@ Y/Q, the smallest wheel load Q). The forces are the run's, per sample (`Run.cont
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -151,14 +151,20 @@ def hunting_rms(run: Run, guiding: np.ndarray | None = None) -> tuple[float, np.
 def _hunting_rms(t: np.ndarray, x: np.ndarray, guiding: np.ndarray) -> tuple[float, np.ndarray]:
     """`hunting_rms` of the guiding forces at times t and distances x (m)."""
     f0 = dominant_frequency(t, guiding)
-    # A wheelset at a time: the filter's and the window's buffers (about six times the signal)
-    # are a column's, not the run's (a sweep's long runs finish while others step on).
     columns = guiding.reshape(len(guiding), -1)
     rms = np.empty(columns.shape)
-    start = window_starts(x, HUNTING_WINDOW)
-    for c in range(columns.shape[1]):
-        rms[:, c] = sliding_rms(x, band_pass(t, columns[:, c], f0), HUNTING_WINDOW, start)
+    for c, column in enumerate(_band_rms(t, x, f0, (columns[:, c] for c in range(columns.shape[1])))):
+        rms[:, c] = column
     return f0, rms.reshape(guiding.shape)
+
+
+def _band_rms(t: np.ndarray, x: np.ndarray, f0: float, columns: Iterable[np.ndarray]) -> Iterator[np.ndarray]:
+    """Each column's band-passed sliding rms over EN 14363's window, a column at a time: the
+    filter's and the window's buffers (about six times the signal) are a column's, not the
+    run's (a sweep's long runs finish while others step on)."""
+    start = window_starts(x, HUNTING_WINDOW)
+    for column in columns:
+        yield sliding_rms(x, band_pass(t, column, f0), HUNTING_WINDOW, start)
 
 
 def _largest(rms: np.ndarray) -> float:
@@ -205,8 +211,7 @@ def hunting_of(
     if _assessable(layout, float(x[-1]), len(t)) is not None:
         return None
     f0 = _dominant(t, (column(c) for c in range(n_columns)))
-    start = window_starts(x, HUNTING_WINDOW)
-    worst = [_largest(sliding_rms(x, band_pass(t, column(c), f0), HUNTING_WINDOW, start)) for c in range(n_columns)]
+    worst = [_largest(rms) for rms in _band_rms(t, x, f0, (column(c) for c in range(n_columns)))]
     return _criterion(layout, f0, worst)
 
 

@@ -348,10 +348,6 @@ class Summarised:
     (the same of the bogie frames and car body), `decayed`, `hunting` and `max_abs_lateral_m`,
     equal to the full summary's bit for bit."""
 
-    # It reads each body's yaw, not its orientation (Sink): a spatial vehicle's roll is read from
-    # orientations its record has anyway (sensors), a flat twin's yaw from its angles.
-    orientations = False
-
     def __init__(self, layout: Layout, speed: float, n_samples: int, interval: float):
         self.layout, self.speed, self.interval = layout, speed, interval
         self.n = n_samples

@@ -147,40 +147,39 @@ def _on_stack(typingctx, count):
     return signature, codegen
 
 
-@numba.njit(cache=True)
-def _wheelset_rates(chain, n, qvel, xpos, xanchor, xaxis, body):
-    """Lateral velocity and yaw rate of a body's origin from the joints between it and the
-    world: v = sum of slide axes and of hinge axes x (point - anchor), times the joint rate."""
+@numba.njit(cache=True, inline="always")
+def _wheelset_motion(chain, n, qpos, qvel, xpos, xmat, xanchor, xaxis, body):
+    """A body's yaw, lateral velocity and yaw rate, in one pass over the joints between it and the
+    world. The rates: v = sum of slide axes and of hinge axes x (point - anchor), times the joint
+    rate. The yaw: the sum of the hinge angles where every hinge of the chain turns it about z
+    (rail_mj.numerics.YAW_HINGE: their dof is their qpos) and there is one; else atan2 of its
+    rotation (a chain of slides alone may carry a body built turned)."""
     vy = 0.0
     wz = 0.0
+    psi = 0.0
+    summed = False  # a YAW_HINGE met, and no other hinge
+    other = False
     px = xpos[3 * body]
     for c in range(n):
-        j, dof, hinge = int(chain[3 * c]), int(chain[3 * c + 1]), chain[3 * c + 2]
+        j, dof, flag = int(chain[3 * c]), int(chain[3 * c + 1]), chain[3 * c + 2]
         ax, ay, az = xaxis[3 * j], xaxis[3 * j + 1], xaxis[3 * j + 2]
         rate = qvel[dof]
-        if hinge:
+        if flag != 0.0:
             rx, rz = px - xanchor[3 * j], xpos[3 * body + 2] - xanchor[3 * j + 2]
             vy += (az * rx - ax * rz) * rate
             wz += az * rate
+            if flag == YAW_HINGE:
+                psi += qpos[dof]
+                summed = True
+            else:
+                other = True
         else:
             vy += ay * rate
-    return vy, wz
-
-
-@numba.njit(cache=True, inline="always")
-def _yaw_of(chain, n, qpos, xmat, body):
-    """A body's yaw: the sum of its chain's hinge angles where they all turn it about z
-    (rail_mj.numerics.YAW_HINGE: their dof is their qpos), else atan2 of its rotation."""
-    psi = 0.0
-    for c in range(n):
-        flag = chain[3 * c + 2]
-        if flag == YAW_HINGE:
-            psi += qpos[int(chain[3 * c + 1])]
-        elif flag != 0.0:
-            return math.atan2(xmat[9 * body + 3], xmat[9 * body])
+    if other or not summed:
+        return math.atan2(xmat[9 * body + 3], xmat[9 * body]), vy, wz
     if psi > math.pi or psi < -math.pi:  # atan2's range, which a wheelset spun round (off its rails) reaches
-        return math.atan2(math.sin(psi), math.cos(psi))
-    return psi
+        psi = math.atan2(math.sin(psi), math.cos(psi))
+    return psi, vy, wz
 
 
 @numba.njit(cache=True, inline="always")
@@ -364,8 +363,7 @@ def _apply(
                     push_load(force, chain, count, xpos, xanchor, xaxis, body, cfy, cfz, cmz)
                 continue
             y = xpos[3 * body + 1]
-            psi = _yaw_of(chain, count, qpos, xmat, body)
-            y_dot, psi_dot = _wheelset_rates(chain, count, qvel, xpos, xanchor, xaxis, body)
+            psi, y_dot, psi_dot = _wheelset_motion(chain, count, qpos, qvel, xpos, xmat, xanchor, xaxis, body)
             if curved:  # on a curve the track turns under the wheelset: its absolute yaw rate
                 psi_dot += speed * curvature_at(block, track, s_ref + xpos[3 * body])
             if rails:  # the wheelset relative to its rails (rail_mj.vehicle.rails)

@@ -58,15 +58,36 @@ class Request:
 class Sink(Protocol):
     """What takes a run's samples as they are stepped (`Request.stream`): `add` is told each
     chunk's, as a Run of those samples (sample `start` its first; its arrays are reused after the
-    call: keep copies), `finish` the state the run ends in, and returns the run's result.
-
-    A sink with `orientations = False` reads no orientation but yaw: a run whose record holds
-    the bodies' yaw angles (`Run.body_yaw`, a flat twin's) gives it pieces whose `body_quat` is
-    NaN, not turned into quaternions (a tenth of a sweep's work beside the stepping)."""
+    call: keep copies), `finish` the state the run ends in, and returns the run's result."""
 
     def add(self, piece: Run, start: int) -> None: ...
 
     def finish(self, final_state: tuple[np.ndarray, np.ndarray]) -> object: ...
+
+
+class _FromYaw:
+    """`Run.body_quat`: the quaternions given, or where None is given, the turns about z of the
+    bodies' yaw angles (`Run.body_yaw`, a flat twin's record: every body square to the track but
+    for its yaw), (cos psi/2, 0, 0, sin psi/2), made when first read. A sweep's summary reads
+    yaw only, and turning every sample's angles into quaternions was a tenth of its work beside
+    the stepping; a run's record no longer holds them until asked."""
+
+    def __get__(self, run, owner=None) -> np.ndarray:
+        if run is None:  # a dataclass field without a default
+            raise AttributeError("body_quat")
+        quat = run.__dict__["_body_quat"]
+        if quat is None:
+            if run.body_yaw is None:
+                raise ValueError("a Run needs body_quat or body_yaw")
+            half = 0.5 * run.body_yaw
+            quat = np.zeros((*half.shape, 4))
+            quat[..., 0] = np.cos(half)
+            quat[..., 3] = np.sin(half)
+            run.__dict__["_body_quat"] = quat
+        return quat
+
+    def __set__(self, run, value: np.ndarray | None) -> None:
+        run.__dict__["_body_quat"] = value
 
 
 class SimulationError(RuntimeError):
@@ -98,8 +119,12 @@ class Run:
     timestep: float
     t: np.ndarray
     body_pos: np.ndarray  # (n_samples, nbody, 3): every body's position in the moving frame
-    body_quat: np.ndarray  # (n_samples, nbody, 4): and orientation, MuJoCo's w, x, y, z
-    wheelset_rates: np.ndarray  # (n_samples, n_wheelsets, 2): y_dot (m/s) and psi_dot (rad/s)
+    # (n_samples, nbody, 4): and orientation, MuJoCo's w, x, y, z; given as None where `body_yaw`
+    # is given, made from it when first read.
+    # is given, made from it when first read. A descriptor without a default (its class access
+    # raises AttributeError, which dataclasses read so): mypy takes it for one, hence the ignore.
+    body_quat: _FromYaw = _FromYaw()
+    wheelset_rates: np.ndarray  # type: ignore[misc]  # (n_samples, n_wheelsets, 2): y_dot (m/s), psi_dot (rad/s)
     final_state: tuple[np.ndarray, np.ndarray] | None = None  # (qpos, qvel) at the end
     # (n_samples, n_wheelsets, 2): a spatial vehicle's axle load P (N) and roll moment M (N m)
     # from its suspension (rail_mj.vehicle.loads); None or NaN: the wheels carry the layout's static load.

@@ -144,14 +144,15 @@ class Running:
         size = self.count
         if self.sink is not None:
             size = min(self.count, STREAM_CHUNKS * -(-prepared.chunk // self.every))
-        self.pos, self.quat, self.rates, self.loads = _records(prepared.vehicle, size)
+        # A flat twin's record is read from its states (JointSensors): each body's yaw angle, as
+        # the Run of its samples carries it (Run.body_yaw, which its quaternions are made from when
+        # read); else each body's quaternion, from sensors.
+        self.from_state = prepared.stepped.flat
+        self.pos, self.quat, self.yaw, self.rates, self.loads = _records(prepared.vehicle, size, self.from_state)
         # Each wheelset's Sigma Y as the callback recorded it (`record`); None: re-evaluated from
         # the record (not recorded, or not at every sample).
         self.guiding: np.ndarray | None = None
         self.guided = True
-        # Each body's yaw angle where the record is read from states (JointSensors), as the Run
-        # of its samples carries it (Run.body_yaw); None: read from sensors.
-        self.yaw: np.ndarray | None = None
         self.held = 0  # streamed: samples in the buffers not yet given to the sink
         self.done = 0  # samples recorded
         self.stepped = 0  # steps taken
@@ -170,17 +171,11 @@ class Running:
         their slice."""
         start = self.done if self.sink is None else self.held
         mine = slice(start, start + len(readings))
-        oriented = not sensors.from_state or getattr(self.sink, "orientations", True)
         self.pos[mine, 0] = 0.0  # the world; the sensors the rest
-        if oriented:
-            self.quat[mine, 0] = (1.0, 0.0, 0.0, 0.0)
-        if sensors.from_state:
-            if self.yaw is None:
-                self.yaw = np.zeros(self.pos.shape[:2])  # the world's column stays 0
-                if not oriented:  # its sink's pieces' body_quat: NaN (Sink)
-                    self.quat[...] = np.nan
-            sensors.poses(readings, self.pos[mine], self.quat[mine] if oriented else None, self.yaw[mine])
+        if self.yaw is not None:
+            sensors.poses(readings, self.pos[mine], self.yaw[mine])
         else:
+            self.quat[mine, 0] = (1.0, 0.0, 0.0, 0.0)
             sensors.poses(readings, self.pos[mine], self.quat[mine])
         sensors.rates(readings, self.rates[mine])
         sensors.loads(readings, self.loads[mine])
@@ -244,7 +239,7 @@ class Running:
             p.timestep,
             t,
             self.pos[held],
-            self.quat[held],
+            None if self.quat is None else self.quat[held],
             self.rates[held],
             None,
             self.loads[held],
@@ -265,7 +260,7 @@ class Running:
             p.timestep,
             self.t()[:k],
             self.pos[:k].copy(),
-            self.quat[:k].copy(),
+            None if self.quat is None else self.quat[:k].copy(),
             self.rates[:k].copy(),
             axle_loads=self.loads[:k].copy(),
             guiding=None if (g := self._guiding(slice(0, k))) is None else g.copy(),
@@ -702,13 +697,16 @@ def _untimed():
     return native.native().clock
 
 
-def _records(vehicle: Vehicle, n_samples: int):
-    """Empty arrays for a run's body positions, quaternions and rates, filled as it goes
-    (the memory is touched then, a chunk at a time, not all before the first step)."""
+def _records(vehicle: Vehicle, n_samples: int, yawed: bool):
+    """Empty arrays for a run's body positions, then its bodies' quaternions, or where `yawed` (a
+    flat twin's) their yaw angles (None the other), then each wheelset's rates and axle loads,
+    filled as it goes (the memory is touched then, a chunk at a time, not all before the first
+    step; the yaw angles' zeros stay for the world and the bodies without a yaw joint)."""
     nbody, n = vehicle.model.nbody, vehicle.n_wheelsets
     return (
         np.empty((n_samples, nbody, 3)),
-        np.empty((n_samples, nbody, 4)),
+        None if yawed else np.empty((n_samples, nbody, 4)),
+        np.zeros((n_samples, nbody)) if yawed else None,
         np.empty((n_samples, n, 2)),
         np.empty((n_samples, n, 2)),
     )

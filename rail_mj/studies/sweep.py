@@ -948,7 +948,9 @@ def _column(values: list):
     if kinds == {int} and all(-(2**63) <= v < 2**63 for v in given):
         numbers = np.array([0 if v is None else v for v in values], dtype=np.int64)
         return pa.Array.from_buffers(pa.int64(), n, [nulls, pa.py_buffer(numbers)])
-    if kinds in ({float}, {int, float}):
+    # An int among floats: pa.array takes it as float64 where it is exact there (|v| <= 2**53) and
+    # refuses the column otherwise, as it is then left to do.
+    if kinds == {float} or (kinds == {int, float} and all(-(2**53) <= v <= 2**53 for v in given if type(v) is int)):
         numbers = np.array([0.0 if v is None else v for v in values], dtype=np.float64)
         return pa.Array.from_buffers(pa.float64(), n, [nulls, pa.py_buffer(numbers)])
     if kinds == {str}:

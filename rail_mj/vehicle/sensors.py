@@ -164,7 +164,8 @@ class JointSensors:
     frame sensors cost a twentieth of its step to turn each body's pose and velocity out of the
     kinematics, and every body is on the world, rail_mj.vehicle.train.add_flat_carbody): each
     body's position its place at rest moved along y by its lateral joint, its orientation a turn
-    about z by its yaw joint, (cos psi/2, 0, 0, sin psi/2); each wheelset's rates its joints'.
+    about z by its yaw joint's angle (Run.body_yaw; Run.body_quat is made of it when read); each
+    wheelset's rates its joints'.
     `readings` are states (mjSTATE_FULLPHYSICS: the time, then qpos, then qvel), a sample's the
     state its step starts from. A planar vehicle's wheels carry the static load."""
 
@@ -181,43 +182,34 @@ class JointSensors:
         mujoco.mj_kinematics(model, data)
         ids = [model.body(prefix + name).id for name in own]
         self.rest = data.xpos[ids].copy()
-        self.turned = data.xquat[ids].copy()
-        if not np.array_equal(self.turned, np.tile((1.0, 0.0, 0.0, 0.0), (len(ids), 1))):
+        # Square to the track at rest: a body's orientation is its yaw joint's turn alone.
+        if not np.array_equal(data.xquat[ids], np.tile((1.0, 0.0, 0.0, 0.0), (len(ids), 1))):
             raise ValueError("a flat twin's bodies are not square to the track at rest")
         names = {model.joint(j).name.removeprefix(prefix): j for j in range(model.njnt)}
         qpos = lambda joint: 1 + model.jnt_qposadr[names[joint]]  # noqa: E731
         qvel = lambda joint: 1 + model.nq + model.jnt_dofadr[names[joint]]  # noqa: E731
         self.sliding = np.array([k for k, b in enumerate(own) if f"{b}_{LATERAL}" in names], dtype=np.int64)
         self.turning = np.array([k for k, b in enumerate(own) if f"{b}_{YAW}" in names], dtype=np.int64)
+        self._turning = 1 + self.turning  # their columns of a record's bodies (the world's first)
         self.lateral = np.array([qpos(f"{own[k]}_{LATERAL}") for k in self.sliding], dtype=np.int64)
         self.yaw = np.array([qpos(f"{own[k]}_{YAW}") for k in self.turning], dtype=np.int64)
+        if np.any(model.qpos0[self.yaw - 1] != 0.0):  # MuJoCo turns a hinge by qpos - qpos0
+            raise ValueError("a flat twin's yaw joints do not start at 0")
         self.lateral_rate = np.array([qvel(f"{w}_{LATERAL}") for w in wheelset_names], dtype=np.int64)
         self.yaw_rate = np.array([qvel(f"{w}_{YAW}") for w in wheelset_names], dtype=np.int64)
         self._rates = np.stack([self.lateral_rate, self.yaw_rate], axis=1)  # one gather for both
         self.axle_loads, self.track_part, self.station = None, None, -1
         self.wheelset_x = np.array([data.xpos[model.body(prefix + w).id, 0] for w in wheelset_names])
 
-    def poses(
-        self, readings: np.ndarray, pos: np.ndarray, quat: np.ndarray | None, yaw: np.ndarray | None = None
-    ) -> None:
-        """Fill every moving body's position and quaternion (w, x, y, z; None: not wanted) from
-        states (samples along axis 0), and `yaw`, each body's yaw angle (its yaw joint's; 0 where
-        it has none), if given; the world's stay as they are."""
-        own = slice(1, 1 + len(self.bodies))  # bodies 1, 2, ...: a view, not a gather
-        moved = pos[:, own]
+    def poses(self, readings: np.ndarray, pos: np.ndarray, yaw: np.ndarray) -> None:
+        """Fill every moving body's position and yaw angle (its yaw joint's: the record's
+        orientation, Run.body_yaw, which Run turns into quaternions if asked) from states
+        (samples along axis 0); the world's, and the yaw of a body without a yaw joint, stay as
+        they are (zeros, where the record starts)."""
+        moved = pos[:, 1 : 1 + len(self.bodies)]  # bodies 1, 2, ...: a view, not a gather
         moved[...] = self.rest
         moved[:, self.sliding, 1] += readings[:, self.lateral]
-        angles = readings[:, self.yaw]
-        if yaw is not None:
-            yaw[:, own] = 0.0
-            yaw[:, 1 + self.turning] = angles
-        if quat is None:
-            return
-        turned = quat[:, own]
-        turned[...] = self.turned
-        half = 0.5 * angles
-        turned[:, self.turning, 0] = np.cos(half)
-        turned[:, self.turning, 3] = np.sin(half)
+        yaw[:, self._turning] = readings[:, self.yaw]
 
     def rates(self, readings: np.ndarray, rates: np.ndarray) -> None:
         """Fill each wheelset's (y_dot, psi_dot) from states."""

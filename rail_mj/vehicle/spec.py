@@ -218,8 +218,8 @@ class Vehicle:
         if flat and (track is not None or not isinstance(vehicle_kind(layout), Planar)):
             raise ValueError("only a planar vehicle on straight track has a flat twin")
         self.layout, self.track, self.profile, self.flat = layout, track, profile, flat
-        if track is None and profile is None:
-            spec, model = _compiled_once(layout, flat)
+        if track is None and profile is None and not flat:
+            spec, model = _compiled_once(layout)
             self.spec, self.model = spec.copy(), copy.copy(model)
         else:
             self.spec, self.model = compiled(layout, track, profile, flat)
@@ -357,9 +357,10 @@ class Vehicle:
 
 # A sweep builds a vehicle of one layout for each of its speeds: compiled once (5 ms), copied for
 # each (a quarter of a millisecond), so that each vehicle's model is its own (set_speed writes it).
+# Not a flat twin: the runs of a layout share one already (`_flat_twin`).
 @functools.lru_cache(maxsize=16)
-def _compiled_once(layout: Layout, flat: bool) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-    return compiled(layout, None, None, flat)
+def _compiled_once(layout: Layout) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    return compiled(layout, None, None, False)
 
 
 # A sweep's runs of one layout share its twin (6 ms to build with its stepping spec, a run of 1 km

@@ -127,27 +127,28 @@ def test_a_coordinates_kernel_keeps_what_numpy_keeps_bit_for_bit(seed):
                 assert x.dtype == y.dtype and np.array_equal(x, y)
 
 
-@pytest.mark.parametrize("orientations", [True, False])
-def test_a_sink_that_reads_no_orientation_gets_yaw_angles_and_nan_quaternions(orientations):
-    """A flat twin's pieces carry each body's yaw angle (Run.body_yaw, what psi reads); their
-    quaternions are the full record's, bit for bit, unless the sink says it reads none
-    (`orientations = False`, as Summarised): then NaN, never a stale or half-filled pose."""
+def test_a_flat_twins_pieces_carry_yaw_angles_and_the_records_quaternions():
+    """A flat twin's pieces carry each body's yaw angle (Run.body_yaw, what psi reads), and
+    their quaternions, made from those angles when read (Run.body_quat), are the full
+    record's, bit for bit: every body a turn about z, (cos psi/2, 0, 0, sin psi/2)."""
     layout = load_layout(MODELS / "manchester-coach" / "manchester-coach.toml")
     full = simulate(layout, 40.0, 200.0, 0.002)
     pieces: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
 
     class Keep:
         def add(self, piece, start):
+            assert piece.body_yaw is not None
             pieces.append((start, piece.body_quat.copy(), piece.psi.copy(), piece.body_pos.copy()))
 
         def finish(self, final_state):
             return len(pieces)
 
-    Keep.orientations = orientations
     (count,) = simulate_many([Request(layout, 40.0, 200.0, 0.002, stream=lambda n, interval: Keep())])
     assert count == len(pieces) > 1
     for start, quat, psi, pos in pieces:
         rows = slice(start, start + len(quat))
         assert np.array_equal(pos, full.body_pos[rows]) and np.array_equal(psi, full.psi[rows])
-        assert np.array_equal(quat, full.body_quat[rows]) if orientations else np.all(np.isnan(quat))
-    assert Summarised.orientations is False
+        assert np.array_equal(quat, full.body_quat[rows])
+    ids = full.vehicle.wheelset_ids
+    turn = np.stack([np.cos(full.psi / 2), 0 * full.psi, 0 * full.psi, np.sin(full.psi / 2)], axis=-1)
+    assert np.array_equal(full.body_quat[:, ids], turn) and np.any(full.psi != 0.0)

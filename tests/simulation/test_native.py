@@ -275,3 +275,71 @@ def test_a_yaw_summed_from_the_hinges_is_the_rotations(name, monkeypatch):
             scale = np.max(np.abs(forces[1]))
             assert scale > 0
             np.testing.assert_allclose(forces[0], forces[1], rtol=0, atol=1e-13 * scale)
+
+
+_CHAIN_XML = """<mujoco><worldbody>{before}
+  <body name="parent" pos="1 0.5 0.4" {parent}><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+    <joint name="lateral" type="slide" axis="0 1 0"/>{parent_hinge}
+    <body name="wheelset" pos="0.3 0 0.1" {own}><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+      <joint name="slide" type="slide" axis="0 1 0"/>{own_hinge}
+    </body>
+  </body></worldbody></mujoco>"""
+_Z = '<joint name="{}" type="hinge" axis="0 0 1" pos="0.2 -0.1 0"/>'
+_TURNED = 'quat="0.9961946980917455 0 0 0.08715574274765817"'  # 10 degrees about z
+
+
+@pytest.mark.parametrize(
+    "case, parts, summed",
+    [
+        ("hinges about z", {"parent_hinge": _Z.format("p"), "own_hinge": _Z.format("w")}, True),
+        (
+            "a parent built turned",
+            {"parent": _TURNED, "parent_hinge": _Z.format("p"), "own_hinge": _Z.format("w")},
+            False,
+        ),
+        ("a hinge about x", {"parent_hinge": '<joint type="hinge" axis="1 0 0"/>', "own_hinge": _Z.format("w")}, False),
+        ("a reference angle", {"own_hinge": '<joint type="hinge" axis="0 0 1" ref="0.2"/>'}, False),
+        (
+            "a ball joint before (qpos and dof addresses differ)",
+            {
+                "before": '<body><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/><joint type="ball"/></body>',
+                "own_hinge": _Z.format("w"),
+            },
+            False,
+        ),
+        ("slides alone on a body built turned", {"own": _TURNED}, False),
+    ],
+)
+def test_the_callbacks_yaw_is_the_hinges_sum_only_where_they_all_turn_the_body_about_z(case, parts, summed):
+    """joint_chain flags a chain's hinges YAW_HINGE only where every body on it is square to its
+    parent, every hinge turns about z from a reference of 0 and its qpos is its dof; the callback's
+    yaw of the body (kernel._wheelset_motion) is then their angles' sum, else atan2 of its rotation,
+    which is what a body built turned, or one on slides alone, needs. Either way its yaw, lateral
+    velocity and yaw rate are MuJoCo's own kinematics, to round-off (1e-15 of their size)."""
+    from rail_mj.numerics import YAW_HINGE
+    from rail_mj.simulation.kernel import _wheelset_motion
+    from rail_mj.vehicle.block import joint_chain
+
+    values = {"before": "", "parent": "", "parent_hinge": "", "own": "", "own_hinge": "", **parts}
+    model = mujoco.MjModel.from_xml_string(_CHAIN_XML.format(**values))
+    body = model.body("wheelset").id
+    chain = np.asarray(joint_chain(model, body), dtype=np.float64)
+    flags = chain[2::3]
+    hinges = [int(model.jnt_type[int(j)]) == mujoco.mjtJoint.mjJNT_HINGE for j in chain[0::3]]
+    assert all((f == YAW_HINGE) == (summed and h) for f, h in zip(flags, hinges, strict=True)), case
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(11)
+    velocity, matrix = np.zeros(6), np.zeros(9)
+    for _ in range(5):
+        data.qpos[:] = model.qpos0 + rng.normal(scale=0.3, size=model.nq)
+        data.qvel[:] = rng.normal(scale=0.5, size=model.nv)
+        mujoco.mj_normalizeQuat(model, data.qpos)
+        mujoco.mj_forward(model, data)
+        psi, vy, wz = _wheelset_motion(
+            chain, len(chain) // 3, data.qpos, data.qvel, data.xpos.ravel(), data.xmat.ravel(),
+            data.xanchor.ravel(), data.xaxis.ravel(), body,
+        )  # fmt: skip
+        mujoco.mju_quat2Mat(matrix, data.xquat[body])
+        assert abs(psi - np.arctan2(matrix[3], matrix[0])) <= 1e-15 * max(1.0, abs(psi)), case
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, body, velocity, 0)
+        np.testing.assert_allclose((vy, wz), (velocity[4], velocity[2]), rtol=0, atol=1e-15 * np.abs(velocity).max())

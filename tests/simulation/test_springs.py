@@ -11,7 +11,7 @@ from conftest import DATA, MODELS, passive_forces
 
 from rail_mj.layout import load_layout
 from rail_mj.simulation import native
-from rail_mj.simulation.run import Request
+from rail_mj.simulation.run import Request, Run
 from rail_mj.simulation.runner import prepare, simulate
 from rail_mj.simulation.stepping import Pack, Running, _undamped
 from rail_mj.track import load_track
@@ -251,14 +251,19 @@ def test_a_flat_twins_record_read_from_its_state_is_mujocos_kinematics(name):
     rng = np.random.default_rng(7)
     states = np.zeros((5, mujoco.mj_stateSize(model, Pack.STATE)))
     n = model.nbody
-    pos, quat = np.zeros((5, n, 3)), np.tile((1.0, 0.0, 0.0, 0.0), (5, n, 1))
+    pos = np.zeros((5, n, 3))
     rates = np.zeros((5, twin.n_wheelsets, 2))
     for k in range(5):
         data.qpos[:] = rng.normal(scale=0.01, size=model.nq)
         data.qvel[:] = rng.normal(scale=0.1, size=model.nv)
         mujoco.mj_getState(model, data, states[k], Pack.STATE)
-    yaw = np.full((5, n), np.nan)
-    twin.sensors.poses(states, pos, quat, yaw)
+    yaw = np.zeros((5, n))  # as a record starts: the world's column marked, to be left as it is
+    yaw[:, 0] = np.nan
+    twin.sensors.poses(states, pos, yaw)
+    yaw[:, 0] = 0.0  # the world's, as a record starts
+    # The quaternions a Run of these samples makes of them (Run.body_quat, from body_yaw).
+    quat = Run(twin, 30.0, 1e-3, np.arange(5.0), pos, None, rates, body_yaw=yaw).body_quat
+    yaw[:, 0] = np.nan
     twin.sensors.rates(states, rates)
     velocity, matrix = np.zeros(6), np.zeros(9)
     for k in range(5):

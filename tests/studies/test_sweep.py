@@ -445,6 +445,8 @@ def test_python_values_give_the_cases_the_command_lines_texts_give():
         [3, None, -7, 2**62],
         [0.5, None, float("nan"), -1e300, float("inf")],
         [1, 2.5, None],
+        [2**53, -(2**53), 0.5],  # ints exact as floats
+        [2**53 + 1, 0.5],  # not exact: pa.array refuses it, and so does the table
         ["ok", None, "", "diverged: the timestep 1e-3 s", "ünïcode"],
         [1, None, 2**64],  # past int64: left to pa.array
         [True, 1],  # a mix: left to pa.array, which says so

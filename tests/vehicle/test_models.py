@@ -85,20 +85,26 @@ def test_generation_is_deterministic_and_matches_the_in_memory_model(layout_path
 
 @pytest.mark.parametrize("layout_path", SHIPPED, ids=lambda p: p.stem)
 def test_vehicles_of_one_layout_are_compiled_once_and_each_owns_its_model(layout_path):
+    from rail_mj.vehicle import spec
     from rail_mj.vehicle.block import set_speed
-    from rail_mj.vehicle.spec import compiled
 
     layout = load_layout(layout_path)
+    spec._compiled_once.cache_clear()
     first, second = Vehicle(layout), Vehicle(layout)
+    assert spec._compiled_once.cache_info()[:2] == (1, 1)  # (hits, misses): one compile for both
     assert first.model is not second.model and first.spec is not second.spec
-    fresh_spec, fresh = compiled(layout)
+    fresh_spec, fresh = spec.compiled(layout)
     set_speed(first.model, 42.0)
+    first.model.opt.timestep = 0.5
     first.spec.option.timestep = 0.5
     for field in ("numeric_data", "body_mass", "body_pos", "jnt_axis", "tendon_stiffness", "sensor_type"):
         np.testing.assert_array_equal(getattr(second.model, field), getattr(fresh, field), err_msg=field)
     assert not np.array_equal(first.model.numeric_data, fresh.numeric_data)  # set_speed wrote only its own
     assert second.spec.to_xml() == fresh_spec.to_xml()
-    assert Vehicle(layout).model.opt.timestep == fresh.opt.timestep
+    third = Vehicle(layout)  # after the first's were changed: still the compiled layout's
+    assert third.model.opt.timestep == fresh.opt.timestep != 0.5
+    assert third.spec.option.timestep == fresh_spec.option.timestep
+    np.testing.assert_array_equal(third.model.numeric_data, fresh.numeric_data)
 
 
 def test_every_element_is_named():
