@@ -494,8 +494,9 @@ def _guiding(model: mujoco.MjModel, vehicle: Vehicle, prefix: str) -> np.ndarray
 
 
 class Roller:
-    """One thread's `mujoco.rollout` on the calling thread, into buffers it keeps: states
-    and sensor readings, views valid until the next call."""
+    """One thread's `mujoco.rollout` on the calling thread, into buffers it keeps: the states
+    each step starts from (the first `start`, then every step's end but the last), each step's
+    end and its sensor readings, views valid until the next call."""
 
     def __init__(self):
         self._rollout = rollout.Rollout(nthread=0)
@@ -503,16 +504,19 @@ class Roller:
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, start: np.ndarray, nstep: int):
         nstate, nsensor = start.size, model.nsensordata
-        if self._states.size < nstep * nstate:
-            self._states = np.empty(nstep * nstate)
+        if self._states.size < (nstep + 1) * nstate:
+            self._states = np.empty((nstep + 1) * nstate)
         if self._readings.size < nstep * nsensor:
             self._readings = np.empty(nstep * nsensor)
-        states = self._states[: nstep * nstate].reshape(1, nstep, nstate)
+        # Row 0 the start, MuJoCo's states after it: step j starts from row j and ends at row j + 1,
+        # so that a record read from states (JointSensors) takes rows 0..nstep-1 without a copy.
+        rows = self._states[: (nstep + 1) * nstate].reshape(nstep + 1, nstate)
+        rows[0] = start
         readings = self._readings[: nstep * nsensor].reshape(1, nstep, nsensor)
         self._rollout.rollout(
-            [model], [data], start[None], skip_checks=True, nstep=nstep, state=states, sensordata=readings
+            [model], [data], start[None], skip_checks=True, nstep=nstep, state=rows[1:][None], sensordata=readings
         )
-        return states[0], readings[0]
+        return rows[:-1], rows[1:], readings[0]
 
 
 def step_alone(prepared: Prepared, derailment_lateral: float, progress=None) -> Run | SimulationError:
@@ -561,7 +565,7 @@ def drive(
         steps = min(runs[0].prepared.chunk, max(r.last + 1 - r.stepped for r in runs))
         started = time.perf_counter()
         start = pack.state
-        states, readings = roller(pack.model, pack.data, start, steps)
+        began, states, readings = roller(pack.model, pack.data, start, steps)
         pack.state = states[-1].copy()
         pack.share(time.perf_counter() - started)
         warning = _warnings(pack.data)
@@ -569,10 +573,7 @@ def drive(
             _diverged(pack, runs, steps, warning, done, derailment_lateral)
             return later
         first, ended = runs[0].stepped, []
-        # A flat twin's samples are states (JointSensors): step j's is the state it started from.
-        began = readings
-        if any(pack.places[m].sensors.from_state for m, _ in going):
-            began = np.concatenate([start[None], states[:-1]])
+        # A flat twin's samples are states (JointSensors): step j's is the state it started from, `began[j]`.
         for m, r in going:
             # Its samples among this chunk's steps: sample j is at the run's step j*every.
             # A slice (every `every`-th row from the first kept): a view of the pack's readings, not
