@@ -536,6 +536,20 @@ def _child(command: list[str]) -> tuple[float, float, float]:
         return wall, usage.ru_utime + usage.ru_stime, int(peak.read_text()) / 1024
 
 
+def byte_compiled() -> None:
+    """Compile rail-mj's and the peers' sources to bytecode, as an installation does: an editable
+    install leaves it to the first import, and where PYTHONDONTWRITEBYTECODE is set (this
+    workplace's machines) every new process would compile them again (rail-mj's 0.1 s of CPU,
+    a command's, not a run's). Both sides are timed with their bytecode, warm, as a user's
+    second command runs."""
+    import compileall
+
+    import rail_mj
+
+    for folder in (Path(rail_mj.__file__).parent, Path(__file__).resolve().parent):
+        compileall.compile_dir(str(folder), quiet=1)
+
+
 def interleaved_batches(turns: int = 3):
     """The 64-speed sweep from the command line and the numba peer's batch, each a new process, in
     turn: per turn (wall, CPU s, peak MB) of each."""
@@ -543,6 +557,7 @@ def interleaved_batches(turns: int = 3):
     peer = [sys.executable, "-c", f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
             "import peer_numba; peer_numba.time_batch(repeats=1)"]  # fmt: skip
     out = []
+    byte_compiled()
     with tempfile.TemporaryDirectory() as folder:
         table = Path(folder) / "sweep.csv"
         sweep = [rail_mj, "sweep", str(COACH), "--speeds", "20:100:64", "--distance", "1000", "-o", str(table)]
@@ -570,6 +585,7 @@ def short_runs(repeats: int = 5) -> list[tuple[float, float, float]]:
     which may compile, left out): (wall s, CPU s, peak MB) of each, start-up and summary included."""
     rail_mj = str(Path(sys.executable).parent / "rail-mj")
     command = [rail_mj, "run", str(COACH), "--speed", "40", "--distance", "100"]
+    byte_compiled()
     _child(command)
     return [_child(command) for _ in range(repeats)]
 
@@ -729,6 +745,7 @@ def print_curve(rows) -> None:
 
 
 def main() -> None:
+    byte_compiled()
     if "--spatial" in sys.argv[1:]:
         print_spatial(spatial_against_planar())
         return
