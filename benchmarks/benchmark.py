@@ -56,8 +56,9 @@ Times (best of several repeats, wall clock, one process, side by side in one run
   of the numba peer, of a coach in a model of eight bare and with the native callback, all three
   from a moving state (2 s past the 2 mm start), in turn, CPU time of the calling thread, eleven
   turns, each turn's ratios and their spread; the 64-speed sweep from the command line as a user
-  runs it (`rail-mj sweep`, a new process) against the peer's batch (a new process too), in turn,
-  wall and CPU time and peak memory of each child; FASTSIM against Polach on one 1 km run, in turn.
+  runs it (`rail-mj sweep`, a new process) against the peer's batch (a new process too), in turn
+  five times, wall and CPU time and peak memory of each child, both sides' sources compiled to
+  bytecode first (`byte_compiled`); FASTSIM against Polach on one 1 km run, in turn.
 
     python benchmarks/benchmark.py --batch     # only the interleaved batch figures
 
@@ -550,7 +551,7 @@ def byte_compiled() -> None:
         compileall.compile_dir(str(folder), quiet=1)
 
 
-def interleaved_batches(turns: int = 3):
+def interleaved_batches(turns: int = 5):
     """The 64-speed sweep from the command line and the numba peer's batch, each a new process, in
     turn: per turn (wall, CPU s, peak MB) of each."""
     rail_mj = str(Path(sys.executable).parent / "rail-mj")
