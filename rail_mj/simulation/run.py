@@ -120,7 +120,6 @@ class Run:
     t: np.ndarray
     body_pos: np.ndarray  # (n_samples, nbody, 3): every body's position in the moving frame
     # (n_samples, nbody, 4): and orientation, MuJoCo's w, x, y, z; given as None where `body_yaw`
-    # is given, made from it when first read.
     # is given, made from it when first read. A descriptor without a default (its class access
     # raises AttributeError, which dataclasses read so): mypy takes it for one, hence the ignore.
     body_quat: _FromYaw = _FromYaw()

@@ -147,8 +147,7 @@ class Running:
         # A flat twin's record is read from its states (JointSensors): each body's yaw angle, as
         # the Run of its samples carries it (Run.body_yaw, which its quaternions are made from when
         # read); else each body's quaternion, from sensors.
-        self.from_state = prepared.stepped.flat
-        self.pos, self.quat, self.yaw, self.rates, self.loads = _records(prepared.vehicle, size, self.from_state)
+        self.pos, self.quat, self.yaw, self.rates, self.loads = _records(prepared.vehicle, size, prepared.stepped.flat)
         # Each wheelset's Sigma Y as the callback recorded it (`record`); None: re-evaluated from
         # the record (not recorded, or not at every sample).
         self.guiding: np.ndarray | None = None
