@@ -89,6 +89,7 @@ def _library() -> ctypes.CDLL | None:
     def kernels():
         from rail_mj.contact import law
 
+        law.compile_apart()
         return {"rail_mj_forces_into": law.forces_cfunc()}
 
     library = compiled.load("contact", "rail_mj.contact.law._forces_into", _C_SOURCE, kernels)

@@ -268,7 +268,10 @@ def _cfuncs(offsets: tuple[int, ...]):
     import numba
     from numba import types
 
+    from rail_mj.contact.law import compile_apart
     from rail_mj.simulation.kernel import _apply
+
+    compile_apart()
 
     @numba.cfunc(types.void(types.voidptr, types.voidptr), nopython=True)
     def passive(model, data):
