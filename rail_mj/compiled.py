@@ -119,17 +119,21 @@ def library_path(name: str, key: str, c_source: str) -> Path:
     return files.cache_folder("native") / f"{name}_{digest}.so"
 
 
-def load(name: str, key: str, c_source: str, kernels: Callable[[], dict] | None = None) -> ctypes.CDLL | None:
+def load(
+    name: str, key: str, c_source: str, kernels: Callable[[], dict] | None = None, flags: tuple[str, ...] = ()
+) -> ctypes.CDLL | None:
     """The shared library `name`, built the first time: `c_source` linked with the machine code of
     `kernels()` (C name -> numba cfunc, compiled when called; each kernel's body is then the C
     function `<name>` of numba's calling convention, `int <name>(T *result, void **exception,
     args...)` (the value returned written to *result), status in STATUS_OK when it returned;
-    numba's C-callable wrapper is dropped). None where it cannot be built here (no compiler, nowhere to keep it)."""
-    path = library_path(name, key, c_source)
+    numba's C-callable wrapper is dropped). `flags`: the C compiler's own (include folders,
+    libraries to link), part of the library's name. None where it cannot be built here (no
+    compiler, nowhere to keep it)."""
+    path = library_path(name, "\n".join((key, *flags)), c_source)
     for attempt in range(2):
         if attempt or not path.is_file():  # first use for these sources, or a damaged file
             try:
-                _build(path, c_source, kernels)
+                _build(path, c_source, kernels, flags)
             except Exception:  # no compiler, no room, an llvmlite without this API: numba, here
                 return None
         try:
@@ -139,7 +143,7 @@ def load(name: str, key: str, c_source: str, kernels: Callable[[], dict] | None 
     return None
 
 
-def _build(path: Path, c_source: str, kernels: Callable[[], dict] | None) -> None:
+def _build(path: Path, c_source: str, kernels: Callable[[], dict] | None, flags: tuple[str, ...] = ()) -> None:
     """Write the library to `path` (beside, then renamed: processes building at once do not clash)."""
     import shutil
     import subprocess
@@ -159,7 +163,8 @@ def _build(path: Path, c_source: str, kernels: Callable[[], dict] | None) -> Non
         with open(c_file, "w") as f:
             f.write(c_source + (_RUNTIME if kernels is not None else ""))
         # -ffp-contract=off: no fused multiply-adds, so that C rounds as numba's code does.
-        command = [compiler, "-shared", "-fPIC", "-O2", "-ffp-contract=off", "-o", shared, c_file, *objects, "-lm"]
+        command = [compiler, "-shared", "-fPIC", "-O2", "-ffp-contract=off", "-o", shared, c_file, *objects, *flags]
+        command.append("-lm")
         built = subprocess.run(command, check=False, capture_output=True, text=True)
         if built.returncode != 0:
             raise BuildError(f"{os.path.basename(compiler)} could not link {path.name}: {built.stderr.strip()}")

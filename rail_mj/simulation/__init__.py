@@ -8,6 +8,7 @@ linear.py      the model linearised about its reference state (timestep, eigenva
 timestep.py    the timestep: RK4's limit for the fastest linear mode
 run.py         `Request` (a run to make) and `Run` (its samples, their kinematics and contact forces)
 stepping.py    MuJoCo stepped in chunks: a model holding one run or a pack of several, the checks
+unbiased.py    MuJoCo's RK4 step to the same bits without its bias-force pass, for a flat twin's pack
 runner.py      `simulate`: one run, checked and prepared (`prepare`)
 batch.py       `simulate_many`: many runs, packed several to a model, on several threads
 """

@@ -31,6 +31,7 @@ from rail_mj.simulation import native
 from rail_mj.simulation.callback import CreepForces, installed
 from rail_mj.simulation.run import Derailed, Request, Run, SimulationError
 from rail_mj.simulation.timestep import linearly_stable, table_header
+from rail_mj.simulation.unbiased import applies, roll
 from rail_mj.vehicle import block
 from rail_mj.vehicle.block import contact_parameters, set_speed
 from rail_mj.vehicle.curve import ODOMETER, track_part
@@ -326,6 +327,9 @@ class Pack:
             model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
         if _undamped(model):  # no damper of MuJoCo's own (a flat twin's are the callback's): same result
             model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
+        # No bias forces (a flat twin's bodies, each on its slides and one hinge through its centre
+        # of mass): stepped without MuJoCo's pass that computes them, to the same bits.
+        self.unbiased = applies(model)
         self.data = mujoco.MjData(model)
         self.state = np.empty(mujoco.mj_stateSize(model, self.STATE))
         mujoco.mj_getState(model, self.data, self.state, self.STATE)
@@ -501,7 +505,9 @@ class Roller:
         self._rollout = rollout.Rollout(nthread=0)
         self._states, self._readings = np.empty(0), np.empty(0)
 
-    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, start: np.ndarray, nstep: int):
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, start: np.ndarray, nstep: int, unbiased=False):
+        """`unbiased`: the model has no bias forces (rail_mj.simulation.unbiased.applies), and is
+        stepped without MuJoCo's pass that computes them, to the same bits, where it can be."""
         nstate, nsensor = start.size, model.nsensordata
         if self._states.size < (nstep + 1) * nstate:
             self._states = np.empty((nstep + 1) * nstate)
@@ -512,9 +518,10 @@ class Roller:
         rows = self._states[: (nstep + 1) * nstate].reshape(nstep + 1, nstate)
         rows[0] = start
         readings = self._readings[: nstep * nsensor].reshape(1, nstep, nsensor)
-        self._rollout.rollout(
-            [model], [data], start[None], skip_checks=True, nstep=nstep, state=rows[1:][None], sensordata=readings
-        )
+        if not (unbiased and roll(model, data, rows[0], nstep, rows[1:], readings[0])):
+            self._rollout.rollout(
+                [model], [data], start[None], skip_checks=True, nstep=nstep, state=rows[1:][None], sensordata=readings
+            )
         return rows[:-1], rows[1:], readings[0]
 
 
@@ -564,7 +571,7 @@ def drive(
         steps = min(runs[0].prepared.chunk, max(r.last + 1 - r.stepped for r in runs))
         started = time.perf_counter()
         start = pack.state
-        began, states, readings = roller(pack.model, pack.data, start, steps)
+        began, states, readings = roller(pack.model, pack.data, start, steps, pack.unbiased)
         pack.state = states[-1].copy()
         pack.share(time.perf_counter() - started)
         warning = _warnings(pack.data)

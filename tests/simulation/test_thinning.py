@@ -107,9 +107,9 @@ def test_a_run_is_stepped_in_chunks_of_steps_whatever_it_keeps(monkeypatch):
     chunks = []
     call = stepping.Roller.__call__
 
-    def counted(self, model, data, start, nstep):
+    def counted(self, model, data, start, nstep, unbiased=False):
         chunks.append(nstep)
-        return call(self, model, data, start, nstep)
+        return call(self, model, data, start, nstep, unbiased)
 
     monkeypatch.setattr(stepping.Roller, "__call__", counted)
     thin = simulate(layout, 50.0, 1020.0, sample_interval=1.0)
