@@ -16,7 +16,7 @@ calling MuJoCo's own position stage, passive forces (and so the native creep cal
 actuation, acceleration and constraint stages, and its sensors at the first stage, exactly as
 `mj_forwardSkip` orders them; only `mj_comVel` and `mj_rne` are left out, and `qfrc_bias` is the
 zero that `mj_rne` writes for such a model. The states are MuJoCo's to the bit
-(tests/test_unbiased.py compares every step of packed coaches with `mujoco.rollout`), and where
+(tests/simulation/test_unbiased.py compares every step of packed coaches with `mujoco.rollout`), and where
 the model does not qualify (`applies`), or no library can be built here, MuJoCo's own rollout
 steps it.
 
